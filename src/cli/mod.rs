@@ -1,0 +1,86 @@
+//! Command-line definition and dispatch. Each subcommand lives in its own module here; they
+//! parse flags, open files, draw progress bars and call the library.
+//!
+//! Exit codes: 0 success, 2 bad input (the default for any reported error: a missing file,
+//! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::process::ExitCode;
+
+/// femto: imaging light in flight. Simulate streak captures, assemble them into x-y-t cubes,
+/// calibrate them against geometry, convert camera time to world time, and render
+/// relativistic novel-view videos.
+#[derive(Parser, Debug)]
+#[command(name = "femto", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {}
+
+/// Run one parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {}
+}
+
+/// Marks an error as an internal failure (exit code 1) rather than bad input (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("internal error: {0}")]
+pub struct Internal(pub String);
+
+/// Print an error as one line on stderr and choose the exit code.
+pub fn report(e: &anyhow::Error) -> ExitCode {
+    let mut line = format!("femto: error: {e}");
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !line.contains(&c) {
+            line.push_str(": ");
+            line.push_str(&c);
+        }
+    }
+    eprintln!("{}", line.replace('\n', " "));
+    if e.chain().any(|c| c.is::<Internal>()) {
+        ExitCode::from(1)
+    } else {
+        ExitCode::from(2)
+    }
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+pub fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:32}] {pos}/{len} {per_sec} eta {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
+/// The command line that made an output, for provenance attributes.
+pub fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// Restore the default SIGPIPE action so `femto info x | head` ends quietly.
+pub fn reset_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal disposition to SIG_DFL at start-up, before any threads exist.
+    unsafe {
+        libc_sigpipe_default();
+    }
+}
+
+#[cfg(unix)]
+unsafe fn libc_sigpipe_default() {
+    extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+    }
+    const SIGPIPE: i32 = 13;
+    const SIG_DFL: usize = 0;
+    signal(SIGPIPE, SIG_DFL);
+}

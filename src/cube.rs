@@ -1,0 +1,192 @@
+//! The x-y-t cube: one time profile per pixel, contiguous in memory.
+//!
+//! Layout `[y][x][t]`: `data[(y * nx + x) * nt + t]`. Bin `i` covers the time interval
+//! `[t0_ps + i * dt_ps, t0_ps + (i + 1) * dt_ps)`, and its value is the signal *integrated*
+//! over that bin (energy per bin), so a pixel's time integral is the plain sum of its bins.
+//! Which clock the axis measures is recorded in [`TimeFrame`] (physics.md, "two clocks").
+
+use std::fmt;
+
+/// Which clock the time axis of a cube measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeFrame {
+    /// When light reaches the sensor (what a streak camera records).
+    Camera,
+    /// When light is at the surface point: `t_world = t_camera - eta * |p - o| / c`.
+    World,
+}
+
+impl TimeFrame {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TimeFrame::Camera => "camera",
+            TimeFrame::World => "world",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<TimeFrame> {
+        match s {
+            "camera" => Some(TimeFrame::Camera),
+            "world" => Some(TimeFrame::World),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for TimeFrame {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A uniform time axis: `nt` bins of `dt_ps` starting at `t0_ps`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimeAxis {
+    pub t0_ps: f64,
+    pub dt_ps: f64,
+    pub nt: usize,
+}
+
+impl TimeAxis {
+    /// Start of bin `i`, in ps.
+    #[inline]
+    pub fn bin_start_ps(&self, i: usize) -> f64 {
+        self.t0_ps + i as f64 * self.dt_ps
+    }
+
+    /// Centre of bin `i`, in ps.
+    #[inline]
+    pub fn bin_centre_ps(&self, i: usize) -> f64 {
+        self.t0_ps + (i as f64 + 0.5) * self.dt_ps
+    }
+
+    /// End of the last bin, in ps.
+    #[inline]
+    pub fn end_ps(&self) -> f64 {
+        self.bin_start_ps(self.nt)
+    }
+
+    /// Continuous bin coordinate of time `t_ps` (0.0 at the start of bin 0).
+    #[inline]
+    pub fn bin_coord(&self, t_ps: f64) -> f64 {
+        (t_ps - self.t0_ps) / self.dt_ps
+    }
+}
+
+/// An x-y-t cube of f32, laid out `[y][x][t]`, with an optional validity mask (`1` = valid).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cube {
+    pub nx: usize,
+    pub ny: usize,
+    pub axis: TimeAxis,
+    pub frame: TimeFrame,
+    pub data: Vec<f32>,
+    /// One byte per pixel, `[y][x]`, 1 where the pixel holds valid data.
+    pub mask: Option<Vec<u8>>,
+}
+
+impl Cube {
+    /// A cube of zeros.
+    pub fn zeros(nx: usize, ny: usize, axis: TimeAxis, frame: TimeFrame) -> Cube {
+        Cube {
+            nx,
+            ny,
+            axis,
+            frame,
+            data: vec![0.0; nx * ny * axis.nt],
+            mask: None,
+        }
+    }
+
+    #[inline]
+    pub fn nt(&self) -> usize {
+        self.axis.nt
+    }
+
+    /// Shape as `(ny, nx, nt)`, the order of the on-disk dataset.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        (self.ny, self.nx, self.axis.nt)
+    }
+
+    #[inline]
+    fn offset(&self, x: usize, y: usize) -> usize {
+        (y * self.nx + x) * self.axis.nt
+    }
+
+    /// The time profile of pixel `(x, y)`.
+    #[inline]
+    pub fn profile(&self, x: usize, y: usize) -> &[f32] {
+        let o = self.offset(x, y);
+        &self.data[o..o + self.axis.nt]
+    }
+
+    /// The mutable time profile of pixel `(x, y)`.
+    #[inline]
+    pub fn profile_mut(&mut self, x: usize, y: usize) -> &mut [f32] {
+        let o = self.offset(x, y);
+        let nt = self.axis.nt;
+        &mut self.data[o..o + nt]
+    }
+
+    /// Row `y` as `nx * nt` values (`[x][t]`).
+    pub fn row(&self, y: usize) -> &[f32] {
+        let n = self.nx * self.axis.nt;
+        &self.data[y * n..(y + 1) * n]
+    }
+
+    /// Whether pixel `(x, y)` is valid (true when there is no mask).
+    #[inline]
+    pub fn is_valid(&self, x: usize, y: usize) -> bool {
+        self.mask.as_ref().is_none_or(|m| m[y * self.nx + x] != 0)
+    }
+
+    /// Size of the data in memory, bytes.
+    pub fn size_bytes(&self) -> usize {
+        self.data.len() * std::mem::size_of::<f32>() + self.mask.as_ref().map_or(0, |m| m.len())
+    }
+
+    /// Smallest and largest finite values (None for an empty or all-NaN cube).
+    pub fn value_range(&self) -> Option<(f32, f32)> {
+        value_range(&self.data)
+    }
+
+    /// Time integral of each pixel (`[y][x]`), the classic steady-state image.
+    pub fn time_integral(&self) -> Vec<f64> {
+        self.data
+            .chunks_exact(self.axis.nt.max(1))
+            .map(|p| p.iter().map(|&v| v as f64).sum())
+            .collect()
+    }
+}
+
+/// Smallest and largest finite values of a slice.
+pub fn value_range(values: &[f32]) -> Option<(f32, f32)> {
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    for &v in values.iter().filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_is_y_x_t() {
+        let axis = TimeAxis {
+            t0_ps: 10.0,
+            dt_ps: 2.0,
+            nt: 4,
+        };
+        let mut c = Cube::zeros(3, 2, axis, TimeFrame::Camera);
+        c.profile_mut(2, 1)[3] = 7.0;
+        assert_eq!(c.data[(3 + 2) * 4 + 3], 7.0);
+        assert_eq!(c.value_range(), Some((0.0, 7.0)));
+        assert_eq!(axis.bin_centre_ps(1), 13.0);
+        assert_eq!(axis.bin_coord(14.0), 2.0);
+        assert_eq!(c.time_integral()[5], 7.0);
+    }
+}

@@ -1,0 +1,13 @@
+//! femto: a toolkit for femto-photography (transient imaging of light in flight).
+//!
+//! The library holds every algorithm; the `femto` binary only parses flags, opens files,
+//! draws progress bars and calls into it. Conventions (units, clocks, signs) follow
+//! `physics.md`: lengths in metres, times in picoseconds, camera frame x right / y down /
+//! z forward, pixel `(x, y)` covering `[x, x+1) x [y, y+1)` with its centre at `(x+0.5, y+0.5)`.
+
+pub mod atomic;
+pub mod camera;
+pub mod cube;
+pub mod geometry;
+pub mod resample;
+pub mod units;
