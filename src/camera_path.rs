@@ -39,7 +39,7 @@
 use crate::camera::{one_line_toml_error, Pose};
 use crate::relativity::{RotationAxis, SensorRotation};
 use crate::units::C_M_PER_PS;
-use nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -163,7 +163,7 @@ pub struct FrameState {
     pub vfov_deg: f64,
     /// Camera velocity in the world frame over c (world axes), `|beta| < 1`.
     pub beta: Vector3<f64>,
-    /// The rotating sensor, if any.
+    /// The rotating sensor, if any (see [`FrameState::pixel_beta`]).
     pub rotation: Option<SensorRotation>,
 }
 
@@ -179,6 +179,21 @@ impl FrameState {
     /// Lorentz factor of the camera's speed.
     pub fn gamma(&self) -> f64 {
         crate::relativity::gamma(self.beta.norm())
+    }
+
+    /// World-frame velocity over c of the sensor area at `offset` from the sensor centre
+    /// (image-plane units, x right, y down; `half_size` in the same units): the camera's
+    /// `beta` without a rotating sensor, else the sensor area's rotation velocity
+    /// ([`SensorRotation::velocity`], rotated into world axes) added relativistically to the
+    /// camera's ([`crate::relativity::add_velocities`]). Below 1 in magnitude.
+    pub fn pixel_beta(&self, offset: &Vector2<f64>, half_size: &Vector2<f64>) -> Vector3<f64> {
+        match self.rotation {
+            None => self.beta,
+            Some(r) => {
+                let spin_world = self.world_from_camera * r.velocity(offset, half_size);
+                crate::relativity::add_velocities(&self.beta, &spin_world)
+            }
+        }
     }
 }
 
@@ -1692,6 +1707,38 @@ mod tests {
         assert!((s[20] - dolly.frame(10).position_m).norm() < 1e-12);
         assert!((s[10] - dolly.frame(5).position_m).norm() < 1e-12);
         assert!(dolly.sample_positions(0).is_empty());
+    }
+
+    #[test]
+    fn pixel_velocity_combines_path_and_sensor_rotation() {
+        let half = Vector2::new(32.0, 24.0);
+        let corner = Vector2::new(32.0, 24.0);
+        let dolly = CameraPath::dolly(
+            Point3::new(0.0, 0.0, 5.0),
+            Point3::origin(),
+            Vector3::y(),
+            0.6,
+            40.0,
+            spec(3, 10.0),
+        )
+        .unwrap();
+        let f = dolly.frame(1);
+        assert_eq!(f.pixel_beta(&corner, &half), f.beta);
+        let spinning = dolly
+            .with_rotation(Some(SensorRotation {
+                axis: RotationAxis::Roll,
+                beta_edge: 0.9,
+            }))
+            .unwrap();
+        let f = spinning.frame(1);
+        // On the axis the pixel moves with the camera.
+        assert!((f.pixel_beta(&Vector2::zeros(), &half) - f.beta).norm() < 1e-15);
+        // At the corner: the roll velocity is perpendicular to the dolly's (along the optical
+        // axis), so the speeds combine as gamma_total = gamma_path * gamma_spin.
+        let b = f.pixel_beta(&corner, &half);
+        let expect = gamma(0.6) * gamma(0.9);
+        assert!((gamma(b.norm()) - expect).abs() < 1e-9 * expect, "{b:?}");
+        assert!(b.norm() < 1.0);
     }
 
     fn example_toml() -> String {
