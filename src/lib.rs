@@ -7,7 +7,10 @@
 
 pub mod atomic;
 pub mod camera;
+pub mod camera_path;
+pub mod color;
 pub mod cube;
 pub mod geometry;
+pub mod relativity;
 pub mod resample;
 pub mod units;
