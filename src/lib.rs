@@ -11,3 +11,4 @@ pub mod cube;
 pub mod geometry;
 pub mod resample;
 pub mod units;
+pub mod video;
