@@ -9,6 +9,7 @@ pub mod atomic;
 pub mod camera;
 pub mod cube;
 pub mod geometry;
+pub mod ingest;
 pub mod resample;
 pub mod units;
 pub mod video;
