@@ -11,6 +11,8 @@ pub mod camera_path;
 pub mod color;
 pub mod cube;
 pub mod geometry;
+pub mod ingest;
 pub mod relativity;
 pub mod resample;
 pub mod units;
+pub mod video;
