@@ -8,6 +8,8 @@
 pub mod atomic;
 pub mod camera;
 pub mod cube;
+pub mod formats;
 pub mod geometry;
+pub mod manifest;
 pub mod resample;
 pub mod units;
