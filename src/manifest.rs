@@ -341,12 +341,12 @@ impl Manifest {
             path: path.to_path_buf(),
             message,
         })?;
-        crate::atomic::write_atomically(path, |tmp| std::fs::write(tmp, &text)).map_err(
-            |source| ManifestError::Io {
+        crate::atomic::write_atomically(path, |tmp| std::fs::write(tmp, &text)).map_err(|source| {
+            ManifestError::Io {
                 path: path.to_path_buf(),
                 source,
-            },
-        )
+            }
+        })
     }
 
     /// Check the structure; the message names the offending key or scanline.
@@ -382,7 +382,9 @@ impl Manifest {
             return Err(format!("capture.formats lists {f:?} twice (entry {i})"));
         }
         if c.formats.contains(&StreakFormat::Img16) && c.formats.contains(&StreakFormat::Img32) {
-            return Err("capture.formats lists both img16 and img32 (one .img per scanline)".into());
+            return Err(
+                "capture.formats lists both img16 and img32 (one .img per scanline)".into(),
+            );
         }
         match c.png_value_per_count {
             Some(v) => positive("capture.png_value_per_count", v)?,
@@ -393,7 +395,9 @@ impl Manifest {
         }
         if let Some(seed) = c.seed {
             if seed > i64::MAX as u64 {
-                return Err(format!("capture.seed = {seed} exceeds TOML's integer range"));
+                return Err(format!(
+                    "capture.seed = {seed} exceeds TOML's integer range"
+                ));
             }
         }
 
@@ -478,7 +482,9 @@ impl Manifest {
                 ));
             }
             if let Some(i) = t.iter().position(|v| !v.is_finite()) {
-                return Err(format!("imperfections.sweep.bin_times_ps[{i}] is not finite"));
+                return Err(format!(
+                    "imperfections.sweep.bin_times_ps[{i}] is not finite"
+                ));
             }
             if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
                 return Err(format!(
@@ -578,7 +584,10 @@ mod tests {
         m.scanlines.pop();
         assert!(m.validate().unwrap_err().contains("index 1 is missing"));
         m.scanlines[0].index = 5;
-        assert!(m.validate().unwrap_err().contains("index 5 is outside 0..2"));
+        assert!(m
+            .validate()
+            .unwrap_err()
+            .contains("index 5 is outside 0..2"));
     }
 
     #[test]
@@ -592,12 +601,18 @@ mod tests {
             sigma: 0.1,
             factors: vec![1.0],
         });
-        assert!(m.validate().unwrap_err().contains("expected one per scanline (ny = 2)"));
+        assert!(m
+            .validate()
+            .unwrap_err()
+            .contains("expected one per scanline (ny = 2)"));
         m.imperfections.power = None;
         m.imperfections.sweep = Some(Sweep {
             strength: 0.1,
             bin_times_ps: vec![0.0, 1.0, 3.0, 2.0],
         });
-        assert!(m.validate().unwrap_err().contains("not strictly increasing at index 3"));
+        assert!(m
+            .validate()
+            .unwrap_err()
+            .contains("not strictly increasing at index 3"));
     }
 }

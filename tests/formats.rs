@@ -56,7 +56,11 @@ fn operate_mode_reads_with_the_documented_values() {
     assert_eq!(img.pixel_type, PixelType::U32);
     assert_eq!(
         block(&img, 0, 0),
-        [[0.0, 0.0, 715.0], [246.0, 161.0, 475.0], [106.0, 899.0, 0.0]]
+        [
+            [0.0, 0.0, 715.0],
+            [246.0, 161.0, 475.0],
+            [106.0, 899.0, 0.0]
+        ]
     );
     let meta = img.img_meta.as_ref().unwrap();
     assert_eq!(meta.header.comment_len, 3311);
@@ -72,7 +76,10 @@ fn operate_mode_reads_with_the_documented_values() {
     ] {
         assert!(meta.sections.contains_key(section), "missing [{section}]");
     }
-    assert_eq!(meta.get("Scaling", "ScalingYScalingFile"), Some("#1382319,0512"));
+    assert_eq!(
+        meta.get("Scaling", "ScalingYScalingFile"),
+        Some("#1382319,0512")
+    );
     assert_eq!(meta.get("Streak camera", "Time Range"), Some("20 us"));
 
     // The raw time table, as stored (microseconds), and its conversion to ps.
@@ -96,7 +103,10 @@ fn operate_mode_reads_with_the_documented_values() {
     assert_eq!(t_ps.len(), 512);
     for (t, want_us) in t_ps.iter().zip(us) {
         let want_ps = want_us as f64 * 1.0e6;
-        assert!((t - want_ps).abs() <= 1e-9 * want_ps.max(1.0), "{t} vs {want_ps}");
+        assert!(
+            (t - want_ps).abs() <= 1e-9 * want_ps.max(1.0),
+            "{t} vs {want_ps}"
+        );
     }
 
     // The X table increases after the reader flips the columns (the file stores it
@@ -148,7 +158,10 @@ fn real_file_transposed_refuses_a_wavelength_time_axis() {
     let err = read_streak(&path, true).unwrap_err();
     assert!(matches!(err, FormatError::UnknownUnit { .. }), "{err}");
     let msg = err.to_string();
-    assert!(msg.contains("operate_mode.img") && msg.contains("\"nm\""), "{msg}");
+    assert!(
+        msg.contains("operate_mode.img") && msg.contains("\"nm\""),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -188,11 +201,18 @@ fn png16_round_trip_with_scale() {
     img.data[3] = 1.0e6; // saturates
     img.data[4] = 4095.9; // 65534.4 -> 65534
     let saturated = formats::raster::write_png16(&path, &img, scale).unwrap();
-    let expected_saturated = img.data.iter().filter(|&&v| v as f64 / scale > 65535.5).count();
+    let expected_saturated = img
+        .data
+        .iter()
+        .filter(|&&v| v as f64 / scale > 65535.5)
+        .count();
     assert_eq!(saturated, expected_saturated);
     assert!(saturated >= 1);
     let back = read_streak(&path, false).unwrap();
-    assert_eq!((back.nx, back.nt, back.pixel_type), (nx, nt, PixelType::U16));
+    assert_eq!(
+        (back.nx, back.nt, back.pixel_type),
+        (nx, nt, PixelType::U16)
+    );
     for (i, (&v, &s)) in img.data.iter().zip(&back.data).enumerate() {
         let decoded = s as f64 * scale;
         let v = v as f64;
@@ -201,7 +221,10 @@ fn png16_round_trip_with_scale() {
         } else if v / scale > 65535.5 {
             assert_eq!(s, 65535.0, "pixel {i}: saturated");
         } else {
-            assert!((decoded - v).abs() <= 0.5 * scale + 1e-9, "pixel {i}: {decoded} vs {v}");
+            assert!(
+                (decoded - v).abs() <= 0.5 * scale + 1e-9,
+                "pixel {i}: {decoded} vs {v}"
+            );
         }
     }
     assert_eq!(back.at(4, 0), 65534.0);
@@ -210,7 +233,10 @@ fn png16_round_trip_with_scale() {
     assert!(formats::raster::write_png16(&bad, &img, 0.0).is_err());
     img.data[0] = f32::NAN;
     let err = formats::raster::write_png16(&bad, &img, scale).unwrap_err();
-    assert!(matches!(err, FormatError::NonFinite { x: 0, t: 0, .. }), "{err}");
+    assert!(
+        matches!(err, FormatError::NonFinite { x: 0, t: 0, .. }),
+        "{err}"
+    );
     assert!(!bad.exists());
 }
 
@@ -235,7 +261,9 @@ fn exr_f16_y_and_rgb_read_as_documented() {
     use exr::prelude::*;
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (6usize, 3usize);
-    let vals: Vec<f16> = (0..w * h).map(|i| f16::from_f32(i as f32 * 0.37 - 1.0)).collect();
+    let vals: Vec<f16> = (0..w * h)
+        .map(|i| f16::from_f32(i as f32 * 0.37 - 1.0))
+        .collect();
 
     // A single f16 channel named Y.
     let y_path = dir.path().join("y16.exr");
@@ -253,8 +281,14 @@ fn exr_f16_y_and_rgb_read_as_documented() {
 
     // R, G, B (+ A) in f16: the mean of the three colour channels, alpha ignored.
     let rgb_path = dir.path().join("rgb16.exr");
-    let g: Vec<f16> = vals.iter().map(|v| f16::from_f32(v.to_f32() * 2.0)).collect();
-    let b: Vec<f16> = vals.iter().map(|v| f16::from_f32(v.to_f32() + 4.0)).collect();
+    let g: Vec<f16> = vals
+        .iter()
+        .map(|v| f16::from_f32(v.to_f32() * 2.0))
+        .collect();
+    let b: Vec<f16> = vals
+        .iter()
+        .map(|v| f16::from_f32(v.to_f32() + 4.0))
+        .collect();
     let a: Vec<f16> = vec![f16::from_f32(0.25); w * h];
     let mut list = SmallVec::new();
     list.push(AnyChannel::new("R", FlatSamples::F16(vals.clone())));
@@ -364,7 +398,10 @@ fn integer_colour_must_be_grey() {
     let err = read_streak(&colour, false).unwrap_err();
     assert!(matches!(err, FormatError::ChannelLayout { .. }), "{err}");
     let msg = err.to_string();
-    assert!(msg.contains("colour.png") && msg.contains("x 1, row 0"), "{msg}");
+    assert!(
+        msg.contains("colour.png") && msg.contains("x 1, row 0"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -435,7 +472,11 @@ fn img_round_trip_16_and_32_bit_with_time_table() {
         img.data[6] = 2.5; // rounds half away from zero -> 3
         let path = dir.path().join(format!("s{bits}.img"));
         let saturated = formats::hamamatsu::write_img(&path, &img, bits, &times).unwrap();
-        let expected_saturated = img.data.iter().filter(|&&v| (v as f64).round() > max).count();
+        let expected_saturated = img
+            .data
+            .iter()
+            .filter(|&&v| (v as f64).round() > max)
+            .count();
         assert_eq!(saturated, expected_saturated);
 
         // Container layout, checked against the HPD-TA conventions directly.
@@ -451,7 +492,12 @@ fn img_round_trip_16_and_32_bit_with_time_table() {
             comment.contains(&format!("ScalingYScalingFile=\"#{table_offset},{nt:04}\"")),
             "{comment}"
         );
-        for section in ["[Application]", "[Acquisition]", "[Streak camera]", "[Scaling]"] {
+        for section in [
+            "[Application]",
+            "[Acquisition]",
+            "[Streak camera]",
+            "[Scaling]",
+        ] {
             assert!(comment.contains(section), "{section} missing: {comment}");
         }
         // The sweep window, 7 rows of 1.875 ps = 13.125 ps, is recorded as the time range.
@@ -461,7 +507,11 @@ fn img_round_trip_16_and_32_bit_with_time_table() {
         assert_eq!((back.nx, back.nt), (nx, nt));
         assert_eq!(
             back.pixel_type,
-            if bits == 16 { PixelType::U16 } else { PixelType::U32 }
+            if bits == 16 {
+                PixelType::U16
+            } else {
+                PixelType::U32
+            }
         );
         for (i, (&v, &s)) in img.data.iter().zip(&back.data).enumerate() {
             let want = (v as f64).round().clamp(0.0, max);
@@ -548,7 +598,10 @@ fn img_reader_says_what_it_does_not_know() {
             "compressed",
         ),
         (patched_img(d, "type9.img", |b| b[12] = 9), "file type 9"),
-        (patched_img(d, "magic.img", |b| b[0] = b'X'), "not a Hamamatsu"),
+        (
+            patched_img(d, "magic.img", |b| b[0] = b'X'),
+            "not a Hamamatsu",
+        ),
         (
             patched_img(d, "scaling.img", |b| {
                 replace_once(b, "ScalingYType=2", "ScalingYType=7")
@@ -602,7 +655,11 @@ fn full_manifest() -> Manifest {
             eta: 1.0,
             laser_wavelength_nm: 795.0,
             pulse_width_fs: 50.0,
-            formats: vec![StreakFormat::Png16, StreakFormat::ExrF32, StreakFormat::Img32],
+            formats: vec![
+                StreakFormat::Png16,
+                StreakFormat::ExrF32,
+                StreakFormat::Img32,
+            ],
             seed: Some(42),
             spp: Some(64),
             created_by: Some("femto simulate --scene cornell".into()),
@@ -686,7 +743,11 @@ fn manifest_bad_key_and_bad_coverage_name_the_line_and_index() {
     // An unknown key in [capture]: its line is where it was inserted.
     let insert_after = text.find("[capture]\n").unwrap() + "[capture]\n".len();
     let line = text[..insert_after].matches('\n').count() + 1;
-    let bad = format!("{}dt_fs = 3.0\n{}", &text[..insert_after], &text[insert_after..]);
+    let bad = format!(
+        "{}dt_fs = 3.0\n{}",
+        &text[..insert_after],
+        &text[insert_after..]
+    );
     let bad_path = dir.path().join("bad.toml");
     std::fs::write(&bad_path, bad).unwrap();
     let err = Manifest::load(&bad_path).unwrap_err();
@@ -701,5 +762,50 @@ fn manifest_bad_key_and_bad_coverage_name_the_line_and_index() {
     let dup_path = dir.path().join("dup.toml");
     std::fs::write(&dup_path, dup).unwrap();
     let msg = Manifest::load(&dup_path).unwrap_err().to_string();
-    assert!(msg.contains("dup.toml") && msg.contains("index 0 appears twice"), "{msg}");
+    assert!(
+        msg.contains("dup.toml") && msg.contains("index 0 appears twice"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn every_reader_refuses_truncated_files_without_panicking() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = test_image(24, 16);
+    let mut files = Vec::new();
+    let png = dir.path().join("a.png");
+    formats::raster::write_png16(&png, &img, 0.5).unwrap();
+    files.push(png);
+    let exr = dir.path().join("a.exr");
+    formats::raster::write_exr_f32(&exr, &img).unwrap();
+    files.push(exr);
+    let tif = dir.path().join("a.tif");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(24, 16, vec![9u16; 24 * 16])
+        .unwrap()
+        .save_with_format(&tif, image::ImageFormat::Tiff)
+        .unwrap();
+    files.push(tif);
+    let hdr = dir.path().join("a.hdr");
+    image::ImageBuffer::<image::Rgb<f32>, Vec<f32>>::from_raw(24, 16, vec![0.5f32; 24 * 16 * 3])
+        .unwrap()
+        .save_with_format(&hdr, image::ImageFormat::Hdr)
+        .unwrap();
+    files.push(hdr);
+    let times: Vec<f64> = (0..16).map(|i| i as f64).collect();
+    let img_path = dir.path().join("a.img");
+    formats::hamamatsu::write_img(&img_path, &img, 16, &times).unwrap();
+    files.push(img_path);
+    for path in files {
+        let bytes = std::fs::read(&path).unwrap();
+        let ext = path.extension().unwrap().to_str().unwrap();
+        for frac in [0.0, 0.1, 0.3, 0.6, 0.9, 0.99] {
+            let cut = (bytes.len() as f64 * frac) as usize;
+            let short = dir.path().join(format!("cut{cut}.{ext}"));
+            std::fs::write(&short, &bytes[..cut]).unwrap();
+            match read_streak(&short, false) {
+                Err(e) => assert!(e.to_string().contains(&format!("cut{cut}.{ext}")), "{e}"),
+                Ok(_) => panic!("{}: {cut} of {} bytes read without error", ext, bytes.len()),
+            }
+        }
+    }
 }

@@ -401,7 +401,11 @@ fn parse_axis_scaling(
             .iter()
             .any(|s| get(s).is_some())
         {
-            return Err(bad("Type", "", "missing while other Scaling entries are present"));
+            return Err(bad(
+                "Type",
+                "",
+                "missing while other Scaling entries are present",
+            ));
         }
         return Ok(AxisScaling::Pixels);
     };
@@ -444,7 +448,7 @@ fn parse_axis_scaling(
                     found: count,
                 });
             }
-            let end = byte_offset + 4 * count as u64;
+            let end = byte_offset.saturating_add(4 * count as u64);
             if end > bytes.len() as u64 {
                 return Err(FormatError::Truncated {
                     path: path.to_path_buf(),
@@ -582,16 +586,19 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         });
     }
     let comment = decode_comment(&bytes[HEADER_LEN..comment_end]);
-    let sections = parse_comment(&comment).map_err(|(offset, message)| FormatError::BadComment {
-        path: path.to_path_buf(),
-        offset,
-        message,
-    })?;
+    let sections =
+        parse_comment(&comment).map_err(|(offset, message)| FormatError::BadComment {
+            path: path.to_path_buf(),
+            offset,
+            message,
+        })?;
     if let Some(scaling) = sections.get("Scaling") {
         for key in scaling.keys() {
-            let known = ['X', 'Y']
-                .iter()
-                .any(|a| SCALING_KEYS.iter().any(|s| *key == format!("Scaling{a}{s}")));
+            let known = ['X', 'Y'].iter().any(|a| {
+                SCALING_KEYS
+                    .iter()
+                    .any(|s| *key == format!("Scaling{a}{s}"))
+            });
             if !known {
                 return Err(FormatError::UnknownKey {
                     path: path.to_path_buf(),
@@ -745,12 +752,19 @@ fn format_time_range(span_ps: f64) -> String {
     } else {
         (span_ps, "ps")
     };
-    let rounded: f64 = format!("{value:.5e}").parse().expect("formatted float parses");
+    let rounded: f64 = format!("{value:.5e}")
+        .parse()
+        .expect("formatted float parses");
     format!("{rounded} {unit}")
 }
 
 /// The comment [`write_img`] stores, for a table at `table_offset`.
-fn writer_comment(bytes_per_pixel: usize, nt: usize, time_range: &str, table_offset: usize) -> String {
+fn writer_comment(
+    bytes_per_pixel: usize,
+    nt: usize,
+    time_range: &str,
+    table_offset: usize,
+) -> String {
     format!(
         "[Application],Software=\"femto\",SoftwareVersion=\"{version}\",\
          ApplicationTitle=\"femto streak-camera simulator\"\r\n\
@@ -783,7 +797,11 @@ pub fn write_img(
     let file_type = match bits {
         16 => ImgFileType::U16,
         32 => ImgFileType::U32,
-        _ => return Err(invalid(format!("HPD-TA bit depth {bits} (the writer supports 16 and 32)"))),
+        _ => {
+            return Err(invalid(format!(
+                "HPD-TA bit depth {bits} (the writer supports 16 and 32)"
+            )))
+        }
     };
     let (nx, nt) = (img.nx, img.nt);
     if img.data.len() != nx * nt {
@@ -809,7 +827,10 @@ pub fn write_img(
         });
     }
     if let Some(i) = time_axis_ps.iter().position(|t| !t.is_finite()) {
-        return Err(invalid(format!("time axis value {} at row {i} is not finite", time_axis_ps[i])));
+        return Err(invalid(format!(
+            "time axis value {} at row {i} is not finite",
+            time_axis_ps[i]
+        )));
     }
     if let Some(i) = time_axis_ps.windows(2).position(|w| w[1] <= w[0]) {
         return Err(invalid(format!(
@@ -901,10 +922,9 @@ mod tests {
 
     #[test]
     fn comment_sections_follow_values_directly() {
-        let s = parse_comment(
-            "[A],k=1,q=\"x, y\"\r\n[B],Type=5,SubType=0[C],ExposureTime=5 s,E=\"\"",
-        )
-        .unwrap();
+        let s =
+            parse_comment("[A],k=1,q=\"x, y\"\r\n[B],Type=5,SubType=0[C],ExposureTime=5 s,E=\"\"")
+                .unwrap();
         assert_eq!(s["A"]["k"], "1");
         assert_eq!(s["A"]["q"], "x, y");
         assert_eq!(s["B"]["SubType"], "0");
@@ -917,7 +937,10 @@ mod tests {
         assert_eq!(parse_comment("k=1").unwrap_err().0, 0);
         assert_eq!(parse_comment("[A],k=1,lonely").unwrap_err().0, 8);
         assert!(parse_comment("[A],k=\"open").is_err());
-        assert!(parse_comment("[A],k=1,k=2").unwrap_err().1.contains("duplicate"));
+        assert!(parse_comment("[A],k=1,k=2")
+            .unwrap_err()
+            .1
+            .contains("duplicate"));
     }
 
     #[test]

@@ -268,7 +268,11 @@ pub fn read_streak(path: &Path, transpose: bool) -> Result<StreakImage, FormatEr
                 _ => raster::read_hdr(path)?,
             };
             let (nx, nt, data) = if transpose {
-                (raw.height, raw.width, transpose_rows(&raw.data, raw.width, raw.height))
+                (
+                    raw.height,
+                    raw.width,
+                    transpose_rows(&raw.data, raw.width, raw.height),
+                )
             } else {
                 (raw.width, raw.height, raw.data)
             };
@@ -318,13 +322,13 @@ pub(crate) fn write_file_atomically<T>(
             Failure::Io(e)
         }
     }
-    crate::atomic::write_atomically(dest, |tmp| write(tmp).map_err(Failure::Format)).map_err(
-        |f| match f {
+    crate::atomic::write_atomically(dest, |tmp| write(tmp).map_err(Failure::Format)).map_err(|f| {
+        match f {
             Failure::Io(source) => FormatError::Io {
                 path: dest.to_path_buf(),
                 source,
             },
             Failure::Format(e) => e,
-        },
-    )
+        }
+    })
 }

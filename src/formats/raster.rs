@@ -89,14 +89,38 @@ pub fn read_png(path: &Path) -> Result<RasterPixels, FormatError> {
     let (width, height) = (image.width() as usize, image.height() as usize);
     use image::DynamicImage as D;
     let (data, pixel_type) = match &image {
-        D::ImageLuma8(b) => (b.as_raw().iter().map(|&v| v as f32).collect(), PixelType::U8),
-        D::ImageLuma16(b) => (b.as_raw().iter().map(|&v| v as f32).collect(), PixelType::U16),
-        D::ImageLumaA8(b) => (grey_from_interleaved(path, b.as_raw(), width, 2, true)?, PixelType::U8),
-        D::ImageLumaA16(b) => (grey_from_interleaved(path, b.as_raw(), width, 2, true)?, PixelType::U16),
-        D::ImageRgb8(b) => (grey_from_interleaved(path, b.as_raw(), width, 3, false)?, PixelType::RgbU8),
-        D::ImageRgba8(b) => (grey_from_interleaved(path, b.as_raw(), width, 4, true)?, PixelType::RgbU8),
-        D::ImageRgb16(b) => (grey_from_interleaved(path, b.as_raw(), width, 3, false)?, PixelType::RgbU16),
-        D::ImageRgba16(b) => (grey_from_interleaved(path, b.as_raw(), width, 4, true)?, PixelType::RgbU16),
+        D::ImageLuma8(b) => (
+            b.as_raw().iter().map(|&v| v as f32).collect(),
+            PixelType::U8,
+        ),
+        D::ImageLuma16(b) => (
+            b.as_raw().iter().map(|&v| v as f32).collect(),
+            PixelType::U16,
+        ),
+        D::ImageLumaA8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 2, true)?,
+            PixelType::U8,
+        ),
+        D::ImageLumaA16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 2, true)?,
+            PixelType::U16,
+        ),
+        D::ImageRgb8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 3, false)?,
+            PixelType::RgbU8,
+        ),
+        D::ImageRgba8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 4, true)?,
+            PixelType::RgbU8,
+        ),
+        D::ImageRgb16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 3, false)?,
+            PixelType::RgbU16,
+        ),
+        D::ImageRgba16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 4, true)?,
+            PixelType::RgbU16,
+        ),
         other => {
             return Err(FormatError::ChannelLayout {
                 path: path.to_path_buf(),
@@ -257,7 +281,10 @@ pub fn read_exr(path: &Path) -> Result<RasterPixels, FormatError> {
     let channels = &layer.channel_data.list;
     // Channel names may carry a layer prefix ("streak.Y"); match on the last component.
     let short = |name: &str| name.rsplit('.').next().unwrap_or(name).to_string();
-    let names: Vec<String> = channels.iter().map(|c| short(&c.name.to_string())).collect();
+    let names: Vec<String> = channels
+        .iter()
+        .map(|c| short(&c.name.to_string()))
+        .collect();
     let find = |want: &str| names.iter().position(|n| n == want);
     let to_f32 = |s: &FlatSamples| -> Vec<f32> {
         match s {
@@ -386,9 +413,12 @@ pub fn write_png16(
         }
         stored.push(r.clamp(0.0, u16::MAX as f64) as u16);
     }
-    let buffer =
-        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(img.nx as u32, img.nt as u32, stored)
-            .expect("buffer length checked");
+    let buffer = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(
+        img.nx as u32,
+        img.nt as u32,
+        stored,
+    )
+    .expect("buffer length checked");
     write_file_atomically(path, |tmp| {
         buffer
             .save_with_format(tmp, image::ImageFormat::Png)
@@ -408,8 +438,8 @@ fn encode_err(path: &Path, e: impl std::fmt::Display) -> FormatError {
 /// lossless; NaN and infinities are stored as they are). Written atomically.
 pub fn write_exr_f32(path: &Path, img: &StreakImage) -> Result<(), FormatError> {
     use exr::prelude::{
-        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes,
-        SmallVec, WritableImage,
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, SmallVec,
+        WritableImage,
     };
     check_len(path, img)?;
     let mut list = SmallVec::new();
