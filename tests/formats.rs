@@ -809,3 +809,100 @@ fn every_reader_refuses_truncated_files_without_panicking() {
         }
     }
 }
+
+/// Assemble an HPD-TA file by hand: header, comment, pixels, then `tail` (axis tables).
+fn hand_built_img(
+    file_type: i16,
+    w: usize,
+    h: usize,
+    comment: &str,
+    pixels: &[u8],
+    tail: &[u8],
+) -> Vec<u8> {
+    let mut b = Vec::new();
+    b.extend_from_slice(b"IM");
+    b.extend_from_slice(&(comment.len() as i16).to_le_bytes());
+    b.extend_from_slice(&(w as i16).to_le_bytes());
+    b.extend_from_slice(&(h as i16).to_le_bytes());
+    b.extend_from_slice(&[0; 4]);
+    b.extend_from_slice(&file_type.to_le_bytes());
+    b.resize(64, 0);
+    b.extend_from_slice(comment.as_bytes());
+    b.extend_from_slice(pixels);
+    b.extend_from_slice(tail);
+    b
+}
+
+#[test]
+fn hand_built_8_bit_img_with_linear_and_decreasing_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (3usize, 4usize);
+    let pixels: Vec<u8> = (0..(w * h) as u8).map(|i| i * 10).collect();
+
+    // Linear axes: X in mm (0.25 per pixel), Y in ns (0.5 per pixel) -> 500 ps per row.
+    let comment = "[Streak camera],Time Range=\"2 ns\",MCP Gain=\"12\"\r\n\
+                   [Scaling],ScalingXType=1,ScalingXScale=0.25,ScalingXUnit=\"mm\",\
+                   ScalingXScalingFile=\"\",ScalingYType=1,ScalingYScale=0.5,ScalingYUnit=\"ns\",\
+                   ScalingYScalingFile=\"\"";
+    let path = dir.path().join("linear.img");
+    std::fs::write(&path, hand_built_img(0, w, h, comment, &pixels, &[])).unwrap();
+    let img = read_streak(&path, false).unwrap();
+    assert_eq!((img.nx, img.nt, img.pixel_type), (3, 4, PixelType::U8));
+    assert_eq!(
+        img.data,
+        pixels.iter().map(|&p| p as f32).collect::<Vec<_>>()
+    );
+    assert_eq!(img.time_axis_ps.unwrap(), vec![0.0, 500.0, 1000.0, 1500.0]);
+    let x = img.x_axis.unwrap();
+    assert_eq!((x.values, x.unit.as_str()), (vec![0.0, 0.25, 0.5], "mm"));
+    let meta = img.img_meta.unwrap();
+    assert_eq!(meta.time_range_ps, Some(2000.0));
+    assert_eq!(meta.mcp_gain, Some(12.0));
+
+    // A decreasing time table (in fs): the rows are flipped so that time increases.
+    let make = |offset: usize| {
+        format!(
+            "[Scaling],ScalingYType=2,ScalingYScale=1,ScalingYUnit=\"fs\",\
+             ScalingYScalingFile=\"#{offset},{h:04}\""
+        )
+    };
+    // The offset is written inside the comment: a three-digit offset fits here.
+    let offset = 64 + make(100).len() + w * h;
+    let comment = make(offset);
+    assert_eq!(64 + comment.len() + w * h, offset);
+    let table_fs: [f32; 4] = [3000.0, 2000.0, 1000.0, 0.0];
+    let tail: Vec<u8> = table_fs.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let path = dir.path().join("flipped.img");
+    std::fs::write(&path, hand_built_img(0, w, h, &comment, &pixels, &tail)).unwrap();
+    let img = read_streak(&path, false).unwrap();
+    assert_eq!(
+        img.time_axis_ps.as_ref().unwrap(),
+        &vec![0.0, 1.0, 2.0, 3.0]
+    );
+    for t in 0..h {
+        for x in 0..w {
+            assert_eq!(img.at(x, t), pixels[(h - 1 - t) * w + x] as f32);
+        }
+    }
+    assert!(img.img_meta.as_ref().unwrap().rows_reversed);
+
+    // A table that goes back and forth is refused.
+    let bumpy: Vec<u8> = [0.0f32, 2.0, 1.0, 3.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let path = dir.path().join("bumpy.img");
+    std::fs::write(&path, hand_built_img(0, w, h, &comment, &pixels, &bumpy)).unwrap();
+    let err = read_streak(&path, false).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            FormatError::NonMonotonicAxis {
+                axis: 'Y',
+                index: 2,
+                ..
+            }
+        ),
+        "{err}"
+    );
+}

@@ -778,7 +778,10 @@ fn writer_comment(
 }
 
 /// Write `img` as an HPD-TA `.img` file with `bits` = 16 or 32 per pixel and the per-row
-/// times `time_axis_ps` (one per row, strictly increasing) as a float32 table in ps.
+/// times `time_axis_ps` (one per row, strictly increasing) as a float32 table in ps. The
+/// reader hands the table back unchanged; femto's simulator passes the start of each row's
+/// bin, `t0_ps + i * dt_ps` (the [`crate::cube::TimeAxis`] convention), and the
+/// `[Streak camera] Time Range` it records is `nt` times the mean row spacing.
 ///
 /// Values are rounded to the nearest integer (half away from zero) and clamped to
 /// `0..=2^bits - 1`; returns how many were clamped at the top (saturated). Negative values

@@ -99,7 +99,8 @@ pub struct StreakImage {
     pub data: Vec<f32>,
     /// How the file stored the samples.
     pub pixel_type: PixelType,
-    /// Per-row times read from the file (HPD-TA time tables), converted to picoseconds.
+    /// Per-row times read from the file (HPD-TA time tables or linear time scaling),
+    /// converted to picoseconds, increasing; `None` when the file has no time calibration.
     pub time_axis_ps: Option<Vec<f64>>,
     /// Per-column positions read from the file (HPD-TA X scaling), in the file's unit.
     pub x_axis: Option<AxisTable>,
