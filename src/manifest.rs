@@ -328,7 +328,7 @@ impl Manifest {
     /// The manifest as TOML text (after validation).
     pub fn to_toml(&self) -> Result<String, String> {
         self.validate()?;
-        let body = toml::to_string_pretty(self).map_err(|e| e.to_string())?;
+        let body = toml::to_string(self).map_err(|e| e.to_string())?;
         Ok(format!(
             "# femto capture manifest (times in ps; row i of each streak image covers \
              [t0_ps + i dt_ps, t0_ps + (i+1) dt_ps))\n{body}"
