@@ -17,9 +17,18 @@
 //! Nielsen's update of `lambda`.
 //!
 //! Outliers: a point is flagged when its reprojection error exceeds
-//! `clamp(3 * median, 1 px, 3 px)`: three times the typical error, but a sub-pixel error is
-//! never an outlier and an error above 3 px always is. Flagged points are reported, not
-//! removed: remove them from the input and refit if they are mistakes.
+//! `clamp(3 * median, 1 px, 3 px)` (median over the points used in the fit): three times the
+//! typical error, but a sub-pixel error is never an outlier and an error above 3 px always is.
+//! A least-squares fit spreads one mis-picked point's error over its neighbours, so with
+//! `reject_outliers` (the default) the worst flagged point (with any other flagged point within a
+//! factor two of it) is left out and the camera refitted, again while a used point is flagged
+//! (keeping at least the minimum number of points plus two, and leaving out at most a third);
+//! points left out that the final camera explains are taken back for one last fit. Errors are reported for every point, the outliers listed.
+//!
+//! Constraints (unknown intrinsics): `square_pixels` ties `fx = fy`, and
+//! `principal_point_at_centre` fixes `(cx, cy)` at the image centre. Both are common in
+//! single-view calibration, where the principal point trades off against the rotation and is
+//! poorly determined by a few dozen points.
 
 use super::dlt::{self, raw_project, require_in_front};
 use super::{median, CalibrateError, Correspondence};
@@ -48,26 +57,35 @@ pub struct SpatialOptions {
     pub intrinsics: IntrinsicsPrior,
     /// Fit `k1, k2` too (unknown intrinsics and at least [`MIN_POINTS_FOR_DISTORTION`] points).
     pub fit_distortion: bool,
-    /// Upper bound on Levenberg-Marquardt iterations.
+    /// Unknown intrinsics: constrain `fx = fy` (square pixels).
+    pub square_pixels: bool,
+    /// Unknown intrinsics: fix the principal point at the image centre.
+    pub principal_point_at_centre: bool,
+    /// Refit without the worst outlier while there is one (module doc).
+    pub reject_outliers: bool,
+    /// Upper bound on Levenberg-Marquardt iterations per fit.
     pub max_iterations: usize,
 }
 
 impl SpatialOptions {
-    /// Solve intrinsics and pose for an image of `width x height` pixels, no distortion.
+    /// Solve intrinsics (`fx, fy, cx, cy`, no distortion) and pose for an image of
+    /// `width x height` pixels, rejecting outliers.
     pub fn unknown_intrinsics(width: usize, height: usize) -> SpatialOptions {
         SpatialOptions {
             intrinsics: IntrinsicsPrior::Unknown { width, height },
             fit_distortion: false,
+            square_pixels: false,
+            principal_point_at_centre: false,
+            reject_outliers: true,
             max_iterations: 200,
         }
     }
 
-    /// Solve the pose only.
+    /// Solve the pose only, rejecting outliers.
     pub fn known_intrinsics(intrinsics: Intrinsics) -> SpatialOptions {
         SpatialOptions {
             intrinsics: IntrinsicsPrior::Known(intrinsics),
-            fit_distortion: false,
-            max_iterations: 200,
+            ..SpatialOptions::unknown_intrinsics(intrinsics.width, intrinsics.height)
         }
     }
 }
@@ -77,17 +95,19 @@ impl SpatialOptions {
 pub struct SpatialFit {
     pub intrinsics: Intrinsics,
     pub pose: Pose,
-    /// Reprojection error of every correspondence, pixels (input order).
+    /// Reprojection error of every correspondence under the final camera, pixels (input order,
+    /// outliers included).
     pub per_point_px: Vec<f64>,
-    /// Root mean square of `per_point_px`.
+    /// Root mean square of `per_point_px` over the points used in the final fit.
     pub rms_px: f64,
-    /// Median of `per_point_px`.
+    /// Median of `per_point_px` over the points used in the final fit.
     pub median_px: f64,
     /// Errors above this are outliers (module doc).
     pub outlier_threshold_px: f64,
-    /// Indices (input order) of the flagged points.
+    /// Indices (input order) of the points whose error exceeds the threshold. With
+    /// `reject_outliers` they were left out of the final fit.
     pub outliers: Vec<usize>,
-    /// Levenberg-Marquardt iterations taken.
+    /// Levenberg-Marquardt iterations taken, all fits together.
     pub iterations: usize,
     /// Whether `fx, fy, cx, cy` were fitted (false with known intrinsics).
     pub intrinsics_fitted: bool,
@@ -115,31 +135,142 @@ impl SpatialFit {
     }
 }
 
+/// Reprojection error of every point, pixels.
+fn reprojection_errors(points: &[Correspondence], k: &Intrinsics, pose: &Pose) -> Vec<f64> {
+    points
+        .iter()
+        .map(|c| {
+            let (u, v) = raw_project(k, &pose.camera_from_world(&c.point_m));
+            (u - c.pixel.0).hypot(v - c.pixel.1)
+        })
+        .collect()
+}
+
+/// `clamp(3 * median, 1 px, 3 px)` over the used points, and that median.
+fn outlier_threshold(errors: &[f64], used: &[bool]) -> (f64, f64) {
+    let e: Vec<f64> = errors
+        .iter()
+        .zip(used)
+        .filter(|(_, &u)| u)
+        .map(|(e, _)| *e)
+        .collect();
+    let m = median(&e);
+    (
+        (OUTLIER_MEDIAN_FACTOR * m).clamp(OUTLIER_MIN_PX, OUTLIER_MAX_PX),
+        m,
+    )
+}
+
 /// Spatial calibration from 2D-3D correspondences: checks, linear estimate (DLT or PnP),
-/// Levenberg-Marquardt refinement, the check that every point is in front of the camera, and
-/// the per-point report.
+/// Levenberg-Marquardt refinement (leaving out the worst outlier and refitting while one
+/// remains, when asked), the check that every point is in front of the camera, and the
+/// per-point report.
 pub fn fit_camera(
     points: &[Correspondence],
     options: &SpatialOptions,
 ) -> Result<SpatialFit, CalibrateError> {
-    let (init, known) = match options.intrinsics {
+    let (mut init, known) = match options.intrinsics {
         IntrinsicsPrior::Unknown { width, height } => (dlt::dlt(points, width, height)?, false),
         IntrinsicsPrior::Known(k) => (dlt::pnp(points, &k)?, true),
     };
+    let square = options.square_pixels && !known;
+    let centred = options.principal_point_at_centre && !known;
+    if square {
+        let f = 0.5 * (init.intrinsics.fx + init.intrinsics.fy);
+        init.intrinsics.fx = f;
+        init.intrinsics.fy = f;
+    }
+    if centred {
+        init.intrinsics.cx = 0.5 * init.intrinsics.width as f64;
+        init.intrinsics.cy = 0.5 * init.intrinsics.height as f64;
+    }
     let distortion = options.fit_distortion && !known && points.len() >= MIN_POINTS_FOR_DISTORTION;
     let mut active: Vec<usize> = (0..6).collect();
     if !known {
-        active.extend(6..10);
+        active.push(6);
+        if !square {
+            active.push(7);
+        }
+        if !centred {
+            active.extend(8..10);
+        }
     }
     if distortion {
         active.extend(10..12);
     }
-    let start = CameraParams {
+    let need = if known {
+        dlt::MIN_POINTS_KNOWN_INTRINSICS
+    } else {
+        dlt::MIN_POINTS_UNKNOWN_INTRINSICS
+    };
+    let mut cam = CameraParams {
         world_from_camera: init.pose.world_from_camera,
         centre: init.pose.position_m,
         k: init.intrinsics,
+        square,
     };
-    let (cam, iterations) = levenberg_marquardt(points, start, &active, options.max_iterations)?;
+    let n = points.len();
+    let mut used = vec![true; n];
+    let mut iterations = 0;
+    let max_rejected = n / 3;
+    loop {
+        let subset: Vec<Correspondence> = points
+            .iter()
+            .zip(&used)
+            .filter(|(_, &u)| u)
+            .map(|(c, _)| c.clone())
+            .collect();
+        let (fitted, it) = levenberg_marquardt(&subset, cam, &active, options.max_iterations)?;
+        cam = fitted;
+        iterations += it;
+        if !options.reject_outliers {
+            break;
+        }
+        let errors = reprojection_errors(points, &cam.k, &cam.pose());
+        let (threshold, _) = outlier_threshold(&errors, &used);
+        let used_count = used.iter().filter(|&&u| u).count();
+        let worst = (0..n)
+            .filter(|&i| used[i] && errors[i] > threshold)
+            .map(|i| errors[i])
+            .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))));
+        // The worst point, with any other flagged point within a factor two of it (one refit
+        // for a group of gross errors; their smeared neighbours stay).
+        let drop: Vec<usize> = worst.map_or(Vec::new(), |worst| {
+            (0..n)
+                .filter(|&i| used[i] && errors[i] > threshold && errors[i] >= 0.5 * worst)
+                .collect()
+        });
+        let may_drop = !drop.is_empty()
+            && used_count - drop.len() >= need + 2
+            && n - used_count + drop.len() <= max_rejected;
+        if may_drop {
+            for i in drop {
+                used[i] = false;
+            }
+        } else {
+            // Points left out earlier that the final camera explains are taken back once.
+            let back: Vec<usize> = (0..n)
+                .filter(|&i| !used[i] && errors[i] <= threshold)
+                .collect();
+            if back.is_empty() {
+                break;
+            }
+            for i in back {
+                used[i] = true;
+            }
+            let subset: Vec<Correspondence> = points
+                .iter()
+                .zip(&used)
+                .filter(|(_, &u)| u)
+                .map(|(c, _)| c.clone())
+                .collect();
+            let (fitted, it) =
+                levenberg_marquardt(&subset, cam, &active, options.max_iterations)?;
+            cam = fitted;
+            iterations += it;
+            break;
+        }
+    }
     let k = cam.k;
     let sane = k.fx.is_finite() && k.fy.is_finite() && k.fx > 0.0 && k.fy > 0.0;
     if !sane || !cam.centre.coords.iter().all(|v| v.is_finite()) {
@@ -148,31 +279,23 @@ pub fn fit_camera(
             k.fx, k.fy
         )));
     }
-    let pose = Pose {
-        world_from_camera: cam.world_from_camera,
-        position_m: cam.centre,
-    };
+    let pose = cam.pose();
     require_in_front(points, &pose)?;
-    let per_point_px: Vec<f64> = points
+    let per_point_px = reprojection_errors(points, &k, &pose);
+    let (outlier_threshold_px, median_px) = outlier_threshold(&per_point_px, &used);
+    let (sum_sq, count) = per_point_px
         .iter()
-        .map(|c| {
-            let (u, v) = raw_project(&k, &pose.camera_from_world(&c.point_m));
-            (u - c.pixel.0).hypot(v - c.pixel.1)
-        })
-        .collect();
-    let rms_px =
-        (per_point_px.iter().map(|e| e * e).sum::<f64>() / per_point_px.len() as f64).sqrt();
-    let median_px = median(&per_point_px);
-    let outlier_threshold_px =
-        (OUTLIER_MEDIAN_FACTOR * median_px).clamp(OUTLIER_MIN_PX, OUTLIER_MAX_PX);
-    let outliers = (0..points.len())
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .fold((0.0, 0usize), |(s, c), (e, _)| (s + e * e, c + 1));
+    let outliers = (0..n)
         .filter(|&i| per_point_px[i] > outlier_threshold_px)
         .collect();
     Ok(SpatialFit {
         intrinsics: k,
         pose,
         per_point_px,
-        rms_px,
+        rms_px: (sum_sq / count as f64).sqrt(),
         median_px,
         outlier_threshold_px,
         outliers,
@@ -189,9 +312,18 @@ struct CameraParams {
     world_from_camera: Rotation3<f64>,
     centre: Point3<f64>,
     k: Intrinsics,
+    /// `fx = fy`: parameter 6 moves both, parameter 7 is unused.
+    square: bool,
 }
 
 impl CameraParams {
+    fn pose(&self) -> Pose {
+        Pose {
+            world_from_camera: self.world_from_camera,
+            position_m: self.centre,
+        }
+    }
+
     /// The state moved by `delta[j]` along parameter `active[j]`.
     fn step(&self, active: &[usize], delta: &[f64]) -> CameraParams {
         let mut full = [0.0; 12];
@@ -203,7 +335,7 @@ impl CameraParams {
         out.world_from_camera = self.world_from_camera * Rotation3::new(omega);
         out.centre += Vector3::new(full[3], full[4], full[5]);
         out.k.fx += full[6];
-        out.k.fy += full[7];
+        out.k.fy += if self.square { full[6] } else { full[7] };
         out.k.cx += full[8];
         out.k.cy += full[9];
         out.k.k1 += full[10];
