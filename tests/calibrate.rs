@@ -142,8 +142,10 @@ fn camera_errors(
     pose: &Pose,
     k: &Intrinsics,
 ) -> (f64, f64, f64) {
-    let centroid =
-        points.iter().fold(Vector3::zeros(), |a, c| a + c.point_m.coords) / points.len() as f64;
+    let centroid = points
+        .iter()
+        .fold(Vector3::zeros(), |a, c| a + c.point_m.coords)
+        / points.len() as f64;
     let dist_m = (true_pose.position_m.coords - centroid).norm();
     let pos_mm_per_m = 1e3 * (pose.position_m - true_pose.position_m).norm() / dist_m;
     // Quaternion angle (2 atan2(|v|, w)) stays accurate for tiny rotations, unlike acos.
@@ -160,7 +162,12 @@ fn camera_errors(
 /// for the given points and `sigma_px` noise per axis, from a central-difference Jacobian of
 /// [`pinhole`]: RMS position error (mm/m, as [`camera_errors`]), RMS rotation angle (deg),
 /// RMS relative fx error (%).
-fn cramer_rao(points: &[Correspondence], k: &Intrinsics, pose: &Pose, sigma_px: f64) -> (f64, f64, f64) {
+fn cramer_rao(
+    points: &[Correspondence],
+    k: &Intrinsics,
+    pose: &Pose,
+    sigma_px: f64,
+) -> (f64, f64, f64) {
     let project_all = |q: &[f64; 10]| -> Vec<f64> {
         let mut kk = *k;
         kk.fx = q[6];
@@ -195,11 +202,15 @@ fn cramer_rao(points: &[Correspondence], k: &Intrinsics, pose: &Pose, sigma_px: 
         }
     }
     let cov = (jac.transpose() * &jac).try_inverse().unwrap() * (sigma_px * sigma_px);
-    let centroid =
-        points.iter().fold(Vector3::zeros(), |a, p| a + p.point_m.coords) / points.len() as f64;
+    let centroid = points
+        .iter()
+        .fold(Vector3::zeros(), |a, p| a + p.point_m.coords)
+        / points.len() as f64;
     let dist_m = (c.coords - centroid).norm();
     let pos = 1e3 * (cov[(3, 3)] + cov[(4, 4)] + cov[(5, 5)]).sqrt() / dist_m;
-    let rot = (cov[(0, 0)] + cov[(1, 1)] + cov[(2, 2)]).sqrt().to_degrees();
+    let rot = (cov[(0, 0)] + cov[(1, 1)] + cov[(2, 2)])
+        .sqrt()
+        .to_degrees();
     let fx = 100.0 * cov[(6, 6)].sqrt() / k.fx;
     (pos, rot, fx)
 }
@@ -241,7 +252,8 @@ fn spatial_calibration_of_sparse_fiducials_reaches_the_cramer_rao_bound() {
     // 8 cube corners and 21 markers: the errors over many noise draws must match the bound
     // computed here (an efficient estimator), neither worse nor implausibly better.
     let (k, pose) = true_camera();
-    let (bound_pos, bound_rot, bound_fx) = cramer_rao(&correspondences(&k, &pose, 0.0, 0), &k, &pose, 0.5);
+    let (bound_pos, bound_rot, bound_fx) =
+        cramer_rao(&correspondences(&k, &pose, 0.0, 0), &k, &pose, 0.5);
     let seeds = 100..132u64;
     let n = seeds.clone().count() as f64;
     let (mut pos, mut rot, mut fx) = (0.0, 0.0, 0.0);
@@ -259,8 +271,15 @@ fn spatial_calibration_of_sparse_fiducials_reaches_the_cramer_rao_bound() {
     println!(
         "29 fiducials, 0.5 px: RMS position {pos:.3} mm/m (bound {bound_pos:.3}), rotation {rot:.4} deg (bound {bound_rot:.4}), fx {fx:.3} % (bound {bound_fx:.3})"
     );
-    for (name, got, bound) in [("position", pos, bound_pos), ("rotation", rot, bound_rot), ("fx", fx, bound_fx)] {
-        assert!(got > 0.6 * bound && got < 1.4 * bound, "{name}: {got} vs bound {bound}");
+    for (name, got, bound) in [
+        ("position", pos, bound_pos),
+        ("rotation", rot, bound_rot),
+        ("fx", fx, bound_fx),
+    ] {
+        assert!(
+            got > 0.6 * bound && got < 1.4 * bound,
+            "{name}: {got} vs bound {bound}"
+        );
     }
 }
 
@@ -276,8 +295,16 @@ fn noise_free_fiducials_give_the_exact_camera_with_distortion() {
     assert!(fit.distortion_fitted);
     let (p, r, f) = camera_errors(&pts, &pose, &k, &fit.pose, &fit.intrinsics);
     assert!(p < 1e-4 && r < 1e-5 && f < 1e-5, "{p} mm/m {r} deg {f} %");
-    assert!((fit.intrinsics.k1 - k.k1).abs() < 1e-5, "k1 {}", fit.intrinsics.k1);
-    assert!((fit.intrinsics.k2 - k.k2).abs() < 1e-4, "k2 {}", fit.intrinsics.k2);
+    assert!(
+        (fit.intrinsics.k1 - k.k1).abs() < 1e-5,
+        "k1 {}",
+        fit.intrinsics.k1
+    );
+    assert!(
+        (fit.intrinsics.k2 - k.k2).abs() < 1e-4,
+        "k2 {}",
+        fit.intrinsics.k2
+    );
     assert!((fit.intrinsics.cx - k.cx).abs() < 1e-4 && (fit.intrinsics.cy - k.cy).abs() < 1e-4);
     assert!(fit.rms_px < 1e-6 && fit.outliers.is_empty());
 
@@ -304,7 +331,10 @@ fn pose_with_known_intrinsics_from_six_points() {
     let (k, pose) = true_camera();
     let all = correspondences(&k, &pose, 0.0, 0);
     // Two cube corners, two floor markers, two wall markers: not coplanar.
-    let six: Vec<Correspondence> = [0, 7, 8, 19, 20, 28].iter().map(|&i| all[i].clone()).collect();
+    let six: Vec<Correspondence> = [0, 7, 8, 19, 20, 28]
+        .iter()
+        .map(|&i| all[i].clone())
+        .collect();
     let fit = fit_camera(&six, &SpatialOptions::known_intrinsics(k)).unwrap();
     let (p, r, _) = camera_errors(&all, &pose, &k, &fit.pose, &fit.intrinsics);
     assert!(p < 1e-4 && r < 1e-5, "{p} mm/m {r} deg");
@@ -355,13 +385,27 @@ fn degenerate_inputs_give_their_own_errors() {
 
     let e = fit_camera(&pts[..5], &unknown).unwrap_err();
     assert!(
-        matches!(e, CalibrateError::TooFewPoints { got: 5, need: 6, .. }),
+        matches!(
+            e,
+            CalibrateError::TooFewPoints {
+                got: 5,
+                need: 6,
+                ..
+            }
+        ),
         "{e}"
     );
     assert!(e.to_string().contains("at least 6"), "{e}");
     let e = fit_camera(&pts[..3], &SpatialOptions::known_intrinsics(k)).unwrap_err();
     assert!(
-        matches!(e, CalibrateError::TooFewPoints { got: 3, need: 4, .. }),
+        matches!(
+            e,
+            CalibrateError::TooFewPoints {
+                got: 3,
+                need: 4,
+                ..
+            }
+        ),
         "{e}"
     );
 
@@ -370,7 +414,10 @@ fn degenerate_inputs_give_their_own_errors() {
     let e = fit_camera(&repeated, &unknown).unwrap_err();
     assert!(matches!(e, CalibrateError::RepeatedPoint { .. }), "{e}");
     let msg = e.to_string();
-    assert!(msg.contains("#5") && msg.contains("#21") && msg.contains("same 3-D position"), "{msg}");
+    assert!(
+        msg.contains("#5") && msg.contains("#21") && msg.contains("same 3-D position"),
+        "{msg}"
+    );
 
     let mut same_pixel = pts.clone();
     same_pixel[9].pixel = same_pixel[2].pixel;
@@ -468,7 +515,11 @@ fn registration_of_a_quad_matches_brute_force_ray_plane_distances() {
                 assert_eq!(reg.normal[idx], [0.0, 0.0, 1.0]);
                 // Triangle 0 holds the points below the diagonal y = x * hy / hx.
                 let below = py < px * hy as f64 / hx as f64;
-                assert_eq!(reg.triangle[idx], if below { 0 } else { 1 }, "pixel {i},{j}");
+                assert_eq!(
+                    reg.triangle[idx],
+                    if below { 0 } else { 1 },
+                    "pixel {i},{j}"
+                );
             } else {
                 assert!(reg.dist_m[idx].is_nan());
                 assert_eq!(reg.triangle[idx], u32::MAX);
@@ -507,7 +558,11 @@ fn room() -> TriangleMesh {
 /// BVH): nearest of the floor and the wall within their bounds.
 fn room_point(cal: &Calibration, i: usize, j: usize) -> Option<Point3<f64>> {
     let k = &cal.intrinsics;
-    let d_cam = Vector3::new((i as f64 + 0.5 - k.cx) / k.fx, (j as f64 + 0.5 - k.cy) / k.fy, 1.0);
+    let d_cam = Vector3::new(
+        (i as f64 + 0.5 - k.cx) / k.fx,
+        (j as f64 + 0.5 - k.cy) / k.fy,
+        1.0,
+    );
     let d = cal.pose.world_from_camera * d_cam;
     let o = cal.pose.position_m;
     let mut best: Option<(f64, Point3<f64>)> = None;
@@ -518,7 +573,12 @@ fn room_point(cal: &Calibration, i: usize, j: usize) -> Option<Point3<f64>> {
     }
     let t_wall = (-2.0 - o.z) / d.z;
     let p = o + d * t_wall;
-    if t_wall > 0.0 && p.x.abs() <= 1.5 && p.y >= 0.0 && p.y <= 2.0 && best.is_none_or(|b| t_wall < b.0) {
+    if t_wall > 0.0
+        && p.x.abs() <= 1.5
+        && p.y >= 0.0
+        && p.y <= 2.0
+        && best.is_none_or(|b| t_wall < b.0)
+    {
         best = Some((t_wall, p));
     }
     best.map(|b| b.1)
@@ -558,7 +618,9 @@ fn simulated_cube(cal: &Calibration, sigma_ps: f64, seed: u64) -> Cube {
     let (lo, hi) = arrivals
         .iter()
         .flatten()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| (a.min(t), b.max(t)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| {
+            (a.min(t), b.max(t))
+        });
     let dt_ps = 4.0;
     let axis = TimeAxis {
         t0_ps: (lo - 400.0).floor(),
@@ -585,7 +647,8 @@ fn simulated_cube(cal: &Calibration, sigma_ps: f64, seed: u64) -> Cube {
                 let start = t_true + 2.0;
                 if e > start {
                     let (lo_t, hi_t) = (a.max(start), e);
-                    value += 0.3 * amplitude
+                    value += 0.3
+                        * amplitude
                         * ((-(lo_t - start) / 200.0).exp() - (-(hi_t - start) / 200.0).exp());
                 }
                 if spike && (a - (t_true - 300.0)).abs() < 12.0 {
@@ -626,7 +689,8 @@ fn time_offset_of_a_simulated_cube_within_a_tenth_of_a_bin() {
     assert_eq!(reg.hit_count(), expected_hits);
     for (sigma_ps, seed) in [(0.5, 1), (1.5, 2), (5.0, 3)] {
         let cube = simulated_cube(&cal, sigma_ps, seed);
-        let samples = arrival_samples(&cube, &reg, &cal.laser_m, &ArrivalOptions::default()).unwrap();
+        let samples =
+            arrival_samples(&cube, &reg, &cal.laser_m, &ArrivalOptions::default()).unwrap();
         assert_eq!(samples.len(), expected_hits);
         let pairs: Vec<(f64, f64)> = samples.iter().map(|s| (s.t_first_ps, s.path_m)).collect();
         let fit = fit_time_offset(&pairs, cal.eta, false).unwrap();
@@ -640,7 +704,10 @@ fn time_offset_of_a_simulated_cube_within_a_tenth_of_a_bin() {
         assert!(err_bins < 0.1, "t0 off by {err_bins} bins");
         // The spikes 300 ps early are outliers; almost everything else is an inlier.
         let outliers = pairs.len() - fit.inlier_count();
-        assert!(outliers >= expected_hits / 50 && outliers < expected_hits / 10, "{outliers}");
+        assert!(
+            outliers >= expected_hits / 50 && outliers < expected_hits / 10,
+            "{outliers}"
+        );
     }
 }
 
@@ -658,7 +725,11 @@ fn time_offset_and_scale_of_a_simulated_cube() {
         fit.time_scale, cal.time_scale
     );
     assert!(err_bins < 0.1, "t0 off by {err_bins} bins");
-    assert!((fit.time_scale - cal.time_scale).abs() < 2e-4, "{}", fit.time_scale);
+    assert!(
+        (fit.time_scale - cal.time_scale).abs() < 2e-4,
+        "{}",
+        fit.time_scale
+    );
 
     // A world-time cube and a registration of another size are refused.
     let mut world = cube.clone();
@@ -666,4 +737,3 @@ fn time_offset_and_scale_of_a_simulated_cube() {
     let e = arrival_samples(&world, &reg, &cal.laser_m, &ArrivalOptions::default()).unwrap_err();
     assert!(matches!(e, CalibrateError::WorldTimeCube), "{e}");
 }
-

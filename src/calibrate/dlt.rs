@@ -299,9 +299,9 @@ pub fn decompose_projection(
 ) -> Result<SpatialInit, CalibrateError> {
     let m: Matrix3<f64> = proj.fixed_view::<3, 3>(0, 0).into_owned();
     let (k, camera_from_world) = rq_decomposition(&m);
-    let m_inv = m
-        .try_inverse()
-        .ok_or_else(|| CalibrateError::Degenerate("the DLT projection matrix is singular".into()))?;
+    let m_inv = m.try_inverse().ok_or_else(|| {
+        CalibrateError::Degenerate("the DLT projection matrix is singular".into())
+    })?;
     let centre = -(m_inv * proj.column(3));
     let k = k / k[(2, 2)];
     let intrinsics = Intrinsics {

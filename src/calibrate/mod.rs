@@ -14,7 +14,7 @@
 //! - [`temporal`]: sub-bin first-arrival detection on a pixel's time profile and a robust fit of
 //!   `t_first = t0 + time_scale * eta * (|laser - p| + |p - o|) / c` (physics.md, "Transient
 //!   path tracing"; [`Calibration::first_arrival_ps`]).
-//! - [`register`]: one ray per pixel centre through the calibrated camera into the mesh.
+//! - [`mod@register`]: one ray per pixel centre through the calibrated camera into the mesh.
 //!
 //! [`Calibration`]: crate::camera::Calibration
 //! [`Calibration::first_arrival_ps`]: crate::camera::Calibration::first_arrival_ps
@@ -79,7 +79,9 @@ pub enum CalibrateError {
     )]
     Coplanar { ratio: f64 },
     /// All 3-D points lie (nearly) on one line: no pose can be recovered.
-    #[error("all 3-D points lie on one line (width / extent = {ratio:.1e}); the pose is undetermined")]
+    #[error(
+        "all 3-D points lie on one line (width / extent = {ratio:.1e}); the pose is undetermined"
+    )]
     Collinear { ratio: f64 },
     /// The fitted camera sees (some of) the points from behind.
     #[error(
@@ -112,10 +114,14 @@ pub enum CalibrateError {
         height: usize,
     },
     /// The cube's time axis is in world time; first arrivals need camera time.
-    #[error("the cube's time axis is in world time; temporal calibration needs a camera-time cube")]
+    #[error(
+        "the cube's time axis is in world time; temporal calibration needs a camera-time cube"
+    )]
     WorldTimeCube,
     /// A registration does not match the cube it is used with.
-    #[error("the registration is {reg_nx} x {reg_ny} pixels but the cube is {cube_nx} x {cube_ny}")]
+    #[error(
+        "the registration is {reg_nx} x {reg_ny} pixels but the cube is {cube_nx} x {cube_ny}"
+    )]
     RegistrationMismatch {
         reg_nx: usize,
         reg_ny: usize,

@@ -119,7 +119,12 @@ pub fn parse_points_toml(text: &str, origin: &str) -> Result<Vec<Correspondence>
     for spanned in file.point {
         let line = line_of(text, spanned.span().start);
         let p = spanned.into_inner();
-        if !(p.pixel.iter().chain(p.world_m.iter()).all(|v| v.is_finite())) {
+        if !(p
+            .pixel
+            .iter()
+            .chain(p.world_m.iter())
+            .all(|v| v.is_finite()))
+        {
             return Err(CalibrateError::Parse {
                 path: origin.to_string(),
                 line,
@@ -305,17 +310,23 @@ mod tests {
     #[test]
     fn errors_name_file_and_line() {
         let bad_number = "name,x_px,y_px,X_m,Y_m,Z_m\na,1,2,3,4,5\n\nb,1,two,3,4,5\n";
-        let e = parse_points_csv(bad_number, "p.csv").unwrap_err().to_string();
-        assert!(
-            e.starts_with("p.csv: line 4:") && e.contains("y_px"),
-            "{e}"
-        );
+        let e = parse_points_csv(bad_number, "p.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("p.csv: line 4:") && e.contains("y_px"), "{e}");
         let short_row = "x_px,y_px,X_m,Y_m,Z_m\n1,2,3,4\n";
-        let e = parse_points_csv(short_row, "p.csv").unwrap_err().to_string();
+        let e = parse_points_csv(short_row, "p.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("p.csv: line 2:"), "{e}");
         let bad_header = "x,y,X,Y,Z\n";
-        let e = parse_points_csv(bad_header, "p.csv").unwrap_err().to_string();
-        assert!(e.contains("line 1") && e.contains("unknown column 'x'"), "{e}");
+        let e = parse_points_csv(bad_header, "p.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 1") && e.contains("unknown column 'x'"),
+            "{e}"
+        );
 
         let toml_text = "[[point]]\npixel = [1.0, 2.0]\nworld_m = [1.0, 2.0, 3.0]\n\n[[point]]\npixel = [1.0, 2.0]\nworld_m = [1.0, 2.0]\n";
         let e = parse_points_toml(toml_text, "f.toml")
@@ -332,7 +343,9 @@ mod tests {
 
     #[test]
     fn unknown_extension_and_missing_file_are_errors() {
-        let e = load_points(Path::new("points.txt")).unwrap_err().to_string();
+        let e = load_points(Path::new("points.txt"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("points.txt") && e.contains(".csv"), "{e}");
         let e = load_points(Path::new("/nonexistent/p.csv"))
             .unwrap_err()

