@@ -335,7 +335,10 @@ mod tests {
         assert!(e.starts_with("f.toml: line 7:"), "{e}");
         let nan = "[[point]]\npixel = [1.0, 2.0]\nworld_m = [1.0, 2.0, 3.0]\n[[point]]\npixel = [nan, 2.0]\nworld_m = [1.0, 2.0, 3.0]\n";
         let e = parse_points_toml(nan, "f.toml").unwrap_err().to_string();
-        assert!(e.starts_with("f.toml: line") && e.contains("finite"), "{e}");
+        assert!(
+            e.starts_with("f.toml: line 4:") && e.contains("finite"),
+            "{e}"
+        );
         let typo = "[[point]]\npixel = [1.0, 2.0]\nworld = [1.0, 2.0, 3.0]\n";
         let e = parse_points_toml(typo, "f.toml").unwrap_err().to_string();
         assert!(e.contains("line") && e.contains("world"), "{e}");
