@@ -316,6 +316,20 @@ fn noise_free_fiducials_give_the_exact_camera_with_distortion() {
 }
 
 #[test]
+fn square_pixels_and_centred_principal_point_are_kept() {
+    let (k, pose) = true_camera();
+    let pts = correspondences(&k, &pose, 0.0, 0);
+    let mut opts = SpatialOptions::unknown_intrinsics(672, 600);
+    opts.square_pixels = true;
+    opts.principal_point_at_centre = true;
+    let fit = fit_camera(&pts, &opts).unwrap();
+    assert_eq!(fit.intrinsics.fx, fit.intrinsics.fy);
+    assert_eq!((fit.intrinsics.cx, fit.intrinsics.cy), (336.0, 300.0));
+    let (p, r, f) = camera_errors(&pts, &pose, &k, &fit.pose, &fit.intrinsics);
+    assert!(p < 1e-4 && r < 1e-5 && f < 1e-5, "{p} mm/m {r} deg {f} %");
+}
+
+#[test]
 fn a_mispicked_point_is_flagged_as_outlier() {
     let (k, pose) = true_camera();
     let mut pts = correspondences(&k, &pose, 0.3, 3);
