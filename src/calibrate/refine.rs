@@ -23,7 +23,17 @@
 //! `reject_outliers` (the default) the worst flagged point (with any other flagged point within a
 //! factor two of it) is left out and the camera refitted, again while a used point is flagged
 //! (keeping at least the minimum number of points plus two, and leaving out at most a third);
-//! points left out that the final camera explains are taken back for one last fit. Errors are reported for every point, the outliers listed.
+//! points left out that the final camera explains are taken back for one last fit. Errors are
+//! reported for every point, the outliers listed. On pure Gaussian noise about 0.2 % of the
+//! points exceed `3 * median` and are flagged.
+//!
+//! Accuracy: least squares on the reprojection error is the maximum-likelihood estimate for
+//! Gaussian pixel noise, and the tests check that its errors match the Cramer-Rao bound. That
+//! bound is what limits a single view: with 29 fiducials (cube corners and markers) at 0.5 px
+//! and all four intrinsics free it is about 6 mm per metre in position, 0.4 degrees in rotation
+//! (the principal point trades off against the rotation) and 0.6 % in focal length; the errors
+//! fall as one over the square root of the number of points, and the constraints below remove
+//! most of the rotation error.
 //!
 //! Constraints (unknown intrinsics): `square_pixels` ties `fx = fy`, and
 //! `principal_point_at_centre` fixes `(cx, cy)` at the image centre. Both are common in
