@@ -6,6 +6,7 @@
 //! z forward, pixel `(x, y)` covering `[x, x+1) x [y, y+1)` with its centre at `(x+0.5, y+0.5)`.
 
 pub mod atomic;
+pub mod calibrate;
 pub mod camera;
 pub mod camera_path;
 pub mod color;
