@@ -7,6 +7,7 @@
 
 pub mod atomic;
 pub mod camera;
+pub mod container;
 pub mod cube;
 pub mod geometry;
 pub mod resample;
