@@ -212,7 +212,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
             &Provenance::new("new"),
         )
         .unwrap();
-        w.write_rows(0, &vec![1.0; 4 * AXIS.nt]).unwrap();
+        w.write_rows(0, &[1.0; 4 * AXIS.nt]).unwrap();
         assert_eq!(
             files_in(dir.path()).len(),
             2,
@@ -256,7 +256,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
     )
     .unwrap();
     assert!(w.write_rows(2, &vec![0.0; 2 * 4 * AXIS.nt]).is_err());
-    assert!(w.write_rows(0, &vec![0.0; 4 * AXIS.nt + 1]).is_err());
+    assert!(w.write_rows(0, &[0.0; 4 * AXIS.nt + 1]).is_err());
     drop(w);
     check_untouched();
     assert_eq!(container::read_cube(&path).unwrap(), old);
@@ -281,7 +281,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
         &Provenance::new(""),
     )
     .unwrap();
-    w.write_rows(0, &vec![0.0; 4 * AXIS.nt]).unwrap();
+    w.write_rows(0, &[0.0; 4 * AXIS.nt]).unwrap();
     std::fs::remove_dir_all(&gone).unwrap();
     assert!(w.finish().is_err());
     assert!(!target.exists());
