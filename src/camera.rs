@@ -341,7 +341,7 @@ impl CalibrationFile {
             r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
         );
         let ortho_err = (m.transpose() * m - Matrix3::identity()).abs().max();
-        if !(ortho_err < 1e-6) || (m.determinant() - 1.0).abs() > 1e-6 {
+        if ortho_err.is_nan() || ortho_err >= 1e-6 || (m.determinant() - 1.0).abs() > 1e-6 {
             return Err(bad(format!(
                 "extrinsics.world_from_camera is not a rotation (|R^T R - I| = {ortho_err:.2e}, det = {:.6})",
                 m.determinant()

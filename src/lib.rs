@@ -7,8 +7,13 @@
 
 pub mod atomic;
 pub mod camera;
+pub mod camera_path;
+pub mod color;
 pub mod container;
 pub mod cube;
 pub mod geometry;
+pub mod ingest;
+pub mod relativity;
 pub mod resample;
 pub mod units;
+pub mod video;

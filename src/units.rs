@@ -4,7 +4,7 @@
 //! of index `eta` travels at `c / eta`, so a path of length `L` takes `eta * L / c`.
 
 /// Speed of light in vacuum, metres per picosecond.
-pub const C_M_PER_PS: f64 = 2.997_924_58e-4;
+pub const C_M_PER_PS: f64 = 2.997_924_580e-4;
 
 /// Time of flight in picoseconds over `dist_m` metres in a medium of index `eta`.
 #[inline]

@@ -1,7 +1,7 @@
 //! Triangle geometry: meshes in metres, rays, and hits.
 //!
 //! Geometry is single precision (the tracer and renderer cast billions of rays); calibration
-//! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading in [`load`].
+//! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading in `load`.
 
 pub mod bvh;
 
