@@ -789,6 +789,14 @@ impl CubeWriter {
     pub fn finish(self) -> Result<()> {
         let CubeWriter { sink, tmp, dest } = self;
         sink.close()?;
+        // As `atomic::write_atomically` does: tempfile creates owner-only files, outputs are
+        // ordinary files.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))
+                .map_err(|e| ContainerError::from(e).at(&dest))?;
+        }
         tmp.persist(&dest).map_err(|e| ContainerError::Io {
             path: dest.clone(),
             source: e.error,

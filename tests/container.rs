@@ -76,6 +76,12 @@ fn round_trip_keeps_values_mask_and_provenance() {
     assert!(meta.groups.is_empty());
     assert_eq!(meta.size_bytes(), 5 * 4 * 7 * 4 + 5 * 4);
     assert_eq!(files_in(dir.path()), ["cube.h5"]);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "an ordinary file, not tempfile's 0600");
+    }
 
     // Without a mask, and with the default units.
     let plain = test_cube(3, 2, false);
@@ -331,6 +337,12 @@ fn slabs_stream_in_any_order() {
     }
     assert!(r.read_rows(ny - 1, 2).is_err());
     assert_eq!(r.read_cube().unwrap(), expected);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "an ordinary file, not tempfile's 0600");
+    }
     // The streamed range equals the range of the closed form.
     let (lo, hi) = r.value_range(&|_| {}).unwrap().unwrap();
     assert_eq!(
