@@ -10,6 +10,7 @@ pub mod calibrate;
 pub mod camera;
 pub mod camera_path;
 pub mod color;
+pub mod container;
 pub mod cube;
 pub mod formats;
 pub mod geometry;
