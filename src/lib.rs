@@ -9,5 +9,7 @@ pub mod atomic;
 pub mod camera;
 pub mod cube;
 pub mod geometry;
+pub mod pyramid;
 pub mod resample;
 pub mod units;
+pub mod unwarp;
