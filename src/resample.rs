@@ -135,9 +135,12 @@ fn shift_same_width(src: &[f32], shift_bins: f64, dst: &mut [f32]) {
     // Interior where both taps are inside the source: j in [k + 1, k + n_src).
     let a = (k + 1).clamp(lo as i64, hi as i64) as usize;
     let b = (k + n_src).clamp(a as i64, hi as i64) as usize;
-    for j in lo..a {
+    let edge = |j: usize| {
         let i = j as i64 - k;
-        dst[j] = w0 * at(i) + w1 * at(i - 1);
+        w0 * at(i) + w1 * at(i - 1)
+    };
+    for (j, d) in dst.iter_mut().enumerate().take(a).skip(lo) {
+        *d = edge(j);
     }
     if b > a {
         let s = (a as i64 - k) as usize;
@@ -148,9 +151,8 @@ fn shift_same_width(src: &[f32], shift_bins: f64, dst: &mut [f32]) {
             *d = w0 * x0 + w1 * x1;
         }
     }
-    for j in b..hi {
-        let i = j as i64 - k;
-        dst[j] = w0 * at(i) + w1 * at(i - 1);
+    for (j, d) in dst.iter_mut().enumerate().take(hi).skip(b) {
+        *d = edge(j);
     }
 }
 

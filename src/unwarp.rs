@@ -581,9 +581,9 @@ mod tests {
         assert_eq!(back.frame, TimeFrame::Camera);
         let bound = dt.powi(3) / 4.0 * amp / (sigma_ps * sigma_ps);
         let mut worst = 0.0f64;
-        for x in 0..n {
+        for (x, &d) in dists.iter().enumerate() {
             // The composite kernel [a, 1 - 2a, a], a = f (1 - f), written out independently.
-            let s = (cam.t0_ps - flight_time_ps(eta, dists[x] as f64) - world.axis.t0_ps) / dt;
+            let s = (cam.t0_ps - flight_time_ps(eta, d as f64) - world.axis.t0_ps) / dt;
             let f = s - s.floor();
             let a = f * (1.0 - f);
             let src = cube.profile(x, 0);
