@@ -126,9 +126,7 @@ impl Bvh {
     where
         F: FnMut(usize, &PreparedRay, f32) -> (f32, bool),
     {
-        // `!(a < b)` rather than `a >= b` so that a NaN bound also returns.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if self.nodes.is_empty() || !(t_min < t_max) {
+        if self.nodes.is_empty() || t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
             return;
         }
         let pre = PreparedRay::new(ray);
@@ -482,9 +480,9 @@ fn split(
         });
         Some(m)
     };
-    // Coincident centroids cannot be binned: any partition is as good as another.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(extent[axis] > 0.0) {
+    // Coincident centroids cannot be binned: any partition is as good as another. (Extents
+    // are finite: triangles with non-finite corners were left out.)
+    if extent[axis] <= 0.0 {
         return if count <= MAX_LEAF {
             None
         } else {
@@ -498,7 +496,7 @@ fn split(
     // Binned SAH over every axis with non-zero centroid extent.
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, last left bin)
     for a in 0..3 {
-        if !(extent[a] > 0.0) {
+        if extent[a] <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / extent[a];

@@ -144,10 +144,10 @@ fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
         path: path.to_path_buf(),
         source: e.into(),
     })?;
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let bin_chunk = if bin.is_empty() { 0 } else { 8 + bin.len() };

@@ -100,7 +100,6 @@ fn load_obj(path: &Path) -> Result<TriangleMesh, LoadError> {
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     // Materials only matter through their ids; a missing .mtl file is not an error here.
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|source| LoadError::Obj {
@@ -208,7 +207,7 @@ fn checked_piece(
     positions: Vec<Point3<f32>>,
     indices: &[u32],
 ) -> Result<TriangleMesh, LoadError> {
-    if indices.len() % 3 != 0 {
+    if !indices.len().is_multiple_of(3) {
         return Err(LoadError::PartialTriangle {
             path: path.to_path_buf(),
             part: part.to_string(),
