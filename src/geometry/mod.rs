@@ -1,9 +1,8 @@
 //! Triangle geometry: meshes in metres, rays, and hits.
 //!
 //! Geometry is single precision (the tracer and renderer cast billions of rays); calibration
-//! [`load`]; writing binary glTF in [`glb`].
 //! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading (OBJ, glTF) in
-//! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading in `load`.
+//! [`load`]; writing binary glTF in [`glb`].
 
 pub mod bvh;
 pub mod glb;
