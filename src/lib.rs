@@ -10,4 +10,5 @@ pub mod camera;
 pub mod cube;
 pub mod geometry;
 pub mod resample;
+pub mod scene;
 pub mod units;
