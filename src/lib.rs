@@ -11,4 +11,5 @@ pub mod cube;
 pub mod geometry;
 pub mod resample;
 pub mod scene;
+pub mod tracer;
 pub mod units;
