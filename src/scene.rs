@@ -784,7 +784,7 @@ impl Resolver<'_> {
                     fit_mesh(&mut m, size);
                 }
                 m.material.iter_mut().for_each(|x| *x = 0);
-                let closed = primitives::is_closed(&m);
+                let closed = primitives::is_closed(&welded(&m));
                 (m, closed, Vec::new())
             }
         };
@@ -868,6 +868,34 @@ fn load_mesh_file(path: &Path) -> Result<TriangleMesh, String> {
         return Err("not found".into());
     }
     Err("mesh files need geometry::load (not available in this build)".into())
+}
+
+/// The mesh with vertices at bit-identical positions merged (files often repeat a vertex per
+/// face or per normal), so that closedness is judged on the surface, not on the indexing.
+fn welded(mesh: &TriangleMesh) -> TriangleMesh {
+    let mut index: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    let mut positions = Vec::new();
+    let remap: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            *index
+                .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .or_insert_with(|| {
+                    positions.push(*p);
+                    (positions.len() - 1) as u32
+                })
+        })
+        .collect();
+    TriangleMesh {
+        positions,
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| remap[i as usize]))
+            .collect(),
+        material: mesh.material.clone(),
+    }
 }
 
 /// Centre the mesh's bounds in x and z, put its bottom at y = 0 and scale it uniformly so its
@@ -1423,6 +1451,29 @@ albedo = 0.3
         assert_eq!(s.name, "my_scene");
         let e = Scene::load(&dir.path().join("nope.toml")).unwrap_err();
         assert!(matches!(e, SceneError::Io { .. }) && e.to_string().contains("nope.toml"));
+    }
+
+    #[test]
+    fn file_meshes_are_welded_before_the_closedness_test_and_fitted() {
+        // A box whose triangles each carry their own three vertices, as OBJ files often do.
+        let shared = primitives::cuboid(Vector3::new(0.2, 0.4, 0.1));
+        let mut split = TriangleMesh::default();
+        for i in 0..shared.triangle_count() {
+            let k = split.positions.len() as u32;
+            split.positions.extend_from_slice(&shared.corners(i));
+            split.triangles.push([k, k + 1, k + 2]);
+            split.material.push(0);
+        }
+        assert!(!primitives::is_closed(&split));
+        assert!(primitives::is_closed(&welded(&split)));
+        // Fit: bottom at y = 0, centred in x and z, largest extent (y, 0.4) scaled to 0.1.
+        let mut m = split.clone();
+        m.transform(&Matrix4::new_translation(&Vector3::new(1.0, 2.0, 3.0)));
+        fit_mesh(&mut m, 0.1);
+        let b = m.bounds();
+        assert!(b.min.y.abs() < 1e-6 && (b.max.y - 0.1).abs() < 1e-6);
+        assert!((b.min.x + b.max.x).abs() < 1e-6 && (b.min.z + b.max.z).abs() < 1e-6);
+        assert!((b.max.x - b.min.x - 0.05).abs() < 1e-6);
     }
 
     #[test]
