@@ -19,6 +19,8 @@ pub mod manifest;
 pub mod pyramid;
 pub mod relativity;
 pub mod resample;
+pub mod scene;
+pub mod tracer;
 pub mod units;
 pub mod unwarp;
 pub mod video;
