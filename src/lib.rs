@@ -19,6 +19,7 @@ pub mod manifest;
 pub mod pyramid;
 pub mod relativity;
 pub mod resample;
+pub mod store;
 pub mod units;
 pub mod unwarp;
 pub mod video;
