@@ -166,7 +166,11 @@ fn first_arrivals(
             mask: reg.mask[a..b].to_vec(),
         };
         let found = arrival_samples(&slab, &slab_reg, laser_m, options)?;
-        samples.extend(found.into_iter().map(|s| ArrivalSample { y: s.y + y0, ..s }));
+        samples.extend(
+            found
+                .into_iter()
+                .map(|s| ArrivalSample { y: s.y + y0, ..s }),
+        );
         bar.set_position((y0 + n) as u64);
     }
     bar.finish_and_clear();
@@ -181,10 +185,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             .context(args.cube.display().to_string()));
     }
     if !(args.threshold > 0.0 && args.threshold <= 1.0) {
-        bail!(
-            "--threshold must be in (0, 1], got {}",
-            args.threshold
-        );
+        bail!("--threshold must be in (0, 1], got {}", args.threshold);
     }
     let points = load_points(&args.points)?;
     let (mut options, file_laser, file_eta) = match &args.intrinsics {
@@ -214,8 +215,8 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         bail!("--eta must be a number >= 1, got {eta}");
     }
 
-    let fit = fit_camera(&points, &options)
-        .with_context(|| format!("{}", args.points.display()))?;
+    let fit =
+        fit_camera(&points, &options).with_context(|| format!("{}", args.points.display()))?;
     let mesh = load_mesh(&args.mesh)?;
     let bvh = Bvh::new(mesh);
     let spatial = fit.calibration(0.0, 1.0, laser_m, eta);
@@ -337,9 +338,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         100.0 * hits as f64 / (meta.nx * meta.ny) as f64
     ));
     line(format!(
-        "time: t0 {:.3} ps ({:.4} bins of {} ps after the cube's start), time scale {}{}",
+        "time: t0 {:.3} ps (bin coordinate {:.4} on the cube's axis of {} ps bins), time scale {}{}",
         tfit.t0_ps,
-        (tfit.t0_ps - meta.axis.t0_ps) / meta.axis.dt_ps,
+        meta.axis.bin_coord(tfit.t0_ps),
         meta.axis.dt_ps,
         tfit.time_scale,
         if args.fit_time_scale {

@@ -82,17 +82,11 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         FileKind::SideFile => side_file_info(&args.file)?,
         FileKind::Mesh => {
             let mesh = load_mesh(&args.file)?;
-            (
-                mesh_json(&args.file, &mesh),
-                mesh_text(&args.file, &mesh),
-            )
+            (mesh_json(&args.file, &mesh), mesh_text(&args.file, &mesh))
         }
         FileKind::Streak => {
             let img = read_streak(&args.file, false)?;
-            (
-                streak_json(&args.file, &img),
-                streak_text(&args.file, &img),
-            )
+            (streak_json(&args.file, &img), streak_text(&args.file, &img))
         }
     };
     if args.json {
@@ -147,7 +141,11 @@ fn cube_summary(path: &Path) -> anyhow::Result<CubeSummary> {
 
 /// The registration group: the calibration (when its `calibration` attribute parses), the
 /// fraction of pixels that see geometry (from `mask`) and the distance range (from `dist_m`).
-fn registration_summary(path: &Path, reader: &CubeReader, meta: &CubeMeta) -> anyhow::Result<Value> {
+fn registration_summary(
+    path: &Path,
+    reader: &CubeReader,
+    meta: &CubeMeta,
+) -> anyhow::Result<Value> {
     let g = stored_registration::GROUP;
     let attrs = reader.read_group_attrs(g)?;
     let data = femto::container::GroupData {
@@ -297,14 +295,7 @@ fn registration_text(r: &Value) -> Vec<String> {
         ));
     } else {
         let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
-        let v3 = |v: &Value| {
-            format!(
-                "({:.4}, {:.4}, {:.4})",
-                f(&v[0]),
-                f(&v[1]),
-                f(&v[2])
-            )
-        };
+        let v3 = |v: &Value| format!("({:.4}, {:.4}, {:.4})", f(&v[0]), f(&v[1]), f(&v[2]));
         lines.push(format!(
             "camera at {} m looking along {}, fx {:.2} fy {:.2} cx {:.2} cy {:.2} px",
             v3(&c["camera_m"]),
@@ -490,7 +481,11 @@ fn mesh_text(path: &Path, mesh: &TriangleMesh) -> String {
     line("kind", format!("triangle mesh ({})", extension(path)));
     line(
         "triangles",
-        format!("{} ({} vertices)", mesh.triangle_count(), mesh.positions.len()),
+        format!(
+            "{} ({} vertices)",
+            mesh.triangle_count(),
+            mesh.positions.len()
+        ),
     );
     let b = mesh.bounds();
     line(
@@ -564,9 +559,10 @@ fn streak_json(path: &Path, img: &StreakImage) -> Value {
             "nt": n,
         })
     });
-    let x_axis = img.x_axis.as_ref().map(|a| {
-        json!({ "first": a.values.first(), "last": a.values.last(), "unit": a.unit })
-    });
+    let x_axis = img
+        .x_axis
+        .as_ref()
+        .map(|a| json!({ "first": a.values.first(), "last": a.values.last(), "unit": a.unit }));
     let img_meta = img.img_meta.as_ref().map(|m| {
         json!({
             "width": m.header.width,
@@ -617,7 +613,10 @@ fn streak_text(path: &Path, img: &StreakImage) -> String {
         },
     );
     if let Some(n) = j["saturated_pixels"].as_u64() {
-        line("saturated", format!("{n} pixels at the file's largest value"));
+        line(
+            "saturated",
+            format!("{n} pixels at the file's largest value"),
+        );
     }
     line(
         "time axis",

@@ -36,7 +36,10 @@ pub fn run(args: PyramidArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(side) = &args.side_file {
-        let same = match (std::fs::canonicalize(side), std::fs::canonicalize(&args.cube)) {
+        let same = match (
+            std::fs::canonicalize(side),
+            std::fs::canonicalize(&args.cube),
+        ) {
             (Ok(a), Ok(b)) => a == b,
             _ => false,
         };

@@ -80,13 +80,12 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
     }
 
     // Distances: cast anew, or read from the cube's registration group.
-    let (stored, group): (StoredRegistration, GroupData) = match (&args.calibration, &args.mesh)
-    {
+    let (stored, group): (StoredRegistration, GroupData) = match (&args.calibration, &args.mesh) {
         (Some(cal_path), Some(mesh_path)) => {
             let cal = Calibration::load(cal_path)?;
             let bvh = Bvh::new(load_mesh(mesh_path)?);
-            let reg = register(&cal, &bvh, nx, ny)
-                .with_context(|| cal_path.display().to_string())?;
+            let reg =
+                register(&cal, &bvh, nx, ny).with_context(|| cal_path.display().to_string())?;
             let mesh = mesh_path.display().to_string();
             let group = registration::registration_group(&reg, &cal, &mesh, None);
             (
@@ -197,7 +196,13 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         reader.read_rows_into(y0, src)?;
         // Pixels the registration marks as seeing nothing get no shift, whatever dist_m says.
         let dist: Vec<f32> = (a..b)
-            .map(|p| if reg.mask[p] != 0 { reg.dist_m[p] } else { f32::NAN })
+            .map(|p| {
+                if reg.mask[p] != 0 {
+                    reg.dist_m[p]
+                } else {
+                    f32::NAN
+                }
+            })
             .collect();
         unwarp_rows(
             src,

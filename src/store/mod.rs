@@ -62,9 +62,9 @@ impl GroupView<'_> {
     pub fn usize(&self, name: &str) -> Result<usize, StoreError> {
         match self.data.attr(name) {
             Some(AttrValue::I64(v)) if *v >= 0 => Ok(*v as usize),
-            Some(_) => Err(self.schema(format!(
-                "attribute '{name}' is not a non-negative integer"
-            ))),
+            Some(_) => {
+                Err(self.schema(format!("attribute '{name}' is not a non-negative integer")))
+            }
             None => Err(self.schema(format!("no attribute '{name}'"))),
         }
     }

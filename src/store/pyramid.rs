@@ -190,7 +190,11 @@ fn write_pyramid_slabs(
         attr("source", AttrValue::Str(source.to_string())),
     ];
     let mask = reader.read_mask()?;
-    let mut specs = vec![DatasetSpec::new("prefix", &[ny, nx, nt + 1], GroupElem::F64)];
+    let mut specs = vec![DatasetSpec::new(
+        "prefix",
+        &[ny, nx, nt + 1],
+        GroupElem::F64,
+    )];
     for (k, &nt_k) in (1..=levels).zip(&info.level_nts()) {
         specs.push(DatasetSpec::new(
             level_name(k),

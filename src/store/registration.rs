@@ -82,9 +82,8 @@ pub fn registration_group(
 ) -> GroupData {
     let k = &cal.intrinsics;
     let r = cal.pose.world_from_camera.matrix();
-    let (dmin, dmax) = dist_range_m(reg).map_or((f64::NAN, f64::NAN), |(a, b)| {
-        (a as f64, b as f64)
-    });
+    let (dmin, dmax) =
+        dist_range_m(reg).map_or((f64::NAN, f64::NAN), |(a, b)| (a as f64, b as f64));
     let mut attrs = vec![
         attr("calibration", AttrValue::Str(cal.to_toml())),
         attr("mesh", AttrValue::Str(mesh.to_string())),
@@ -119,10 +118,7 @@ pub fn registration_group(
         attrs.extend([
             attr("points", AttrValue::I64(f.points as i64)),
             attr("outliers", AttrValue::I64(f.outliers as i64)),
-            attr(
-                "reprojection_rms_px",
-                AttrValue::F64(f.reprojection_rms_px),
-            ),
+            attr("reprojection_rms_px", AttrValue::F64(f.reprojection_rms_px)),
             attr("time_samples", AttrValue::I64(f.time_samples as i64)),
             attr("time_inliers", AttrValue::I64(f.time_inliers as i64)),
             attr(
@@ -137,7 +133,11 @@ pub fn registration_group(
         attrs,
         datasets: vec![
             ("point_m".into(), vec![ny, nx, 3], flat3(&reg.point_m)),
-            ("dist_m".into(), vec![ny, nx], DataBuf::F32(reg.dist_m.clone())),
+            (
+                "dist_m".into(),
+                vec![ny, nx],
+                DataBuf::F32(reg.dist_m.clone()),
+            ),
             ("normal".into(), vec![ny, nx, 3], flat3(&reg.normal)),
             (
                 "triangle".into(),
@@ -180,9 +180,8 @@ pub fn from_group(path: &Path, data: &GroupData) -> Result<StoredRegistration, S
             ))),
         }
     };
-    let triples = |x: Vec<f32>| -> Vec<[f32; 3]> {
-        x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
-    };
+    let triples =
+        |x: Vec<f32>| -> Vec<[f32; 3]> { x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
     let point_m = triples(f32s("point_m", &[ny, nx, 3])?);
     let normal = triples(f32s("normal", &[ny, nx, 3])?);
     let dist_m = f32s("dist_m", &[ny, nx])?;
