@@ -19,6 +19,7 @@ pub mod manifest;
 pub mod relativity;
 pub mod resample;
 pub mod scene;
+pub mod simulate;
 pub mod tracer;
 pub mod units;
 pub mod video;
