@@ -6,7 +6,7 @@
 //! floor, the walls), `spacing_m` apart, as a lab would tape a printed marker sheet there. A
 //! handful of corners is not enough for the target accuracy of calibration (position
 //! 1 mm/m, rotation 0.05 degrees, focal length 0.2 % at 0.5 px noise): about 2000 points are,
-//! which a 1 cm grid gives on the built-in scenes.
+//! which an 8 mm grid gives on the built-in scenes.
 //!
 //! A point is kept when it projects inside the image (half a pixel from the border) and
 //! nothing lies between it and the camera centre. Its pixel is the continuous projection
@@ -19,7 +19,12 @@ use crate::scene::Scene;
 use nalgebra::{Point3, Vector3};
 
 /// Grid spacing of the markers that gives about 2000 points on the built-in scenes, metres.
-pub const DEFAULT_MARKER_SPACING_M: f64 = 0.01;
+pub const DEFAULT_MARKER_SPACING_M: f64 = 0.008;
+
+/// A point counts as hidden when something lies on its line of sight closer than this to it,
+/// metres: far above the precision of single-precision intersections at a metre (about a
+/// micrometre), far below a pixel's footprint.
+const OCCLUSION_MARGIN_M: f64 = 1e-5;
 
 /// How far off the plane of its first triangle a vertex may be for an entry to count as
 /// planar, metres.
@@ -54,7 +59,7 @@ pub fn fiducials(scene: &Scene, bvh: &Bvh, spacing_m: f64) -> Vec<Correspondence
             let d = p - o;
             let dist = d.norm();
             let ray = Ray::new(o.cast::<f32>(), (d / dist).cast::<f32>());
-            if bvh.occluded(&ray, 0.0, (dist - 1e-3) as f32) {
+            if bvh.occluded(&ray, 0.0, (dist - OCCLUSION_MARGIN_M) as f32) {
                 return None;
             }
             Some(Correspondence {
@@ -110,7 +115,7 @@ fn planar_grid(scene: &Scene, material: u32, spacing_m: f64) -> Vec<Point3<f64>>
     }
     let axis_nodes = |lo: f64, hi: f64| -> Vec<f64> {
         let extent = hi - lo;
-        let n = ((extent / spacing_m).floor() as usize).max(1);
+        let n = ((extent / spacing_m + 1e-6).floor() as usize).max(1);
         let start = lo + (extent - (n - 1) as f64 * spacing_m) / 2.0;
         (0..n).map(|i| start + i as f64 * spacing_m).collect()
     };
@@ -149,24 +154,24 @@ mod tests {
         let scene = Scene::builtin("cube", None).unwrap();
         let bvh = Bvh::new(scene.mesh.clone());
         let f = fiducials(&scene, &bvh, DEFAULT_MARKER_SPACING_M);
-        assert!(f.len() > 1500, "{} fiducials", f.len());
+        assert!(f.len() > 1800, "{} fiducials", f.len());
         assert!(f
             .iter()
             .any(|c| c.name.as_deref().unwrap().starts_with("cube.corner")));
         let calib = scene.calibration();
         for c in &f {
-            // The ray through the recorded pixel meets the scene first at the point.
             let dir = calib.world_ray(c.pixel.0, c.pixel.1);
             let o = calib.pose.position_m;
-            let ray = Ray::new(o.cast::<f32>(), dir.cast::<f32>());
+            let ray = Ray::new(o.cast::<f32>(), dir.into_inner().cast::<f32>());
             let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
             let d = (c.point_m - o).norm();
-            assert!(
-                (hit.t as f64 - d).abs() < 1e-4,
-                "{:?}: {} vs {d}",
-                c.name,
-                hit.t
-            );
+            let name = c.name.as_deref().unwrap();
+            // Nothing in front of the point; a marker (inside a face, not on a silhouette
+            // edge where the ray may graze past) is where the ray stops.
+            assert!(hit.t as f64 > d - 1e-3, "{name}: {} vs {d}", hit.t);
+            if name.contains(".marker") {
+                assert!((hit.t as f64 - d).abs() < 1e-4, "{name}: {} vs {d}", hit.t);
+            }
         }
     }
 

@@ -26,9 +26,11 @@
 //!    image with no light, [`CaptureModel::dark_frame`]) is drawn the same way;
 //! 7. **saturation** — values clipped at the level;
 //! 8. **quantisation** — `counts = clamp(round(v / value_per_count), 0, 65535)`, always
-//!    applied: the capture holds what a 16-bit sensor reports. `value_per_count` is
-//!    `full_scale / 60000` (the brightest true value reads about 60000 counts), or
-//!    `level / 65535` when saturation is on (the clip level is the top count).
+//!    applied: the capture holds what a 16-bit sensor reports. `value_per_count` is chosen
+//!    so that the brightest noiseless value reads 60000 counts, leaving headroom for the
+//!    noise: the largest value after steps 1 to 4 plus the dark offset, divided by 60000
+//!    (with no imperfection, the clean cube's maximum reads 60000); or `level / 65535` when
+//!    saturation is on (the clip level is the top count).
 //!
 //! `full_scale` is the largest value of the clean camera-time cube (1 if the cube is black).
 //! Dark offset, dark sigma and the saturation level are given as fractions of it, the photon
@@ -43,6 +45,7 @@ use crate::manifest::{self, Imperfections};
 use rand::Rng;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
 
 /// Top count of the 16-bit sensor.
 pub const MAX_COUNT: f64 = 65535.0;
@@ -222,10 +225,6 @@ impl CaptureModel {
             .fold(0.0f32, |m, &v| m.max(v)) as f64;
         let full_scale = if max > 0.0 { max } else { 1.0 };
         let saturation_level = flaws.saturation.map(|f| f * full_scale);
-        let value_per_count = match saturation_level {
-            Some(level) => level / MAX_COUNT,
-            None => full_scale / FULL_SCALE_COUNTS,
-        };
         let sweep_edges_ps = flaws.sweep.map(|s| sweep_edges_ps(&axis, s));
         let per_row = |purpose: Purpose, f: &dyn Fn(f64) -> f64| -> Vec<f64> {
             (0..ny)
@@ -238,12 +237,12 @@ impl CaptureModel {
         let power_factors = flaws
             .power_sigma
             .map(|sigma| per_row(Purpose::Power, &|n| (1.0 + sigma * n).max(0.0)));
-        Ok(CaptureModel {
+        let mut model = CaptureModel {
             axis,
             nx,
             ny,
             full_scale,
-            value_per_count,
+            value_per_count: 1.0,
             flaws: *flaws,
             sweep_edges_ps,
             jitter_shifts_ps,
@@ -252,7 +251,59 @@ impl CaptureModel {
             dark: flaws.dark.map(|(o, s)| (o * full_scale, s * full_scale)),
             saturation_level,
             seed,
-        })
+        };
+        model.value_per_count = match saturation_level {
+            Some(level) => level / MAX_COUNT,
+            None => {
+                let peak = model.noiseless_peak(clean) + model.dark.map_or(0.0, |d| d.0);
+                if peak > 0.0 && peak.is_finite() {
+                    peak / FULL_SCALE_COUNTS
+                } else {
+                    full_scale / FULL_SCALE_COUNTS
+                }
+            }
+        };
+        Ok(model)
+    }
+
+    /// Largest value of the cube after the deterministic steps 1 to 4.
+    fn noiseless_peak(&self, clean: &Cube) -> f64 {
+        let nt = self.axis.nt;
+        (0..self.ny)
+            .into_par_iter()
+            .map(|y| {
+                let mut s = Scratch::new(nt);
+                let row = clean.row(y);
+                (0..self.nx)
+                    .map(|x| {
+                        let gain = self.shape_pixel(y, x, &row[x * nt..(x + 1) * nt], &mut s);
+                        s.a.iter()
+                            .filter(|v| v.is_finite())
+                            .fold(0.0f64, |m, &v| m.max(v as f64 * gain))
+                    })
+                    .fold(0.0f64, f64::max)
+            })
+            .reduce(|| 0.0, f64::max)
+    }
+
+    /// Steps 1 and 2 (sweep, jitter) of pixel `(x, y)` into `s.a`; returns the gain of steps
+    /// 3 and 4 (laser power, vignetting).
+    fn shape_pixel(&self, y: usize, x: usize, profile: &[f32], s: &mut Scratch) -> f64 {
+        match &self.sweep_edges_ps {
+            Some(edges) => {
+                integrate_over_edges(&self.axis, profile, edges, &mut s.prefix, &mut s.a)
+            }
+            None => s.a.copy_from_slice(profile),
+        }
+        if let Some(shifts) = &self.jitter_shifts_ps {
+            crate::resample::shift_into(&self.axis, &s.a, shifts[y], &self.axis, &mut s.b);
+            std::mem::swap(&mut s.a, &mut s.b);
+        }
+        let mut gain = self.vignetting_gain(x, y);
+        if let Some(f) = &self.power_factors {
+            gain *= f[y];
+        }
+        gain
     }
 
     /// Flat-field gain of pixel `(x, y)` (1 without vignetting).
@@ -310,28 +361,12 @@ impl CaptureModel {
         );
         let mut photon_rng = stream(self.seed, Purpose::Photon, y);
         let mut dark_rng = stream(self.seed, Purpose::Dark, y);
-        let mut a = vec![0.0f32; nt];
-        let mut b = vec![0.0f32; nt];
-        let mut prefix = vec![0.0f64; nt + 1];
+        let mut s = Scratch::new(nt);
         for x in 0..self.nx {
-            let p = &truth[x * nt..(x + 1) * nt];
-            // 1. sweep non-linearity.
-            match &self.sweep_edges_ps {
-                Some(edges) => integrate_over_edges(&self.axis, p, edges, &mut prefix, &mut a),
-                None => a.copy_from_slice(p),
-            }
-            // 2. jitter.
-            if let Some(shifts) = &self.jitter_shifts_ps {
-                crate::resample::shift_into(&self.axis, &a, shifts[y], &self.axis, &mut b);
-                std::mem::swap(&mut a, &mut b);
-            }
-            // 3, 4. laser power and vignetting.
-            let mut gain = self.vignetting_gain(x, y);
-            if let Some(f) = &self.power_factors {
-                gain *= f[y];
-            }
+            // 1 to 4: sweep non-linearity, jitter, laser power, vignetting.
+            let gain = self.shape_pixel(y, x, &truth[x * nt..(x + 1) * nt], &mut s);
             let out = &mut counts[x * nt..(x + 1) * nt];
-            for (o, &v) in out.iter_mut().zip(&a) {
+            for (o, &v) in out.iter_mut().zip(&s.a) {
                 let mut v = v as f64 * gain;
                 // 5. photon noise.
                 if let Some(k) = self.photons_per_unit {
@@ -396,6 +431,23 @@ impl CaptureModel {
             saturation: self
                 .saturation_level
                 .map(|level| manifest::Saturation { level }),
+        }
+    }
+}
+
+/// Per-pixel work buffers.
+struct Scratch {
+    a: Vec<f32>,
+    b: Vec<f32>,
+    prefix: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(nt: usize) -> Scratch {
+        Scratch {
+            a: vec![0.0; nt],
+            b: vec![0.0; nt],
+            prefix: vec![0.0; nt + 1],
         }
     }
 }
@@ -511,19 +563,20 @@ mod tests {
         let out = counts_of(&m, &c, 0);
         for x in 0..2 {
             let truth = c.profile(x, 0);
-            // Independent integral: the truth resampled at 1000 points per bin.
+            // Independent integral: the overlap of [e_j, e_j+1) with every truth bin times
+            // that bin's density.
             for j in 0..40 {
                 let (lo, hi) = (e[j], e[j + 1]);
-                let n = 4000;
-                let mut s = 0.0;
-                for k in 0..n {
-                    let t = lo + (k as f64 + 0.5) * (hi - lo) / n as f64;
-                    let i = ((t - a.t0_ps) / a.dt_ps).floor() as usize;
-                    s += truth[i.min(39)] as f64 / a.dt_ps * (hi - lo) / n as f64;
-                }
+                let s: f64 = (0..40)
+                    .map(|i| {
+                        let (a0, a1) = (a.bin_start_ps(i), a.bin_start_ps(i + 1));
+                        let overlap = (hi.min(a1) - lo.max(a0)).max(0.0);
+                        truth[i] as f64 * overlap / a.dt_ps
+                    })
+                    .sum();
                 let got = out[x * 40 + j] as f64 * m.value_per_count;
                 assert!(
-                    (got - s).abs() < 2.0 * m.value_per_count,
+                    (got - s).abs() <= 0.5 * m.value_per_count + 1e-6 * s,
                     "bin {j}: {got} vs {s}"
                 );
             }
@@ -531,6 +584,9 @@ mod tests {
             let true_total: f64 = truth.iter().map(|&v| v as f64).sum();
             assert!((total * m.value_per_count - true_total).abs() < 20.0 * m.value_per_count);
         }
+        // The scale leaves the widened bins room: the brightest reads 60000 counts.
+        let peak = counts_of(&m, &c, 0).into_iter().fold(0.0f32, f32::max);
+        assert_eq!(peak, 60000.0);
         let im = m.imperfections();
         assert_eq!(im.sweep.unwrap().bin_times_ps, e);
     }
