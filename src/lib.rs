@@ -20,6 +20,7 @@ pub mod pyramid;
 pub mod relativity;
 pub mod resample;
 pub mod scene;
+pub mod simulate;
 pub mod store;
 pub mod tracer;
 pub mod units;

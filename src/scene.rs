@@ -864,6 +864,9 @@ impl Candidate {
 
 /// Read a mesh file into triangles (metres, the file's own frame).
 fn load_mesh_file(path: &Path) -> Result<TriangleMesh, String> {
+    if !path.is_file() {
+        return Err("not found".into());
+    }
     crate::geometry::load::load_mesh(path).map_err(|e| e.to_string())
 }
 

@@ -8,6 +8,7 @@ pub mod calibrate;
 pub mod info;
 pub mod pyramid;
 pub mod unwarp;
+pub mod simulate;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -35,6 +36,9 @@ pub enum Command {
     Unwarp(unwarp::UnwarpArgs),
     /// Store a cube's temporal prefix sums and mip levels (group `pyramid` or a side file).
     Pyramid(pyramid::PyramidArgs),
+    /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
+    /// geometry, true calibration, fiducials and ground-truth cubes.
+    Simulate(simulate::SimulateArgs),
 }
 
 /// Run one parsed command line.
@@ -44,6 +48,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Unwarp(args) => unwarp::run(args),
         Command::Pyramid(args) => pyramid::run(args),
+        Command::Simulate(args) => simulate::run(args),
     }
 }
 
