@@ -11,6 +11,8 @@ pub mod camera_path;
 pub mod color;
 pub mod cube;
 pub mod geometry;
+pub mod pyramid;
 pub mod relativity;
 pub mod resample;
 pub mod units;
+pub mod unwarp;
