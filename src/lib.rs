@@ -16,3 +16,4 @@ pub mod relativity;
 pub mod resample;
 pub mod units;
 pub mod unwarp;
+pub mod video;

@@ -1,0 +1,1199 @@
+//! Video and frame-sequence output: PNG and EXR frame sequences, H.264 MP4, animated GIF.
+//!
+//! The renderer hands over one [`Frame`] per output time step; a [`VideoWriter`] turns the
+//! stream into files. No system binary is involved: H.264 is encoded by OpenH264 (built from
+//! its bundled source by the `openh264` crate) and wrapped in an MP4 container by `muxide`.
+//!
+//! Output is atomic (crate::atomic): a single MP4 or GIF appears only when [`VideoWriter::finish`]
+//! succeeds (the compressed stream is held in memory until then), and each frame of a sequence is
+//! written to a temporary file and renamed to `frame_NNNNN.png` / `frame_NNNNN.exr`, numbered
+//! from a first index so that a partial render (`--frames A..B`) writes frames with their global
+//! numbers.
+//!
+//! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
+//! displayable value):
+//! - EXR frames store [`Frame::linear_rgb`] as 32-bit float R, G, B (scene-linear).
+//! - PNG, GIF and MP4 use [`Frame::srgb8`], 8-bit sRGB-encoded values.
+//! - MP4: R'G'B' (sRGB-encoded) goes to Y'CbCr with the ITU-R BT.709 matrix
+//!   (Kr = 0.2126, Kb = 0.0722) in limited ("studio") range, Y' in 16..=235 and Cb, Cr in
+//!   16..=240, and chroma is subsampled 4:2:0 by averaging each 2x2 block (centred siting).
+//!   The H.264 VUI says so: colour primaries BT.709 (the sRGB primaries), transfer
+//!   characteristics IEC 61966-2-1 (sRGB), matrix BT.709, limited range. BT.709 rather than
+//!   BT.601 because it is what players assume for computer-generated and HD content and because
+//!   its primaries are those of sRGB. Width and height must be even (4:2:0), and OpenH264 limits
+//!   the size to 3840x2160 (either orientation). Every frame is encoded (frame skipping off), at
+//!   a constant frame rate; an IDR frame starts every two seconds so players can seek. Quality
+//!   is set by a quantiser range (16..=22, see `MP4_QP_MIN`), not by a bit rate. Constrained
+//!   baseline profile (OpenH264's default), which every player decodes.
+//! - GIF: each frame gets its own 256-colour palette (NeuQuant quantisation in the `gif` crate);
+//!   the frame delay is stored in whole hundredths of a second, so `100 / fps` is rounded to the
+//!   nearest (25 fps plays exactly, 30 fps plays at 1/0.03 = 33.3 fps).
+
+use std::fmt;
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use image::codecs::gif::{GifEncoder, Repeat};
+use image::codecs::png::PngEncoder;
+use image::{Delay, ExtendedColorType, ImageEncoder, RgbaImage};
+use openh264::encoder::{
+    BitRate, Encoder, EncoderConfig, FrameRate, FrameType, IntraFramePeriod, QpRange,
+    RateControlMode, TransferCharacteristics, UsageType, VuiConfig,
+};
+use openh264::formats::YUVSource;
+use openh264::OpenH264API;
+use thiserror::Error;
+
+use crate::atomic::write_atomically;
+
+/// Largest side OpenH264 accepts (3840x2160 or 2160x3840).
+const MP4_MAX_LONG_SIDE: usize = 3840;
+const MP4_MAX_SHORT_SIDE: usize = 2160;
+
+/// Errors of the video writers.
+#[derive(Debug, Error)]
+pub enum VideoError {
+    /// The format name or extension is not one of png, exr, mp4, gif.
+    #[error(
+        "unknown video format '{0}': expected png (frame sequence), exr (frame sequence), mp4 or gif"
+    )]
+    UnknownFormat(String),
+    /// Width or height is zero.
+    #[error("video size {width}x{height} is empty: width and height must be at least 1")]
+    EmptySize { width: usize, height: usize },
+    /// H.264 with 4:2:0 chroma needs even sides.
+    #[error(
+        "MP4 (H.264, 4:2:0) needs an even width and height, got {width}x{height}: \
+         render at {even_width}x{even_height} instead"
+    )]
+    OddSize {
+        width: usize,
+        height: usize,
+        even_width: usize,
+        even_height: usize,
+    },
+    /// The frame is larger than the format allows.
+    #[error("{format} output cannot be {width}x{height}: the largest size is {limit}")]
+    TooLarge {
+        format: VideoFormat,
+        width: usize,
+        height: usize,
+        limit: &'static str,
+    },
+    /// The frame rate is not a positive finite number.
+    #[error("frame rate {0} fps is not a positive finite number")]
+    BadFrameRate(f64),
+    /// A pushed frame does not have the size the writer was created with.
+    #[error("frame {index} is {got_width}x{got_height}, but the video is {width}x{height}")]
+    FrameSize {
+        index: usize,
+        width: usize,
+        height: usize,
+        got_width: usize,
+        got_height: usize,
+    },
+    /// A pushed frame lacks the pixel buffer this format needs, or it has the wrong length.
+    #[error("frame {index}: {format} output needs {field} with {expected} values (width x height x 3), got {got}")]
+    FrameData {
+        index: usize,
+        format: VideoFormat,
+        field: &'static str,
+        expected: usize,
+        got: usize,
+    },
+    /// `finish` on an MP4 or GIF writer that received no frame.
+    #[error("no frame was pushed, so {path} was not written")]
+    NoFrames { path: PathBuf },
+    /// The output folder is missing, or the sequence folder cannot be created.
+    #[error("cannot use output folder {path}: {source}")]
+    Folder { path: PathBuf, source: io::Error },
+    /// Writing or renaming an output file failed.
+    #[error("cannot write {path}: {source}")]
+    Io { path: PathBuf, source: io::Error },
+    /// The PNG or GIF encoder failed.
+    #[error("cannot encode {path}: {source}")]
+    Image {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+    /// The EXR writer failed.
+    #[error("cannot write {path}: {source}")]
+    Exr {
+        path: PathBuf,
+        source: exr::error::Error,
+    },
+    /// OpenH264 refused a setting or a frame (internal failure).
+    #[error("H.264 encoder failed for {path}: {message}")]
+    Encoder { path: PathBuf, message: String },
+    /// The MP4 muxer rejected the stream (internal failure).
+    #[error("MP4 muxer failed for {path}: {source}")]
+    Mux {
+        path: PathBuf,
+        source: muxide::api::MuxerError,
+    },
+}
+
+/// Output kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VideoFormat {
+    /// A folder of `frame_NNNNN.png` files, 8-bit sRGB.
+    PngSequence,
+    /// A folder of `frame_NNNNN.exr` files, 32-bit float linear RGB.
+    ExrSequence,
+    /// One H.264 MP4 file.
+    Mp4,
+    /// One animated GIF file.
+    Gif,
+}
+
+impl VideoFormat {
+    /// Parse a format name: `png`, `exr`, `mp4`, `gif` (case-insensitive, a leading dot is
+    /// allowed so that an extension works too).
+    pub fn parse(name: &str) -> Result<VideoFormat, VideoError> {
+        match name.trim_start_matches('.').to_ascii_lowercase().as_str() {
+            "png" => Ok(VideoFormat::PngSequence),
+            "exr" => Ok(VideoFormat::ExrSequence),
+            "mp4" => Ok(VideoFormat::Mp4),
+            "gif" => Ok(VideoFormat::Gif),
+            _ => Err(VideoError::UnknownFormat(name.to_string())),
+        }
+    }
+
+    /// The format implied by a path's extension (`out.mp4`, `out.gif`); `None` when the path has
+    /// no extension (a sequence folder), whose format must then be given by name.
+    pub fn from_path(path: &Path) -> Option<Result<VideoFormat, VideoError>> {
+        path.extension()
+            .map(|e| VideoFormat::parse(&e.to_string_lossy()))
+    }
+
+    /// Whether the output is a folder of one file per frame.
+    pub fn is_sequence(self) -> bool {
+        matches!(self, VideoFormat::PngSequence | VideoFormat::ExrSequence)
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            VideoFormat::PngSequence => "png",
+            VideoFormat::ExrSequence => "exr",
+            VideoFormat::Mp4 => "mp4",
+            VideoFormat::Gif => "gif",
+        }
+    }
+}
+
+impl fmt::Display for VideoFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            VideoFormat::PngSequence => "PNG sequence",
+            VideoFormat::ExrSequence => "EXR sequence",
+            VideoFormat::Mp4 => "MP4",
+            VideoFormat::Gif => "GIF",
+        })
+    }
+}
+
+/// One output frame, row-major from the top row, RGB interleaved.
+///
+/// Only the buffer the chosen format reads must be filled (the other may be empty):
+/// `linear_rgb` for EXR, `srgb8` for PNG, GIF and MP4.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Frame {
+    pub width: usize,
+    pub height: usize,
+    /// Scene-linear RGB, `width * height * 3` floats.
+    pub linear_rgb: Vec<f32>,
+    /// sRGB-encoded 8-bit RGB, `width * height * 3` bytes.
+    pub srgb8: Vec<u8>,
+}
+
+/// File name of sequence frame `index`: `frame_00042.png`.
+pub fn sequence_file_name(index: usize, format: VideoFormat) -> String {
+    format!("frame_{index:05}.{}", format.as_str())
+}
+
+/// Convert an sRGB-encoded 8-bit RGB image (even width and height) to planar Y'CbCr 4:2:0 with
+/// the BT.709 matrix in limited range (see the module doc), into caller-owned planes:
+/// `y.len() == width * height`, `cb.len() == cr.len() == width * height / 4`.
+pub fn srgb8_to_yuv420_bt709(
+    srgb8: &[u8],
+    width: usize,
+    height: usize,
+    y: &mut [u8],
+    cb: &mut [u8],
+    cr: &mut [u8],
+) {
+    debug_assert!(width.is_multiple_of(2) && height.is_multiple_of(2));
+    debug_assert_eq!(srgb8.len(), width * height * 3);
+    const KR: f32 = 0.2126;
+    const KB: f32 = 0.0722;
+    const KG: f32 = 1.0 - KR - KB;
+    let luma = |r: f32, g: f32, b: f32| KR * r + KG * g + KB * b;
+    let to_u8 = |v: f32| v.round().clamp(0.0, 255.0) as u8;
+    for (i, px) in srgb8.chunks_exact(3).enumerate() {
+        let e = luma(px[0] as f32, px[1] as f32, px[2] as f32) / 255.0;
+        y[i] = to_u8(16.0 + 219.0 * e);
+    }
+    let half_w = width / 2;
+    for cy in 0..height / 2 {
+        for cx in 0..half_w {
+            let mut sum = [0.0f32; 3];
+            for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                let o = ((2 * cy + dy) * width + 2 * cx + dx) * 3;
+                for c in 0..3 {
+                    sum[c] += srgb8[o + c] as f32;
+                }
+            }
+            let [r, g, b] = sum.map(|s| s / (4.0 * 255.0));
+            let e = luma(r, g, b);
+            let j = cy * half_w + cx;
+            cb[j] = to_u8(128.0 + 224.0 * (b - e) / (2.0 * (1.0 - KB)));
+            cr[j] = to_u8(128.0 + 224.0 * (r - e) / (2.0 * (1.0 - KR)));
+        }
+    }
+}
+
+/// Planar 4:2:0 frame handed to OpenH264.
+struct Yuv420 {
+    width: usize,
+    height: usize,
+    y: Vec<u8>,
+    u: Vec<u8>,
+    v: Vec<u8>,
+}
+
+impl YUVSource for Yuv420 {
+    fn dimensions(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    fn strides(&self) -> (usize, usize, usize) {
+        (self.width, self.width / 2, self.width / 2)
+    }
+
+    fn y(&self) -> &[u8] {
+        &self.y
+    }
+
+    fn u(&self) -> &[u8] {
+        &self.u
+    }
+
+    fn v(&self) -> &[u8] {
+        &self.v
+    }
+}
+
+/// One encoded access unit (Annex B), held until `finish`.
+struct Sample {
+    annex_b: Vec<u8>,
+    is_idr: bool,
+}
+
+struct Mp4State {
+    encoder: Encoder,
+    yuv: Yuv420,
+    samples: Vec<Sample>,
+}
+
+/// A `Write` into a shared buffer: the GIF encoder owns its writer and writes the trailer when
+/// dropped, so the bytes are collected here and written out atomically on `finish`.
+#[derive(Clone, Default)]
+struct SharedBuffer(Arc<Mutex<Vec<u8>>>);
+
+impl Write for SharedBuffer {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.0
+            .lock()
+            .map_err(|_| io::Error::other("GIF buffer poisoned"))?
+            .extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+struct GifState {
+    encoder: GifEncoder<SharedBuffer>,
+    bytes: SharedBuffer,
+}
+
+enum Sink {
+    Sequence { dir: PathBuf },
+    Mp4(Box<Mp4State>),
+    Gif(Box<GifState>),
+}
+
+/// Writes a stream of equally sized frames as a frame sequence, an MP4 or a GIF.
+pub struct VideoWriter {
+    path: PathBuf,
+    format: VideoFormat,
+    width: usize,
+    height: usize,
+    fps: f64,
+    first_index: usize,
+    pushed: usize,
+    sink: Sink,
+}
+
+/// Failure inside an atomic write: either the temporary file itself or the encoder.
+enum AtomicError {
+    Io(io::Error),
+    Video(VideoError),
+}
+
+impl From<io::Error> for AtomicError {
+    fn from(e: io::Error) -> Self {
+        AtomicError::Io(e)
+    }
+}
+
+fn write_file_atomically(
+    dest: &Path,
+    write: impl FnOnce(&Path) -> Result<(), VideoError>,
+) -> Result<(), VideoError> {
+    write_atomically(dest, |tmp| write(tmp).map_err(AtomicError::Video)).map_err(|e| match e {
+        AtomicError::Io(source) => VideoError::Io {
+            path: dest.to_path_buf(),
+            source,
+        },
+        AtomicError::Video(v) => v,
+    })
+}
+
+impl VideoWriter {
+    /// Start a video of `width` x `height` frames at `fps` frames per second.
+    ///
+    /// For a sequence, `path` is a folder (created if missing); for MP4 and GIF it is the file,
+    /// whose folder must exist. Nothing is written to `path` until a frame is pushed (sequence)
+    /// or the writer is finished (MP4, GIF).
+    pub fn create(
+        path: &Path,
+        format: VideoFormat,
+        width: usize,
+        height: usize,
+        fps: f64,
+    ) -> Result<VideoWriter, VideoError> {
+        if width == 0 || height == 0 {
+            return Err(VideoError::EmptySize { width, height });
+        }
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(VideoError::BadFrameRate(fps));
+        }
+        let sink = match format {
+            VideoFormat::PngSequence | VideoFormat::ExrSequence => {
+                fs::create_dir_all(path).map_err(|source| VideoError::Folder {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+                Sink::Sequence {
+                    dir: path.to_path_buf(),
+                }
+            }
+            VideoFormat::Mp4 => {
+                check_parent(path)?;
+                Sink::Mp4(Box::new(mp4_state(path, width, height, fps)?))
+            }
+            VideoFormat::Gif => {
+                check_parent(path)?;
+                if width > u16::MAX as usize || height > u16::MAX as usize {
+                    return Err(VideoError::TooLarge {
+                        format,
+                        width,
+                        height,
+                        limit: "65535x65535",
+                    });
+                }
+                let bytes = SharedBuffer::default();
+                let mut encoder = GifEncoder::new_with_speed(bytes.clone(), 10);
+                encoder
+                    .set_repeat(Repeat::Infinite)
+                    .map_err(|source| VideoError::Image {
+                        path: path.to_path_buf(),
+                        source,
+                    })?;
+                Sink::Gif(Box::new(GifState { encoder, bytes }))
+            }
+        };
+        Ok(VideoWriter {
+            path: path.to_path_buf(),
+            format,
+            width,
+            height,
+            fps,
+            first_index: 0,
+            pushed: 0,
+            sink,
+        })
+    }
+
+    /// Number the first pushed frame `first_index` (sequences only: a render of frames `A..B`
+    /// writes `frame_A` to `frame_{B-1}`). MP4 and GIF files always start at their first frame.
+    pub fn first_frame_index(mut self, first_index: usize) -> VideoWriter {
+        self.first_index = first_index;
+        self
+    }
+
+    pub fn format(&self) -> VideoFormat {
+        self.format
+    }
+
+    /// Frames pushed so far.
+    pub fn frames_pushed(&self) -> usize {
+        self.pushed
+    }
+
+    /// Add the next frame.
+    pub fn push(&mut self, frame: &Frame) -> Result<(), VideoError> {
+        let index = self.first_index + self.pushed;
+        if frame.width != self.width || frame.height != self.height {
+            return Err(VideoError::FrameSize {
+                index,
+                width: self.width,
+                height: self.height,
+                got_width: frame.width,
+                got_height: frame.height,
+            });
+        }
+        let expected = self.width * self.height * 3;
+        let (field, got) = match self.format {
+            VideoFormat::ExrSequence => ("linear_rgb", frame.linear_rgb.len()),
+            _ => ("srgb8", frame.srgb8.len()),
+        };
+        if got != expected {
+            return Err(VideoError::FrameData {
+                index,
+                format: self.format,
+                field,
+                expected,
+                got,
+            });
+        }
+        let (width, height) = (self.width, self.height);
+        match &mut self.sink {
+            Sink::Sequence { dir } => {
+                let dest = dir.join(sequence_file_name(index, self.format));
+                match self.format {
+                    VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height)?,
+                    _ => write_exr(&dest, &frame.linear_rgb, width, height)?,
+                }
+            }
+            Sink::Mp4(state) => {
+                let state = &mut **state;
+                let yuv = &mut state.yuv;
+                srgb8_to_yuv420_bt709(
+                    &frame.srgb8,
+                    width,
+                    height,
+                    &mut yuv.y,
+                    &mut yuv.u,
+                    &mut yuv.v,
+                );
+                let encoded =
+                    state
+                        .encoder
+                        .encode(&state.yuv)
+                        .map_err(|e| VideoError::Encoder {
+                            path: self.path.clone(),
+                            message: format!("frame {index}: {e}"),
+                        })?;
+                let annex_b = encoded.to_vec();
+                if annex_b.is_empty() {
+                    return Err(VideoError::Encoder {
+                        path: self.path.clone(),
+                        message: format!(
+                            "frame {index}: no bitstream (frame type {:?})",
+                            encoded.frame_type()
+                        ),
+                    });
+                }
+                let is_idr = encoded.frame_type() == FrameType::IDR;
+                state.samples.push(Sample { annex_b, is_idr });
+            }
+            Sink::Gif(state) => {
+                let image = rgba_image(&frame.srgb8, width, height);
+                let delay = gif_delay(self.fps);
+                state
+                    .encoder
+                    .encode_frame(image::Frame::from_parts(image, 0, 0, delay))
+                    .map_err(|source| VideoError::Image {
+                        path: self.path.clone(),
+                        source,
+                    })?;
+            }
+        }
+        self.pushed += 1;
+        Ok(())
+    }
+
+    /// Complete the output: write the MP4 or GIF file (atomically); nothing to do for a
+    /// sequence, whose frames are already on disk. Returns the number of frames written.
+    pub fn finish(self) -> Result<usize, VideoError> {
+        let path = self.path;
+        match self.sink {
+            Sink::Sequence { .. } => Ok(self.pushed),
+            Sink::Mp4(state) => {
+                if state.samples.is_empty() {
+                    return Err(VideoError::NoFrames { path });
+                }
+                write_mp4(&path, &state.samples, self.width, self.height, self.fps)?;
+                Ok(self.pushed)
+            }
+            Sink::Gif(state) => {
+                if self.pushed == 0 {
+                    return Err(VideoError::NoFrames { path });
+                }
+                let GifState { encoder, bytes } = *state;
+                // Dropping the encoder writes the GIF trailer into `bytes`.
+                drop(encoder);
+                let data = std::mem::take(&mut *bytes.0.lock().map_err(|_| VideoError::Io {
+                    path: path.clone(),
+                    source: io::Error::other("GIF buffer poisoned"),
+                })?);
+                write_file_atomically(&path, |tmp| {
+                    fs::write(tmp, &data).map_err(|source| VideoError::Io {
+                        path: path.clone(),
+                        source,
+                    })
+                })?;
+                Ok(self.pushed)
+            }
+        }
+    }
+}
+
+/// GIF delays are whole hundredths of a second: `100 / fps` rounded to the nearest, within
+/// 1..=65535.
+fn gif_delay(fps: f64) -> Delay {
+    let centis = (100.0 / fps).round().clamp(1.0, u16::MAX as f64) as u32;
+    Delay::from_numer_denom_ms(centis * 10, 1)
+}
+
+fn check_parent(path: &Path) -> Result<(), VideoError> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if parent.is_dir() {
+        Ok(())
+    } else {
+        Err(VideoError::Folder {
+            path: parent.to_path_buf(),
+            source: io::Error::new(io::ErrorKind::NotFound, "no such folder"),
+        })
+    }
+}
+
+fn rgba_image(srgb8: &[u8], width: usize, height: usize) -> RgbaImage {
+    let mut rgba = Vec::with_capacity(width * height * 4);
+    for px in srgb8.chunks_exact(3) {
+        rgba.extend_from_slice(&[px[0], px[1], px[2], 255]);
+    }
+    RgbaImage::from_raw(width as u32, height as u32, rgba)
+        .expect("buffer length is width * height * 4 by construction")
+}
+
+fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
+    write_file_atomically(dest, |tmp| {
+        let image_err = |source| VideoError::Image {
+            path: dest.to_path_buf(),
+            source,
+        };
+        let file = fs::File::create(tmp).map_err(|source| VideoError::Io {
+            path: dest.to_path_buf(),
+            source,
+        })?;
+        let mut out = BufWriter::new(file);
+        PngEncoder::new(&mut out)
+            .write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
+            .map_err(image_err)?;
+        out.flush().map_err(|source| VideoError::Io {
+            path: dest.to_path_buf(),
+            source,
+        })
+    })
+}
+
+fn write_exr(
+    dest: &Path,
+    linear_rgb: &[f32],
+    width: usize,
+    height: usize,
+) -> Result<(), VideoError> {
+    write_file_atomically(dest, |tmp| {
+        exr::prelude::write_rgb_file(tmp, width, height, |x, y| {
+            let o = (y * width + x) * 3;
+            (linear_rgb[o], linear_rgb[o + 1], linear_rgb[o + 2])
+        })
+        .map_err(|source| VideoError::Exr {
+            path: dest.to_path_buf(),
+            source,
+        })
+    })
+}
+
+/// H.264 quantiser range. OpenH264's buffer-based rate control starts a stream at the top of
+/// the range and lowers the quantiser by one per delivered frame down to the bottom (18 is
+/// commonly taken as visually lossless), raising it briefly at scene changes. Unlike its
+/// bit-rate modes, it keeps every frame without complaining that frame skipping is off.
+const MP4_QP_MIN: u8 = 16;
+const MP4_QP_MAX: u8 = 22;
+
+/// Nominal bit rate handed to OpenH264: 0.2 bit per pixel per frame (about 12 Mbit/s at
+/// 1080p30), within 1..=100 Mbit/s. Buffer-based rate control does not steer towards it; the
+/// encoder uses it to pick the H.264 level written in the stream.
+fn mp4_bitrate_bps(width: usize, height: usize, fps: f64) -> u32 {
+    let bps = 0.2 * width as f64 * height as f64 * fps;
+    bps.clamp(1.0e6, 100.0e6) as u32
+}
+
+fn mp4_state(path: &Path, width: usize, height: usize, fps: f64) -> Result<Mp4State, VideoError> {
+    if !width.is_multiple_of(2) || !height.is_multiple_of(2) {
+        return Err(VideoError::OddSize {
+            width,
+            height,
+            even_width: width + width % 2,
+            even_height: height + height % 2,
+        });
+    }
+    if width.max(height) > MP4_MAX_LONG_SIDE || width.min(height) > MP4_MAX_SHORT_SIDE {
+        return Err(VideoError::TooLarge {
+            format: VideoFormat::Mp4,
+            width,
+            height,
+            limit: "3840x2160 (or 2160x3840)",
+        });
+    }
+    let keyframe_every = (2.0 * fps).round().max(1.0) as u32;
+    let config = EncoderConfig::new()
+        .usage_type(UsageType::CameraVideoRealTime)
+        .rate_control_mode(RateControlMode::Bufferbased)
+        .bitrate(BitRate::from_bps(mp4_bitrate_bps(width, height, fps)))
+        .max_frame_rate(FrameRate::from_hz(fps as f32))
+        .skip_frames(false)
+        .qp(QpRange::new(MP4_QP_MIN, MP4_QP_MAX))
+        .intra_frame_period(IntraFramePeriod::from_num_frames(keyframe_every))
+        .vui(VuiConfig::bt709().transfer_characteristics(TransferCharacteristics::Srgb));
+    let encoder = Encoder::with_api_config(OpenH264API::from_source(), config).map_err(|e| {
+        VideoError::Encoder {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
+    })?;
+    Ok(Mp4State {
+        encoder,
+        yuv: Yuv420 {
+            width,
+            height,
+            y: vec![0; width * height],
+            u: vec![128; width * height / 4],
+            v: vec![128; width * height / 4],
+        },
+        samples: Vec::new(),
+    })
+}
+
+fn write_mp4(
+    path: &Path,
+    samples: &[Sample],
+    width: usize,
+    height: usize,
+    fps: f64,
+) -> Result<(), VideoError> {
+    use muxide::api::{MuxerBuilder, VideoCodec};
+    let mux_err = |source| VideoError::Mux {
+        path: path.to_path_buf(),
+        source,
+    };
+    write_file_atomically(path, |tmp| {
+        let file = fs::File::create(tmp).map_err(|source| VideoError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut muxer = MuxerBuilder::new(BufWriter::new(file))
+            .video(VideoCodec::H264, width as u32, height as u32, fps)
+            .build()
+            .map_err(mux_err)?;
+        for (k, s) in samples.iter().enumerate() {
+            muxer
+                .write_video(k as f64 / fps, &s.annex_b, s.is_idr)
+                .map_err(mux_err)?;
+        }
+        muxer.finish_in_place().map_err(mux_err)?;
+        muxer
+            .into_writer()
+            .into_inner()
+            .map_err(|e| VideoError::Io {
+                path: path.to_path_buf(),
+                source: e.into_error(),
+            })?
+            .sync_all()
+            .map_err(|source| VideoError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::AnimationDecoder;
+
+    /// A smooth moving pattern: a horizontal sine in red that travels 3 pixels per frame,
+    /// a vertical ramp in green and a horizontal ramp in blue, kept inside 20..=235 so that
+    /// limited-range clipping plays no part.
+    fn moving_gradient(width: usize, height: usize, k: usize) -> Vec<u8> {
+        let mut out = Vec::with_capacity(width * height * 3);
+        for y in 0..height {
+            for x in 0..width {
+                let phase = 2.0 * std::f64::consts::PI * (x + 3 * k) as f64 / width as f64;
+                let r = 128.0 + 90.0 * phase.sin();
+                let g = 30.0 + 180.0 * y as f64 / (height - 1) as f64;
+                let b = 220.0 - 150.0 * x as f64 / (width - 1) as f64;
+                out.extend([r, g, b].map(|v| v.round() as u8));
+            }
+        }
+        out
+    }
+
+    fn srgb_frame(width: usize, height: usize, srgb8: Vec<u8>) -> Frame {
+        Frame {
+            width,
+            height,
+            linear_rgb: Vec::new(),
+            srgb8,
+        }
+    }
+
+    #[test]
+    fn bt709_limited_range_matches_published_code_values() {
+        // ITU-R BT.709 8-bit studio-range values of the primaries, white and black.
+        let cases: [([u8; 3], [u8; 3]); 5] = [
+            ([255, 255, 255], [235, 128, 128]),
+            ([0, 0, 0], [16, 128, 128]),
+            ([255, 0, 0], [63, 102, 240]),
+            ([0, 255, 0], [173, 42, 26]),
+            ([0, 0, 255], [32, 240, 118]),
+        ];
+        for (rgb, ycbcr) in cases {
+            let img: Vec<u8> = (0..4).flat_map(|_| rgb).collect();
+            let (mut y, mut cb, mut cr) = ([0u8; 4], [0u8; 1], [0u8; 1]);
+            srgb8_to_yuv420_bt709(&img, 2, 2, &mut y, &mut cb, &mut cr);
+            assert_eq!([y[0], cb[0], cr[0]], ycbcr, "rgb {rgb:?}");
+            assert!(y.iter().all(|&v| v == ycbcr[0]));
+        }
+    }
+
+    // ---- A minimal MP4 reader, written for this test: box walk, sample table, avcC. ----
+
+    fn be32(b: &[u8]) -> u32 {
+        u32::from_be_bytes([b[0], b[1], b[2], b[3]])
+    }
+
+    fn boxes(mut data: &[u8]) -> Vec<([u8; 4], &[u8])> {
+        let mut out = Vec::new();
+        while data.len() >= 8 {
+            let size = be32(data) as usize;
+            let kind = [data[4], data[5], data[6], data[7]];
+            let (header, size) = match size {
+                0 => (8, data.len()),
+                1 => (
+                    16,
+                    u64::from_be_bytes(data[8..16].try_into().unwrap()) as usize,
+                ),
+                s => (8, s),
+            };
+            out.push((kind, &data[header..size]));
+            data = &data[size..];
+        }
+        out
+    }
+
+    fn child<'a>(data: &'a [u8], kind: &[u8; 4]) -> &'a [u8] {
+        boxes(data)
+            .into_iter()
+            .find(|(k, _)| k == kind)
+            .unwrap_or_else(|| panic!("no {} box", String::from_utf8_lossy(kind)))
+            .1
+    }
+
+    struct Mp4Track {
+        timescale: u32,
+        sample_deltas: Vec<u32>,
+        width: u16,
+        height: u16,
+        sps_pps_annex_b: Vec<u8>,
+        /// Each sample converted to Annex B.
+        samples_annex_b: Vec<Vec<u8>>,
+    }
+
+    fn read_mp4(file: &[u8]) -> Mp4Track {
+        let top = boxes(file);
+        assert_eq!(&top[0].0, b"ftyp");
+        let moov = child(file, b"moov");
+        let mdia = child(child(moov, b"trak"), b"mdia");
+        let mdhd = child(mdia, b"mdhd");
+        let timescale = if mdhd[0] == 0 {
+            be32(&mdhd[12..])
+        } else {
+            be32(&mdhd[20..])
+        };
+        assert_eq!(child(mdia, b"hdlr")[8..12], *b"vide");
+        let stbl = child(child(mdia, b"minf"), b"stbl");
+
+        let stts = child(stbl, b"stts");
+        let mut sample_deltas = Vec::new();
+        for e in 0..be32(&stts[4..]) as usize {
+            let (count, delta) = (be32(&stts[8 + 8 * e..]), be32(&stts[12 + 8 * e..]));
+            sample_deltas.extend(std::iter::repeat_n(delta, count as usize));
+        }
+
+        let stsz = child(stbl, b"stsz");
+        let (fixed, count) = (be32(&stsz[4..]), be32(&stsz[8..]) as usize);
+        let sizes: Vec<usize> = (0..count)
+            .map(|i| {
+                if fixed != 0 {
+                    fixed as usize
+                } else {
+                    be32(&stsz[12 + 4 * i..]) as usize
+                }
+            })
+            .collect();
+        let stco = child(stbl, b"stco");
+        let chunk_offsets: Vec<usize> = (0..be32(&stco[4..]) as usize)
+            .map(|i| be32(&stco[8 + 4 * i..]) as usize)
+            .collect();
+        let stsc = child(stbl, b"stsc");
+        let stsc_entries: Vec<(usize, usize)> = (0..be32(&stsc[4..]) as usize)
+            .map(|i| {
+                let e = &stsc[8 + 12 * i..];
+                (be32(e) as usize, be32(&e[4..]) as usize)
+            })
+            .collect();
+
+        let stsd = child(stbl, b"stsd");
+        let entries = boxes(&stsd[8..]);
+        assert_eq!(&entries[0].0, b"avc1");
+        let avc1 = entries[0].1;
+        let width = u16::from_be_bytes([avc1[24], avc1[25]]);
+        let height = u16::from_be_bytes([avc1[26], avc1[27]]);
+        let avcc = child(&avc1[78..], b"avcC");
+        let length_size = (avcc[4] & 3) as usize + 1;
+        let mut sps_pps_annex_b = Vec::new();
+        let mut p = 5;
+        for _ in 0..2 {
+            let n = (avcc[p] & 0x1f) as usize;
+            p += 1;
+            for _ in 0..n {
+                let len = u16::from_be_bytes([avcc[p], avcc[p + 1]]) as usize;
+                sps_pps_annex_b.extend([0, 0, 0, 1]);
+                sps_pps_annex_b.extend(&avcc[p + 2..p + 2 + len]);
+                p += 2 + len;
+            }
+        }
+
+        let mut samples_annex_b = Vec::new();
+        let mut sample = 0;
+        for (c, &chunk_offset) in chunk_offsets.iter().enumerate() {
+            let per_chunk = stsc_entries
+                .iter()
+                .rev()
+                .find(|(first, _)| *first <= c + 1)
+                .unwrap()
+                .1;
+            let mut offset = chunk_offset;
+            for _ in 0..per_chunk {
+                let data = &file[offset..offset + sizes[sample]];
+                let mut annex_b = Vec::new();
+                let mut q = 0;
+                while q < data.len() {
+                    let len = data[q..q + length_size]
+                        .iter()
+                        .fold(0usize, |a, &b| (a << 8) | b as usize);
+                    annex_b.extend([0, 0, 0, 1]);
+                    annex_b.extend(&data[q + length_size..q + length_size + len]);
+                    q += length_size + len;
+                }
+                samples_annex_b.push(annex_b);
+                offset += sizes[sample];
+                sample += 1;
+            }
+        }
+        assert_eq!(sample, count);
+        Mp4Track {
+            timescale,
+            sample_deltas,
+            width,
+            height,
+            sps_pps_annex_b,
+            samples_annex_b,
+        }
+    }
+
+    /// BT.709 limited-range Y'CbCr -> R'G'B' with the standard published inverse coefficients.
+    fn decoded_to_rgb(yuv: &impl YUVSource) -> Vec<[f64; 3]> {
+        let (w, h) = yuv.dimensions();
+        let (sy, su, sv) = yuv.strides();
+        let mut out = Vec::with_capacity(w * h);
+        for j in 0..h {
+            for i in 0..w {
+                let y = yuv.y()[j * sy + i] as f64 - 16.0;
+                let cb = yuv.u()[(j / 2) * su + i / 2] as f64 - 128.0;
+                let cr = yuv.v()[(j / 2) * sv + i / 2] as f64 - 128.0;
+                out.push([
+                    1.164383 * y + 1.792741 * cr,
+                    1.164383 * y - 0.213249 * cb - 0.532909 * cr,
+                    1.164383 * y + 2.112402 * cb,
+                ]);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn mp4_decodes_back_to_every_frame_with_its_colours() {
+        let (w, h, n, fps) = (64usize, 48usize, 10usize, 25.0);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("clip.mp4");
+        let sources: Vec<Vec<u8>> = (0..n).map(|k| moving_gradient(w, h, k)).collect();
+        let mut writer = VideoWriter::create(&path, VideoFormat::Mp4, w, h, fps).unwrap();
+        for src in &sources {
+            writer.push(&srgb_frame(w, h, src.clone())).unwrap();
+            assert!(!path.exists(), "the MP4 must appear only on finish");
+        }
+        assert_eq!(writer.finish().unwrap(), n);
+        // Only the MP4 is left in the folder (no temporary file).
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+
+        let file = fs::read(&path).unwrap();
+        let track = read_mp4(&file);
+        assert_eq!((track.width as usize, track.height as usize), (w, h));
+        assert_eq!(track.samples_annex_b.len(), n);
+        // Constant frame rate: every sample lasts timescale / fps ticks.
+        assert_eq!(track.sample_deltas.len(), n);
+        let tick = track.timescale as f64 / fps;
+        assert!(track.sample_deltas.iter().all(|&d| d as f64 == tick));
+
+        let mut decoder = openh264::decoder::Decoder::new().unwrap();
+        assert!(decoder.decode(&track.sps_pps_annex_b).unwrap().is_none());
+        let mut decoded: Vec<Vec<[f64; 3]>> = Vec::new();
+        for s in &track.samples_annex_b {
+            if let Some(yuv) = decoder.decode(s).unwrap() {
+                assert_eq!(yuv.dimensions(), (w, h));
+                decoded.push(decoded_to_rgb(&yuv));
+            }
+        }
+        for yuv in decoder.flush_remaining().unwrap() {
+            decoded.push(decoded_to_rgb(&yuv));
+        }
+        assert_eq!(decoded.len(), n, "every frame decodes");
+
+        let mut worst_rms = 0.0f64;
+        for (k, (rgb, src)) in decoded.iter().zip(&sources).enumerate() {
+            let mut mean_err = [0.0f64; 3];
+            let mut sq = 0.0;
+            for (d, s) in rgb.iter().zip(src.chunks_exact(3)) {
+                for c in 0..3 {
+                    let e = d[c] - s[c] as f64;
+                    mean_err[c] += e / (w * h) as f64;
+                    sq += e * e;
+                }
+            }
+            let rms = (sq / (3 * w * h) as f64).sqrt();
+            // 8-bit rounding of Y'CbCr and 4:2:0 averaging of a smooth pattern stay within a
+            // level or two; the bit budget (1 Mbit/s for 64x48 at 25 fps) leaves the mean alone.
+            assert!(
+                mean_err.iter().all(|e| e.abs() < 2.0),
+                "frame {k}: mean colour error {mean_err:?}"
+            );
+            assert!(rms < 4.0, "frame {k}: rms error {rms}");
+            worst_rms = worst_rms.max(rms);
+        }
+        eprintln!(
+            "MP4 round trip: worst frame rms error {worst_rms:.2} levels, {} bytes",
+            file.len()
+        );
+    }
+
+    #[test]
+    fn mp4_rejects_odd_sizes_naming_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("odd.mp4");
+        for (w, h) in [(65, 48), (64, 47)] {
+            let err = VideoWriter::create(&path, VideoFormat::Mp4, w, h, 24.0)
+                .err()
+                .expect("odd size must fail");
+            assert!(matches!(err, VideoError::OddSize { .. }));
+            let msg = err.to_string();
+            assert!(msg.contains(&format!("{w}x{h}")), "{msg}");
+        }
+        assert!(!path.exists());
+        // An MP4 that got no frame is an error and leaves nothing behind.
+        let writer = VideoWriter::create(&path, VideoFormat::Mp4, 64, 48, 24.0).unwrap();
+        assert!(matches!(writer.finish(), Err(VideoError::NoFrames { .. })));
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn gif_decodes_with_every_frame() {
+        let (w, h, n, fps) = (40usize, 30usize, 6usize, 20.0);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("clip.gif");
+        let sources: Vec<Vec<u8>> = (0..n).map(|k| moving_gradient(w, h, k)).collect();
+        let mut writer = VideoWriter::create(&path, VideoFormat::Gif, w, h, fps).unwrap();
+        for src in &sources {
+            writer.push(&srgb_frame(w, h, src.clone())).unwrap();
+        }
+        assert!(!path.exists(), "the GIF must appear only on finish");
+        writer.finish().unwrap();
+
+        let file = fs::File::open(&path).unwrap();
+        let decoder = image::codecs::gif::GifDecoder::new(io::BufReader::new(file)).unwrap();
+        let frames = decoder.into_frames().collect_frames().unwrap();
+        assert_eq!(frames.len(), n);
+        for (frame, src) in frames.iter().zip(&sources) {
+            // 1 / 20 fps = 5 hundredths of a second.
+            assert_eq!(frame.delay().numer_denom_ms(), (50, 1));
+            let buf = frame.buffer();
+            assert_eq!((buf.width() as usize, buf.height() as usize), (w, h));
+            // A 256-colour palette per frame: the mean colour survives within a few levels.
+            let mut mean_err = [0.0f64; 3];
+            for (p, s) in buf.pixels().zip(src.chunks_exact(3)) {
+                for c in 0..3 {
+                    mean_err[c] += (p.0[c] as f64 - s[c] as f64) / (w * h) as f64;
+                }
+            }
+            assert!(mean_err.iter().all(|e| e.abs() < 3.0), "{mean_err:?}");
+        }
+    }
+
+    #[test]
+    fn png_sequence_uses_global_frame_numbers_and_exact_pixels() {
+        let (w, h) = (7usize, 5usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("frames");
+        let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, w, h, 24.0)
+            .unwrap()
+            .first_frame_index(7);
+        let sources: Vec<Vec<u8>> = (0..3)
+            .map(|k| {
+                (0..w * h * 3)
+                    .map(|i| ((i * 37 + k * 11) % 256) as u8)
+                    .collect()
+            })
+            .collect();
+        for src in &sources {
+            writer.push(&srgb_frame(w, h, src.clone())).unwrap();
+        }
+        assert_eq!(writer.finish().unwrap(), 3);
+        let mut names: Vec<String> = fs::read_dir(&seq)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(
+            names,
+            ["frame_00007.png", "frame_00008.png", "frame_00009.png"]
+        );
+        for (name, src) in names.iter().zip(&sources) {
+            let img = image::open(seq.join(name)).unwrap().to_rgb8();
+            assert_eq!((img.width() as usize, img.height() as usize), (w, h));
+            assert_eq!(img.as_raw(), src);
+        }
+    }
+
+    #[test]
+    fn exr_sequence_round_trips_float_values() {
+        let (w, h) = (5usize, 3usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("exr");
+        let mut writer = VideoWriter::create(&seq, VideoFormat::ExrSequence, w, h, 30.0).unwrap();
+        // HDR values, tiny values and negatives (out-of-gamut colour) must all survive.
+        let linear: Vec<f32> = (0..w * h * 3)
+            .map(|i| (i as f32 - 7.0) * 1.37e-3 * (1.0 + (i % 5) as f32 * 1000.0))
+            .collect();
+        writer
+            .push(&Frame {
+                width: w,
+                height: h,
+                linear_rgb: linear.clone(),
+                srgb8: Vec::new(),
+            })
+            .unwrap();
+        writer.finish().unwrap();
+        let path = seq.join("frame_00000.exr");
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            &path,
+            |size, _| vec![0.0f32; size.0 * size.1 * 3],
+            move |buf: &mut Vec<f32>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let o = (pos.1 * w + pos.0) * 3;
+                buf[o..o + 3].copy_from_slice(&[r, g, b]);
+            },
+        )
+        .unwrap();
+        assert_eq!(image.layer_data.size.0, w);
+        assert_eq!(image.layer_data.channel_data.pixels, linear);
+    }
+
+    #[test]
+    fn wrong_frames_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("s");
+        let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, 4, 4, 24.0)
+            .unwrap()
+            .first_frame_index(3);
+        let err = writer.push(&srgb_frame(4, 5, vec![0; 60])).unwrap_err();
+        assert!(err.to_string().contains("frame 3 is 4x5"), "{err}");
+        let err = writer.push(&srgb_frame(4, 4, vec![0; 47])).unwrap_err();
+        assert!(matches!(
+            err,
+            VideoError::FrameData {
+                expected: 48,
+                got: 47,
+                ..
+            }
+        ));
+        let mut exr = VideoWriter::create(&seq, VideoFormat::ExrSequence, 4, 4, 24.0).unwrap();
+        let err = exr.push(&srgb_frame(4, 4, vec![0; 48])).unwrap_err();
+        assert!(err.to_string().contains("linear_rgb"), "{err}");
+        assert_eq!(fs::read_dir(&seq).unwrap().count(), 0);
+        assert!(matches!(
+            VideoWriter::create(&seq, VideoFormat::Gif, 4, 4, 0.0),
+            Err(VideoError::BadFrameRate(_))
+        ));
+        assert!(matches!(
+            VideoWriter::create(
+                &dir.path().join("no/such/dir/a.gif"),
+                VideoFormat::Gif,
+                4,
+                4,
+                24.0
+            ),
+            Err(VideoError::Folder { .. })
+        ));
+    }
+
+    #[test]
+    fn formats_parse_from_names_and_extensions() {
+        assert_eq!(VideoFormat::parse("MP4").unwrap(), VideoFormat::Mp4);
+        assert_eq!(VideoFormat::parse(".gif").unwrap(), VideoFormat::Gif);
+        assert_eq!(VideoFormat::parse("png").unwrap(), VideoFormat::PngSequence);
+        assert_eq!(VideoFormat::parse("exr").unwrap(), VideoFormat::ExrSequence);
+        assert!(VideoFormat::parse("avi").is_err());
+        assert_eq!(
+            VideoFormat::from_path(Path::new("out/clip.mp4"))
+                .unwrap()
+                .unwrap(),
+            VideoFormat::Mp4
+        );
+        assert!(VideoFormat::from_path(Path::new("out/frames")).is_none());
+        assert_eq!(
+            sequence_file_name(42, VideoFormat::ExrSequence),
+            "frame_00042.exr"
+        );
+    }
+}
