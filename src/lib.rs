@@ -9,6 +9,7 @@ pub mod atomic;
 pub mod camera;
 pub mod camera_path;
 pub mod color;
+pub mod container;
 pub mod cube;
 pub mod geometry;
 pub mod pyramid;

@@ -4,6 +4,8 @@
 //! Exit codes: 0 success, 2 bad input (the default for any reported error: a missing file,
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
+pub mod info;
+
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::process::ExitCode;
@@ -19,11 +21,16 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Describe a file: a cube's shape, time axis, time frame, value range and groups.
+    Info(info::InfoArgs),
+}
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {}
+    match cli.command {
+        Command::Info(args) => info::run(args),
+    }
 }
 
 /// Marks an error as an internal failure (exit code 1) rather than bad input (exit code 2).

@@ -1,0 +1,1629 @@
+//! The on-disk cube container: HDF5 files holding a [`Cube`] plus optional extra groups.
+//!
+//! This is the only module of femto that talks to HDF5 (through the pure-Rust `rust_hdf5`
+//! crate), so the choice of library can change here alone. The schema is documented for
+//! users of other tools in `docs/cube-format.md`; in short:
+//!
+//! - `/cube`: f32, shape `(ny, nx, nt)`, i.e. the in-memory layout `[y][x][t]` of
+//!   [`Cube`], chunked `(1, cx, nt)` and compressed with shuffle + deflate. Bin `i` covers
+//!   `[t0_ps + i dt_ps, t0_ps + (i + 1) dt_ps)` and holds the signal integrated over it.
+//!   Attributes: `t0_ps` (f64), `dt_ps` (f64), `time_frame` (`"camera"` or `"world"`,
+//!   physics.md "two clocks"), `units` (string), `femto_version`, `command_line` and any
+//!   provenance notes (strings).
+//! - `/mask`: optional u8, shape `(ny, nx)`, 1 where a pixel holds valid data.
+//! - `/<group>`: optional extra groups (e.g. `registration`, `pyramid`) holding datasets and
+//!   attributes, read and written generically as [`GroupData`].
+//!
+//! Cubes can be streamed by row slabs ([`CubeWriter`], [`CubeReader`]) so that commands can
+//! process cubes larger than memory. Every write is atomic: it goes to a temporary file in
+//! the destination folder which is renamed onto the destination only on success.
+
+use crate::atomic::write_atomically;
+use crate::cube::{self, Cube, TimeAxis, TimeFrame};
+use rust_hdf5::{DatatypeMessage, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode};
+use serde_json::{json, Value};
+use std::fs::File;
+use std::io::{self, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+/// Name of the cube dataset at the file root.
+pub const CUBE_DATASET: &str = "cube";
+/// Name of the optional validity-mask dataset at the file root.
+pub const MASK_DATASET: &str = "mask";
+/// Units written by [`write_cube`] when the caller names none: the cube holds relative
+/// signal per bin with no absolute calibration.
+pub const DEFAULT_UNITS: &str = "arbitrary";
+/// String attribute on each extra group holding all its attributes, typed, as JSON.
+///
+/// `rust_hdf5` 0.7 can read numeric attributes of datasets but only string attributes of
+/// groups, so a group's attributes are written twice from the same values: as ordinary
+/// HDF5 attributes (what h5py users read) and in this one JSON index (what femto reads).
+pub const GROUP_ATTRS_INDEX: &str = "_femto_attrs";
+
+/// Attribute names of `/cube` that are not provenance notes.
+const RESERVED_ATTRS: [&str; 6] = [
+    "t0_ps",
+    "dt_ps",
+    "time_frame",
+    "units",
+    "femto_version",
+    "command_line",
+];
+
+/// Deflate level: 4 is h5py's default for gzip, a good speed/size trade for f32 signal.
+const DEFLATE_LEVEL: u32 = 4;
+
+/// Target size of one chunk, bytes.
+///
+/// The cube is chunked `(1, cx, nt)` with `cx = clamp(CHUNK_TARGET_BYTES / (4 nt), 1, nx)`:
+/// one chunk never spans two rows, so writing or reading a slab of whole rows touches only
+/// whole chunks (no read-modify-write, and a streaming writer keeps nothing but the slab it
+/// is given); every chunk holds whole time profiles, so reading one pixel's profile (the
+/// most common access from h5py, `f["cube"][y, x, :]`) decompresses at most one chunk; and
+/// 256 KiB fits h5py's default 1 MiB chunk cache, so a loop over neighbouring pixels does
+/// not decompress the same chunk again and again.
+const CHUNK_TARGET_BYTES: usize = 256 * 1024;
+
+/// Largest slab of rows moved at once when copying or scanning a cube, bytes.
+const SLAB_TARGET_BYTES: usize = 32 << 20;
+
+/// Errors of the cube container. Every message names the file, and the dataset or
+/// attribute where one is involved.
+#[derive(Debug, thiserror::Error)]
+pub enum ContainerError {
+    /// The file or its folder could not be opened, created, read or renamed (a missing file
+    /// or folder, no permission, a full disk).
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    /// The file exists but is not an HDF5 file (no HDF5 signature).
+    #[error("{}: not an HDF5 file", path.display())]
+    NotHdf5 { path: PathBuf },
+    /// The HDF5 file holds no `/cube` dataset.
+    #[error("{}: no /cube dataset, so not a femto cube", path.display())]
+    NoCube { path: PathBuf },
+    /// A dataset has a number of dimensions other than the schema's.
+    #[error("{}: dataset /{dataset} has {found} dimensions, expected {expected}", path.display())]
+    WrongRank {
+        path: PathBuf,
+        dataset: String,
+        found: usize,
+        expected: usize,
+    },
+    /// A dataset holds elements of a type the schema does not allow.
+    #[error("{}: dataset /{dataset} holds {found}, expected {expected}", path.display())]
+    WrongType {
+        path: PathBuf,
+        dataset: String,
+        found: String,
+        expected: String,
+    },
+    /// A dataset's shape disagrees with the cube it belongs to.
+    #[error("{}: dataset /{dataset} has shape {found:?}, expected {expected:?}", path.display())]
+    WrongShape {
+        path: PathBuf,
+        dataset: String,
+        found: Vec<usize>,
+        expected: Vec<usize>,
+    },
+    /// A required attribute is absent.
+    #[error("{}: /{object} has no attribute '{attr}'", path.display())]
+    MissingAttribute {
+        path: PathBuf,
+        object: String,
+        attr: String,
+    },
+    /// An attribute is present but its type or value cannot be used (a `time_frame` other
+    /// than "camera" or "world", a non-positive `dt_ps`, a numeric attribute where a string
+    /// is expected).
+    #[error("{}: attribute '{attr}' of /{object}: {reason}", path.display())]
+    BadAttribute {
+        path: PathBuf,
+        object: String,
+        attr: String,
+        reason: String,
+    },
+    /// A named group is absent.
+    #[error("{}: no group /{group}", path.display())]
+    NoGroup { path: PathBuf, group: String },
+    /// A named dataset is absent.
+    #[error("{}: no dataset /{dataset}", path.display())]
+    NoDataset { path: PathBuf, dataset: String },
+    /// What the caller asked for does not fit the schema or the file: an empty or
+    /// non-finite time axis, a buffer whose length is not a whole number of rows, a row
+    /// range past the end, a reserved or duplicate name, rows never written.
+    #[error("{}: {reason}", path.display())]
+    Invalid { path: PathBuf, reason: String },
+    /// Any other failure reported by the HDF5 library (a corrupt or unsupported file).
+    #[error("{}: HDF5: {message}", path.display())]
+    Hdf5 { path: PathBuf, message: String },
+}
+
+impl From<io::Error> for ContainerError {
+    /// An I/O error without a path yet; [`ContainerError::at`] fills it in.
+    fn from(source: io::Error) -> Self {
+        ContainerError::Io {
+            path: PathBuf::new(),
+            source,
+        }
+    }
+}
+
+impl ContainerError {
+    /// Name `path` in an I/O error that was raised without one.
+    fn at(self, path: &Path) -> Self {
+        match self {
+            ContainerError::Io { path: p, source } if p.as_os_str().is_empty() => {
+                ContainerError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            }
+            other => other,
+        }
+    }
+}
+
+type Result<T> = std::result::Result<T, ContainerError>;
+
+/// Map an error of the HDF5 layer to a [`ContainerError`] naming `path`.
+fn h5(path: &Path) -> impl Fn(Hdf5Error) -> ContainerError + '_ {
+    move |e| match e {
+        Hdf5Error::Io(source) => ContainerError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => ContainerError::Hdf5 {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
+    }
+}
+
+fn invalid(path: &Path, reason: impl Into<String>) -> ContainerError {
+    ContainerError::Invalid {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+/// Who made a cube: stored as string attributes of `/cube`. The femto version is added
+/// automatically.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Provenance {
+    /// The command line that made the file.
+    pub command_line: String,
+    /// Free-form `(key, value)` notes, e.g. `("ingest.dark_frame", "dark.png")`; each becomes
+    /// a string attribute of `/cube` named `key`.
+    pub notes: Vec<(String, String)>,
+}
+
+impl Provenance {
+    /// Provenance with a command line and no notes.
+    pub fn new(command_line: impl Into<String>) -> Provenance {
+        Provenance {
+            command_line: command_line.into(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// Add a note.
+    pub fn with_note(mut self, key: impl Into<String>, value: impl Into<String>) -> Provenance {
+        self.notes.push((key.into(), value.into()));
+        self
+    }
+}
+
+/// Everything about a cube file but its values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CubeMeta {
+    pub nx: usize,
+    pub ny: usize,
+    pub axis: TimeAxis,
+    pub frame: TimeFrame,
+    /// Units of the cube values (each value is the signal integrated over one bin).
+    pub units: String,
+    /// The femto version that wrote the file (None for a file written by another tool).
+    pub femto_version: Option<String>,
+    /// The command line that made the file (None for a file written by another tool).
+    pub command_line: Option<String>,
+    /// Provenance notes: every other attribute of `/cube`, in file order.
+    pub notes: Vec<(String, String)>,
+    /// Names of the extra groups at the file root, sorted.
+    pub groups: Vec<String>,
+    /// Whether the file holds a `/mask` dataset.
+    pub has_mask: bool,
+}
+
+impl CubeMeta {
+    /// Size of the cube in memory once loaded (f32 values plus the mask), bytes.
+    pub fn size_bytes(&self) -> usize {
+        let pixels = self.nx * self.ny;
+        pixels * self.axis.nt * std::mem::size_of::<f32>() + if self.has_mask { pixels } else { 0 }
+    }
+
+    /// Number of f32 values in one row (`nx * nt`).
+    pub fn row_len(&self) -> usize {
+        self.nx * self.axis.nt
+    }
+}
+
+/// The values of one dataset of an extra group, flattened in row-major (C) order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DataBuf {
+    F32(Vec<f32>),
+    F64(Vec<f64>),
+    U8(Vec<u8>),
+    U32(Vec<u32>),
+    I32(Vec<i32>),
+}
+
+impl DataBuf {
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        match self {
+            DataBuf::F32(v) => v.len(),
+            DataBuf::F64(v) => v.len(),
+            DataBuf::U8(v) => v.len(),
+            DataBuf::U32(v) => v.len(),
+            DataBuf::I32(v) => v.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The element type's name as documented in docs/cube-format.md ("f32", "u8", ...).
+    pub fn type_name(&self) -> &'static str {
+        self.elem().name()
+    }
+
+    fn elem(&self) -> Elem {
+        match self {
+            DataBuf::F32(_) => Elem::F32,
+            DataBuf::F64(_) => Elem::F64,
+            DataBuf::U8(_) => Elem::U8,
+            DataBuf::U32(_) => Elem::U32,
+            DataBuf::I32(_) => Elem::I32,
+        }
+    }
+}
+
+/// The value of one attribute of an extra group.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AttrValue {
+    F64(f64),
+    I64(i64),
+    Str(String),
+    F64Array(Vec<f64>),
+}
+
+/// The contents of one extra group: attributes and datasets (no nested groups).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupData {
+    /// Attributes in the order they were written.
+    pub attrs: Vec<(String, AttrValue)>,
+    /// Datasets as `(name, shape, values)`; read back sorted by name.
+    pub datasets: Vec<(String, Vec<usize>, DataBuf)>,
+}
+
+impl GroupData {
+    /// The attribute called `name`.
+    pub fn attr(&self, name: &str) -> Option<&AttrValue> {
+        self.attrs.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+
+    /// The shape and values of the dataset called `name`.
+    pub fn dataset(&self, name: &str) -> Option<(&[usize], &DataBuf)> {
+        self.datasets
+            .iter()
+            .find(|(n, _, _)| n == name)
+            .map(|(_, s, d)| (s.as_slice(), d))
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Element types
+
+/// Element types the container recognises on disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Elem {
+    U8,
+    U16,
+    U32,
+    U64,
+    I8,
+    I16,
+    I32,
+    I64,
+    F32,
+    F64,
+}
+
+impl Elem {
+    fn of(dt: &DatatypeMessage) -> Option<Elem> {
+        match *dt {
+            DatatypeMessage::FixedPoint {
+                size,
+                signed,
+                bit_offset: 0,
+                bit_precision,
+                ..
+            } if u32::from(bit_precision) == size * 8 => Some(match (size, signed) {
+                (1, false) => Elem::U8,
+                (2, false) => Elem::U16,
+                (4, false) => Elem::U32,
+                (8, false) => Elem::U64,
+                (1, true) => Elem::I8,
+                (2, true) => Elem::I16,
+                (4, true) => Elem::I32,
+                (8, true) => Elem::I64,
+                _ => return None,
+            }),
+            DatatypeMessage::FloatingPoint { size, .. } if dt.ieee_format().is_some() => match size
+            {
+                4 => Some(Elem::F32),
+                8 => Some(Elem::F64),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Elem::U8 => "u8",
+            Elem::U16 => "u16",
+            Elem::U32 => "u32",
+            Elem::U64 => "u64",
+            Elem::I8 => "i8",
+            Elem::I16 => "i16",
+            Elem::I32 => "i32",
+            Elem::I64 => "i64",
+            Elem::F32 => "f32",
+            Elem::F64 => "f64",
+        }
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Elem::U8 | Elem::I8 => 1,
+            Elem::U16 | Elem::I16 => 2,
+            Elem::U32 | Elem::I32 | Elem::F32 => 4,
+            Elem::U64 | Elem::I64 | Elem::F64 => 8,
+        }
+    }
+}
+
+/// A readable name for a datatype, for error messages.
+fn type_description(dt: &DatatypeMessage) -> String {
+    Elem::of(dt).map_or_else(|| dt.to_string(), |e| e.name().to_string())
+}
+
+// ---------------------------------------------------------------------------------------
+// Opening files
+
+/// The 8-byte signature at the start of every HDF5 superblock.
+const HDF5_SIGNATURE: [u8; 8] = [0x89, b'H', b'D', b'F', b'\r', b'\n', 0x1a, b'\n'];
+
+/// Whether the file at `path` is an HDF5 file: its signature sits at offset 0, or at 512,
+/// 1024, 2048, ... when the file starts with a user block.
+pub fn is_hdf5(path: &Path) -> io::Result<bool> {
+    let mut f = File::open(path)?;
+    let len = f.metadata()?.len();
+    let mut offset = 0u64;
+    let mut sig = [0u8; 8];
+    while offset + 8 <= len {
+        f.seek(SeekFrom::Start(offset))?;
+        f.read_exact(&mut sig)?;
+        if sig == HDF5_SIGNATURE {
+            return Ok(true);
+        }
+        offset = if offset == 0 { 512 } else { offset * 2 };
+    }
+    Ok(false)
+}
+
+/// Open an existing HDF5 file for reading, telling a missing file and a non-HDF5 file
+/// apart from a corrupt one.
+fn open_h5(path: &Path) -> Result<H5File> {
+    match is_hdf5(path) {
+        Err(source) => {
+            return Err(ContainerError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
+        Ok(false) => {
+            return Err(ContainerError::NotHdf5 {
+                path: path.to_path_buf(),
+            })
+        }
+        Ok(true) => {}
+    }
+    H5File::options()
+        .best_effort_locking()
+        .open(path)
+        .map_err(h5(path))
+}
+
+/// Open the dataset at `name`, mapping "not found" to [`ContainerError::NoDataset`].
+fn open_dataset(file: &H5File, path: &Path, name: &str) -> Result<H5Dataset> {
+    file.dataset(name).map_err(|e| match e {
+        Hdf5Error::NotFound(_) => ContainerError::NoDataset {
+            path: path.to_path_buf(),
+            dataset: name.to_string(),
+        },
+        other => h5(path)(other),
+    })
+}
+
+/// The element type of a reader-mode dataset.
+fn dataset_elem(ds: &H5Dataset, path: &Path, name: &str) -> Result<(Option<Elem>, String)> {
+    let dt = ds.datatype().map_err(h5(path))?;
+    let _ = name;
+    Ok((Elem::of(&dt), type_description(&dt)))
+}
+
+// ---------------------------------------------------------------------------------------
+// Writing
+
+/// An open HDF5 file being written with a `/cube` dataset, not yet atomic: the callers put
+/// it on a temporary path. `path` is the destination named in error messages.
+struct CubeSink {
+    cube: H5Dataset,
+    file: H5File,
+    path: PathBuf,
+    nx: usize,
+    ny: usize,
+    nt: usize,
+    rows_written: Vec<bool>,
+    mask_written: bool,
+}
+
+/// What goes into the attributes of `/cube`.
+struct CubeAttrs<'a> {
+    axis: TimeAxis,
+    frame: TimeFrame,
+    units: &'a str,
+    femto_version: Option<&'a str>,
+    command_line: Option<&'a str>,
+    notes: &'a [(String, String)],
+}
+
+fn check_name(path: &Path, what: &str, name: &str) -> Result<()> {
+    if name.is_empty() || name.contains('/') || name == "." {
+        return Err(invalid(
+            path,
+            format!("{what} name '{name}' must be non-empty and contain no '/'"),
+        ));
+    }
+    Ok(())
+}
+
+fn check_axis(path: &Path, axis: &TimeAxis) -> Result<()> {
+    if axis.nt == 0 {
+        return Err(invalid(path, "a cube needs at least one time bin"));
+    }
+    if !axis.t0_ps.is_finite() {
+        return Err(invalid(path, format!("t0_ps is {}", axis.t0_ps)));
+    }
+    if !(axis.dt_ps.is_finite() && axis.dt_ps > 0.0) {
+        return Err(invalid(
+            path,
+            format!("dt_ps must be positive and finite, not {}", axis.dt_ps),
+        ));
+    }
+    Ok(())
+}
+
+fn chunk_rows(row_bytes: usize, rows: usize) -> usize {
+    (CHUNK_TARGET_BYTES / row_bytes.max(1)).clamp(1, rows.max(1))
+}
+
+impl CubeSink {
+    fn create(tmp: &Path, path: &Path, nx: usize, ny: usize, attrs: &CubeAttrs) -> Result<Self> {
+        check_axis(path, &attrs.axis)?;
+        if nx == 0 || ny == 0 {
+            return Err(invalid(
+                path,
+                format!("a cube needs pixels, not {nx} x {ny}"),
+            ));
+        }
+        for (i, (k, _)) in attrs.notes.iter().enumerate() {
+            check_name(path, "note", k)?;
+            if RESERVED_ATTRS.contains(&k.as_str()) {
+                return Err(invalid(
+                    path,
+                    format!("note '{k}' uses a reserved attribute name"),
+                ));
+            }
+            if attrs.notes[..i].iter().any(|(o, _)| o == k) {
+                return Err(invalid(path, format!("note '{k}' given twice")));
+            }
+        }
+        let nt = attrs.axis.nt;
+        let e = h5(path);
+        let file = H5File::options()
+            .best_effort_locking()
+            .create(tmp)
+            .map_err(&e)?;
+        let cx = chunk_rows(nt * 4, nx);
+        let cube = file
+            .new_dataset::<f32>()
+            .shape([ny, nx, nt])
+            .chunk(&[1, cx, nt])
+            .shuffle_deflate(DEFLATE_LEVEL)
+            .create(CUBE_DATASET)
+            .map_err(&e)?;
+        set_attr(&cube, "t0_ps", &AttrValue::F64(attrs.axis.t0_ps)).map_err(&e)?;
+        set_attr(&cube, "dt_ps", &AttrValue::F64(attrs.axis.dt_ps)).map_err(&e)?;
+        let frame = AttrValue::Str(attrs.frame.as_str().to_string());
+        set_attr(&cube, "time_frame", &frame).map_err(&e)?;
+        set_attr(&cube, "units", &AttrValue::Str(attrs.units.to_string())).map_err(&e)?;
+        if let Some(v) = attrs.femto_version {
+            set_attr(&cube, "femto_version", &AttrValue::Str(v.to_string())).map_err(&e)?;
+        }
+        if let Some(c) = attrs.command_line {
+            set_attr(&cube, "command_line", &AttrValue::Str(c.to_string())).map_err(&e)?;
+        }
+        for (k, v) in attrs.notes {
+            set_attr(&cube, k, &AttrValue::Str(v.clone())).map_err(&e)?;
+        }
+        Ok(CubeSink {
+            cube,
+            file,
+            path: path.to_path_buf(),
+            nx,
+            ny,
+            nt,
+            rows_written: vec![false; ny],
+            mask_written: false,
+        })
+    }
+
+    fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+        let row_len = self.nx * self.nt;
+        if rows.is_empty() || !rows.len().is_multiple_of(row_len) {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "{} values are not a whole number of rows of {} x {} values",
+                    rows.len(),
+                    self.nx,
+                    self.nt
+                ),
+            ));
+        }
+        let n = rows.len() / row_len;
+        if y0 + n > self.ny {
+            return Err(invalid(
+                &self.path,
+                format!("rows {y0}..{} past the cube's {} rows", y0 + n, self.ny),
+            ));
+        }
+        self.cube
+            .write_slice(&[y0, 0, 0], &[n, self.nx, self.nt], rows)
+            .map_err(h5(&self.path))?;
+        self.rows_written[y0..y0 + n].fill(true);
+        Ok(())
+    }
+
+    fn write_mask(&mut self, mask: &[u8]) -> Result<()> {
+        if mask.len() != self.nx * self.ny {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "mask has {} values, expected {} x {}",
+                    mask.len(),
+                    self.ny,
+                    self.nx
+                ),
+            ));
+        }
+        if self.mask_written {
+            return Err(invalid(&self.path, "mask written twice"));
+        }
+        let e = h5(&self.path);
+        let rows = chunk_rows(self.nx, self.ny);
+        let ds = self
+            .file
+            .new_dataset::<u8>()
+            .shape([self.ny, self.nx])
+            .chunk(&[rows, self.nx])
+            .deflate(DEFLATE_LEVEL)
+            .create(MASK_DATASET)
+            .map_err(&e)?;
+        ds.write_raw(mask).map_err(&e)?;
+        self.mask_written = true;
+        Ok(())
+    }
+
+    /// Check every row was written and close the file.
+    fn close(self) -> Result<()> {
+        if let Some(y) = self.rows_written.iter().position(|w| !w) {
+            let n = self.rows_written.iter().filter(|w| !**w).count();
+            return Err(invalid(
+                &self.path,
+                format!("{n} rows of the cube were never written (first: row {y})"),
+            ));
+        }
+        let CubeSink {
+            cube, file, path, ..
+        } = self;
+        drop(cube);
+        file.close().map_err(h5(&path))
+    }
+}
+
+fn write_sink_cube(sink: &mut CubeSink, cube: &Cube) -> Result<()> {
+    let row_len = cube.nx * cube.nt();
+    let rows = slab_rows(row_len * 4, cube.ny);
+    for y0 in (0..cube.ny).step_by(rows) {
+        let y1 = (y0 + rows).min(cube.ny);
+        sink.write_rows(y0, &cube.data[y0 * row_len..y1 * row_len])?;
+    }
+    if let Some(m) = &cube.mask {
+        sink.write_mask(m)?;
+    }
+    Ok(())
+}
+
+fn slab_rows(row_bytes: usize, rows: usize) -> usize {
+    (SLAB_TARGET_BYTES / row_bytes.max(1)).clamp(1, rows.max(1))
+}
+
+/// Write `cube` to `path` atomically, with units [`DEFAULT_UNITS`].
+pub fn write_cube(path: &Path, cube: &Cube, provenance: &Provenance) -> Result<()> {
+    write_cube_with_units(path, cube, DEFAULT_UNITS, provenance)
+}
+
+/// Write `cube` to `path` atomically, recording `units` for its values.
+///
+/// On failure any earlier file at `path` is left untouched and no temporary file remains.
+pub fn write_cube_with_units(
+    path: &Path,
+    cube: &Cube,
+    units: &str,
+    provenance: &Provenance,
+) -> Result<()> {
+    if cube.data.len() != cube.nx * cube.ny * cube.nt() {
+        return Err(invalid(
+            path,
+            format!(
+                "cube data has {} values, expected {} x {} x {}",
+                cube.data.len(),
+                cube.ny,
+                cube.nx,
+                cube.nt()
+            ),
+        ));
+    }
+    let attrs = CubeAttrs {
+        axis: cube.axis,
+        frame: cube.frame,
+        units,
+        femto_version: Some(env!("CARGO_PKG_VERSION")),
+        command_line: Some(&provenance.command_line),
+        notes: &provenance.notes,
+    };
+    write_atomically(path, |tmp| {
+        let mut sink = CubeSink::create(tmp, path, cube.nx, cube.ny, &attrs)?;
+        write_sink_cube(&mut sink, cube)?;
+        sink.close()
+    })
+    .map_err(|e| e.at(path))
+}
+
+/// Streaming writer of a cube file: rows are written in any order as slabs, so peak memory
+/// is one slab whatever the cube's size.
+///
+/// The file is written to a temporary path beside the destination and renamed onto it by
+/// [`CubeWriter::finish`]; dropping an unfinished writer deletes the temporary file and
+/// leaves any earlier file at the destination untouched.
+pub struct CubeWriter {
+    // Field order matters: the HDF5 file is closed before the temporary path is deleted.
+    sink: CubeSink,
+    tmp: tempfile::TempPath,
+    dest: PathBuf,
+}
+
+impl CubeWriter {
+    /// Start writing a cube of `nx` by `ny` pixels on `axis` to `path`.
+    pub fn create(
+        path: &Path,
+        nx: usize,
+        ny: usize,
+        axis: TimeAxis,
+        frame: TimeFrame,
+        units: &str,
+        provenance: &Provenance,
+    ) -> Result<CubeWriter> {
+        // The same temporary-file scheme as `atomic::write_atomically`, held open across
+        // calls instead of inside one closure.
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let stem = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "out".into());
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{stem}."))
+            .suffix(".tmp")
+            .tempfile_in(&dir)
+            .map_err(|e| ContainerError::from(e).at(path))?
+            .into_temp_path();
+        let attrs = CubeAttrs {
+            axis,
+            frame,
+            units,
+            femto_version: Some(env!("CARGO_PKG_VERSION")),
+            command_line: Some(&provenance.command_line),
+            notes: &provenance.notes,
+        };
+        let sink = CubeSink::create(&tmp, path, nx, ny, &attrs)?;
+        Ok(CubeWriter {
+            sink,
+            tmp,
+            dest: path.to_path_buf(),
+        })
+    }
+
+    /// Write rows `y0 .. y0 + n` from `rows` (`n * nx * nt` values, layout `[y][x][t]`).
+    pub fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+        self.sink.write_rows(y0, rows)
+    }
+
+    /// Write the validity mask (`ny * nx` bytes, `[y][x]`, 1 = valid). At most once.
+    pub fn write_mask(&mut self, mask: &[u8]) -> Result<()> {
+        self.sink.write_mask(mask)
+    }
+
+    /// Check every row was written, close the file and rename it onto the destination.
+    pub fn finish(self) -> Result<()> {
+        let CubeWriter { sink, tmp, dest } = self;
+        sink.close()?;
+        tmp.persist(&dest).map_err(|e| ContainerError::Io {
+            path: dest.clone(),
+            source: e.error,
+        })?;
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Reading
+
+/// Streaming reader of a cube file: metadata at once, values by row slabs.
+pub struct CubeReader {
+    file: H5File,
+    cube: H5Dataset,
+    path: PathBuf,
+    meta: CubeMeta,
+}
+
+fn read_f64_attr(ds: &H5Dataset, path: &Path, object: &str, name: &str) -> Result<f64> {
+    let attr = ds
+        .attr(name)
+        .map_err(|_| ContainerError::MissingAttribute {
+            path: path.to_path_buf(),
+            object: object.to_string(),
+            attr: name.to_string(),
+        })?;
+    let bad = |reason: String| ContainerError::BadAttribute {
+        path: path.to_path_buf(),
+        object: object.to_string(),
+        attr: name.to_string(),
+        reason,
+    };
+    // Integers are accepted too (h5py writes `attrs["t0_ps"] = 0` as int64).
+    let values: Vec<f64> = match attr.read_numeric_as::<f64>() {
+        Ok(v) => v,
+        Err(_) => attr
+            .read_numeric_as::<i64>()
+            .map_err(|e| bad(format!("not a number ({e})")))?
+            .into_iter()
+            .map(|v| v as f64)
+            .collect(),
+    };
+    match values.as_slice() {
+        [v] => Ok(*v),
+        _ => Err(bad(format!("expected one number, found {}", values.len()))),
+    }
+}
+
+/// Read a string attribute; `Ok(None)` when it is absent.
+fn read_str_attr(ds: &H5Dataset, path: &Path, object: &str, name: &str) -> Result<Option<String>> {
+    if !ds.attr_names().map_err(h5(path))?.iter().any(|n| n == name) {
+        return Ok(None);
+    }
+    let attr = ds.attr(name).map_err(h5(path))?;
+    let dt = attr.datatype().map_err(h5(path))?;
+    if !matches!(
+        dt,
+        DatatypeMessage::VarLenString { .. } | DatatypeMessage::FixedString { .. }
+    ) {
+        return Err(ContainerError::BadAttribute {
+            path: path.to_path_buf(),
+            object: object.to_string(),
+            attr: name.to_string(),
+            reason: format!("expected a string, found {}", type_description(&dt)),
+        });
+    }
+    attr.read_string().map(Some).map_err(h5(path))
+}
+
+fn required_str_attr(ds: &H5Dataset, path: &Path, object: &str, name: &str) -> Result<String> {
+    read_str_attr(ds, path, object, name)?.ok_or_else(|| ContainerError::MissingAttribute {
+        path: path.to_path_buf(),
+        object: object.to_string(),
+        attr: name.to_string(),
+    })
+}
+
+impl CubeReader {
+    /// Open the cube file at `path` and read its metadata.
+    pub fn open(path: &Path) -> Result<CubeReader> {
+        let file = open_h5(path)?;
+        let cube = file.dataset(CUBE_DATASET).map_err(|e| match e {
+            Hdf5Error::NotFound(_) => ContainerError::NoCube {
+                path: path.to_path_buf(),
+            },
+            other => h5(path)(other),
+        })?;
+        let shape = cube.shape();
+        if shape.len() != 3 {
+            return Err(ContainerError::WrongRank {
+                path: path.to_path_buf(),
+                dataset: CUBE_DATASET.into(),
+                found: shape.len(),
+                expected: 3,
+            });
+        }
+        let (elem, found) = dataset_elem(&cube, path, CUBE_DATASET)?;
+        if elem != Some(Elem::F32) {
+            return Err(ContainerError::WrongType {
+                path: path.to_path_buf(),
+                dataset: CUBE_DATASET.into(),
+                found,
+                expected: "f32".into(),
+            });
+        }
+        let (ny, nx, nt) = (shape[0], shape[1], shape[2]);
+        if nx == 0 || ny == 0 || nt == 0 {
+            return Err(invalid(path, format!("/cube is empty, shape {shape:?}")));
+        }
+        let object = CUBE_DATASET;
+        let t0_ps = read_f64_attr(&cube, path, object, "t0_ps")?;
+        let dt_ps = read_f64_attr(&cube, path, object, "dt_ps")?;
+        let axis = TimeAxis { t0_ps, dt_ps, nt };
+        check_axis(path, &axis).map_err(|e| ContainerError::BadAttribute {
+            path: path.to_path_buf(),
+            object: object.into(),
+            attr: if t0_ps.is_finite() { "dt_ps" } else { "t0_ps" }.into(),
+            reason: e.to_string(),
+        })?;
+        let frame_s = required_str_attr(&cube, path, object, "time_frame")?;
+        let frame = TimeFrame::parse(&frame_s).ok_or_else(|| ContainerError::BadAttribute {
+            path: path.to_path_buf(),
+            object: object.into(),
+            attr: "time_frame".into(),
+            reason: format!("'{frame_s}' is neither \"camera\" nor \"world\""),
+        })?;
+        let units = required_str_attr(&cube, path, object, "units")?;
+        let femto_version = read_str_attr(&cube, path, object, "femto_version")?;
+        let command_line = read_str_attr(&cube, path, object, "command_line")?;
+        let mut notes = Vec::new();
+        for name in cube.attr_names().map_err(h5(path))? {
+            if RESERVED_ATTRS.contains(&name.as_str()) {
+                continue;
+            }
+            // A note written by another tool may be numeric: keep it, as text.
+            let value = match read_str_attr(&cube, path, object, &name) {
+                Ok(v) => v.unwrap_or_default(),
+                Err(_) => cube
+                    .attr(&name)
+                    .and_then(|a| a.read_numeric_as::<f64>())
+                    .map(|v| {
+                        v.iter()
+                            .map(|x| x.to_string())
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    })
+                    .unwrap_or_default(),
+            };
+            notes.push((name, value));
+        }
+        let root = file.root_group();
+        let has_mask = root
+            .dataset_names()
+            .map_err(h5(path))?
+            .iter()
+            .any(|n| n == MASK_DATASET);
+        let mut groups = root.group_names().map_err(h5(path))?;
+        groups.sort();
+        let meta = CubeMeta {
+            nx,
+            ny,
+            axis,
+            frame,
+            units,
+            femto_version,
+            command_line,
+            notes,
+            groups,
+            has_mask,
+        };
+        Ok(CubeReader {
+            file,
+            cube,
+            path: path.to_path_buf(),
+            meta,
+        })
+    }
+
+    /// The cube's metadata.
+    pub fn meta(&self) -> &CubeMeta {
+        &self.meta
+    }
+
+    fn check_rows(&self, y0: usize, n: usize) -> Result<()> {
+        if y0 + n > self.meta.ny {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "rows {y0}..{} past the cube's {} rows",
+                    y0 + n,
+                    self.meta.ny
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Read rows `y0 .. y0 + n` (`n * nx * nt` values, layout `[y][x][t]`).
+    pub fn read_rows(&self, y0: usize, n: usize) -> Result<Vec<f32>> {
+        let mut out = vec![0.0; n * self.meta.row_len()];
+        self.read_rows_into(y0, &mut out)?;
+        Ok(out)
+    }
+
+    /// Read rows starting at `y0` into `out`, whose length must be a whole number of rows.
+    pub fn read_rows_into(&self, y0: usize, out: &mut [f32]) -> Result<()> {
+        let row_len = self.meta.row_len();
+        if !out.len().is_multiple_of(row_len) {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "buffer of {} values is not whole rows of {row_len}",
+                    out.len()
+                ),
+            ));
+        }
+        let n = out.len() / row_len;
+        self.check_rows(y0, n)?;
+        if n == 0 {
+            return Ok(());
+        }
+        self.cube
+            .read_slice_into(out, &[y0, 0, 0], &[n, self.meta.nx, self.meta.axis.nt])
+            .map_err(h5(&self.path))
+    }
+
+    /// The validity mask (`ny * nx` bytes, `[y][x]`), if the file has one.
+    pub fn read_mask(&self) -> Result<Option<Vec<u8>>> {
+        if !self.meta.has_mask {
+            return Ok(None);
+        }
+        let ds = open_dataset(&self.file, &self.path, MASK_DATASET)?;
+        let expected = vec![self.meta.ny, self.meta.nx];
+        if ds.shape() != expected {
+            return Err(ContainerError::WrongShape {
+                path: self.path.clone(),
+                dataset: MASK_DATASET.into(),
+                found: ds.shape(),
+                expected,
+            });
+        }
+        let (elem, found) = dataset_elem(&ds, &self.path, MASK_DATASET)?;
+        if elem != Some(Elem::U8) {
+            return Err(ContainerError::WrongType {
+                path: self.path.clone(),
+                dataset: MASK_DATASET.into(),
+                found,
+                expected: "u8".into(),
+            });
+        }
+        ds.read_raw::<u8>().map(Some).map_err(h5(&self.path))
+    }
+
+    /// The whole cube in memory.
+    pub fn read_cube(&self) -> Result<Cube> {
+        let data = self.read_rows(0, self.meta.ny)?;
+        Ok(Cube {
+            nx: self.meta.nx,
+            ny: self.meta.ny,
+            axis: self.meta.axis,
+            frame: self.meta.frame,
+            data,
+            mask: self.read_mask()?,
+        })
+    }
+
+    /// Smallest and largest finite values (None when there are none), streaming the cube
+    /// by slabs; `on_rows` is called with the number of rows scanned so far.
+    pub fn value_range(&self, on_rows: &dyn Fn(usize)) -> Result<Option<(f32, f32)>> {
+        let row_len = self.meta.row_len();
+        let rows = slab_rows(row_len * 4, self.meta.ny);
+        let mut buf = vec![0.0f32; rows * row_len];
+        let mut range: Option<(f32, f32)> = None;
+        for y0 in (0..self.meta.ny).step_by(rows) {
+            let n = rows.min(self.meta.ny - y0);
+            let slab = &mut buf[..n * row_len];
+            self.read_rows_into(y0, slab)?;
+            if let Some((lo, hi)) = cube::value_range(slab) {
+                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+            on_rows(y0 + n);
+        }
+        Ok(range)
+    }
+
+    /// Read one extra group whole.
+    pub fn read_group(&self, name: &str) -> Result<GroupData> {
+        let group = self.group(name)?;
+        let attrs = read_group_attrs(&group, &self.path, name)?;
+        let mut datasets = Vec::new();
+        for ds_name in self.group_dataset_names(&group, name)? {
+            let (shape, _) = self.group_dataset_shape(name, &ds_name)?;
+            let rows = shape[0];
+            let data = self.read_group_rows(name, &ds_name, 0, rows)?;
+            datasets.push((ds_name, shape, data));
+        }
+        Ok(GroupData { attrs, datasets })
+    }
+
+    fn group(&self, name: &str) -> Result<H5Group> {
+        self.file.root_group().group(name).map_err(|e| match e {
+            Hdf5Error::NotFound(_) => ContainerError::NoGroup {
+                path: self.path.clone(),
+                group: name.to_string(),
+            },
+            other => h5(&self.path)(other),
+        })
+    }
+
+    fn group_dataset_names(&self, group: &H5Group, name: &str) -> Result<Vec<String>> {
+        let sub = group.group_names().map_err(h5(&self.path))?;
+        if let Some(s) = sub.first() {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "group /{name} holds a nested group /{name}/{s}, which femto does not read"
+                ),
+            ));
+        }
+        let mut names = group.dataset_names().map_err(h5(&self.path))?;
+        names.sort();
+        Ok(names)
+    }
+
+    /// Shape and element type name ("f32", "f64", "u8", "u32" or "i32") of dataset
+    /// `dataset` of group `group`.
+    pub fn group_dataset_shape(
+        &self,
+        group: &str,
+        dataset: &str,
+    ) -> Result<(Vec<usize>, &'static str)> {
+        let full = format!("{group}/{dataset}");
+        self.group(group)?;
+        let ds = open_dataset(&self.file, &self.path, &full)?;
+        let elem = group_elem(&ds, &self.path, &full)?;
+        let shape = ds.shape();
+        if shape.is_empty() {
+            return Err(ContainerError::WrongRank {
+                path: self.path.clone(),
+                dataset: full,
+                found: 0,
+                expected: 1,
+            });
+        }
+        Ok((shape, elem.name()))
+    }
+
+    /// Read rows `r0 .. r0 + n` (along the first axis) of dataset `dataset` of group
+    /// `group`, in row-major order.
+    pub fn read_group_rows(
+        &self,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        n: usize,
+    ) -> Result<DataBuf> {
+        let (shape, _) = self.group_dataset_shape(group, dataset)?;
+        let full = format!("{group}/{dataset}");
+        if r0 + n > shape[0] {
+            return Err(invalid(
+                &self.path,
+                format!(
+                    "rows {r0}..{} past the {} rows of /{full}",
+                    r0 + n,
+                    shape[0]
+                ),
+            ));
+        }
+        let ds = open_dataset(&self.file, &self.path, &full)?;
+        let elem = group_elem(&ds, &self.path, &full)?;
+        let mut starts = vec![0; shape.len()];
+        starts[0] = r0;
+        let mut counts = shape.clone();
+        counts[0] = n;
+        if n == 0 {
+            return Ok(empty_buf(elem));
+        }
+        let e = h5(&self.path);
+        Ok(match elem {
+            Elem::F32 => DataBuf::F32(ds.read_slice(&starts, &counts).map_err(e)?),
+            Elem::F64 => DataBuf::F64(ds.read_slice(&starts, &counts).map_err(e)?),
+            Elem::U8 => DataBuf::U8(ds.read_slice(&starts, &counts).map_err(e)?),
+            Elem::U32 => DataBuf::U32(ds.read_slice(&starts, &counts).map_err(e)?),
+            Elem::I32 => DataBuf::I32(ds.read_slice(&starts, &counts).map_err(e)?),
+            _ => unreachable!("group_elem admits the DataBuf types only"),
+        })
+    }
+}
+
+fn empty_buf(elem: Elem) -> DataBuf {
+    match elem {
+        Elem::F64 => DataBuf::F64(Vec::new()),
+        Elem::U8 => DataBuf::U8(Vec::new()),
+        Elem::U32 => DataBuf::U32(Vec::new()),
+        Elem::I32 => DataBuf::I32(Vec::new()),
+        _ => DataBuf::F32(Vec::new()),
+    }
+}
+
+/// The element type of a group dataset, which must be one [`DataBuf`] can hold.
+fn group_elem(ds: &H5Dataset, path: &Path, full: &str) -> Result<Elem> {
+    let (elem, found) = dataset_elem(ds, path, full)?;
+    match elem {
+        Some(e @ (Elem::F32 | Elem::F64 | Elem::U8 | Elem::U32 | Elem::I32)) => Ok(e),
+        _ => Err(ContainerError::WrongType {
+            path: path.to_path_buf(),
+            dataset: full.to_string(),
+            found,
+            expected: "f32, f64, u8, u32 or i32".into(),
+        }),
+    }
+}
+
+/// Read the whole cube at `path`.
+pub fn read_cube(path: &Path) -> Result<Cube> {
+    CubeReader::open(path)?.read_cube()
+}
+
+/// Read the metadata of the cube at `path`.
+pub fn read_meta(path: &Path) -> Result<CubeMeta> {
+    Ok(CubeReader::open(path)?.meta)
+}
+
+/// Names of the extra groups of the cube at `path`, sorted.
+pub fn list_groups(path: &Path) -> Result<Vec<String>> {
+    Ok(CubeReader::open(path)?.meta.groups)
+}
+
+/// Read extra group `name` of the cube at `path` whole.
+pub fn read_group(path: &Path, name: &str) -> Result<GroupData> {
+    CubeReader::open(path)?.read_group(name)
+}
+
+// ---------------------------------------------------------------------------------------
+// Attributes
+
+/// Something that can carry attributes while a file is being written.
+trait AttrTarget {
+    fn put(&self, name: &str, value: &AttrValue) -> rust_hdf5::Result<()>;
+}
+
+impl AttrTarget for H5Dataset {
+    fn put(&self, name: &str, value: &AttrValue) -> rust_hdf5::Result<()> {
+        match value {
+            AttrValue::F64(v) => self
+                .new_attr::<f64>()
+                .shape(())
+                .create(name)?
+                .write_numeric(v),
+            AttrValue::I64(v) => self
+                .new_attr::<i64>()
+                .shape(())
+                .create(name)?
+                .write_numeric(v),
+            AttrValue::Str(s) => self
+                .new_attr::<VarLenUnicode>()
+                .shape(())
+                .create(name)?
+                .write_string(s),
+            AttrValue::F64Array(v) => self
+                .new_attr::<f64>()
+                .shape([v.len()])
+                .create(name)?
+                .write_array(v),
+        }
+    }
+}
+
+impl AttrTarget for H5Group {
+    fn put(&self, name: &str, value: &AttrValue) -> rust_hdf5::Result<()> {
+        match value {
+            AttrValue::F64(v) => self.set_attr_numeric(name, v),
+            AttrValue::I64(v) => self.set_attr_numeric(name, v),
+            AttrValue::Str(s) => self.set_attr_string(name, s),
+            AttrValue::F64Array(v) => self.set_attr_array_numeric(name, v),
+        }
+    }
+}
+
+fn set_attr(target: &impl AttrTarget, name: &str, value: &AttrValue) -> rust_hdf5::Result<()> {
+    target.put(name, value)
+}
+
+/// JSON for an f64 that survives non-finite values (JSON has no NaN or infinity).
+fn f64_json(v: f64) -> Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(v.to_string())
+    }
+}
+
+fn f64_from_json(v: &Value) -> Option<f64> {
+    match v {
+        Value::String(s) => s.parse().ok(),
+        other => other.as_f64(),
+    }
+}
+
+/// The [`GROUP_ATTRS_INDEX`] JSON of a group's attributes: `[[name, {type: value}], ...]`.
+fn attrs_to_json(attrs: &[(String, AttrValue)]) -> String {
+    let list: Vec<Value> = attrs
+        .iter()
+        .map(|(name, v)| {
+            let typed = match v {
+                AttrValue::F64(x) => json!({ "f64": f64_json(*x) }),
+                AttrValue::I64(x) => json!({ "i64": x }),
+                AttrValue::Str(s) => json!({ "str": s }),
+                AttrValue::F64Array(xs) => {
+                    json!({ "f64_array": xs.iter().map(|x| f64_json(*x)).collect::<Vec<_>>() })
+                }
+            };
+            json!([name, typed])
+        })
+        .collect();
+    Value::Array(list).to_string()
+}
+
+fn attrs_from_json(text: &str) -> Option<Vec<(String, AttrValue)>> {
+    let list: Vec<Value> = serde_json::from_str(text).ok()?;
+    list.iter()
+        .map(|item| {
+            let name = item.get(0)?.as_str()?.to_string();
+            let typed = item.get(1)?.as_object()?;
+            let (kind, v) = typed.iter().next()?;
+            let value = match kind.as_str() {
+                "f64" => AttrValue::F64(f64_from_json(v)?),
+                "i64" => AttrValue::I64(v.as_i64()?),
+                "str" => AttrValue::Str(v.as_str()?.to_string()),
+                "f64_array" => AttrValue::F64Array(
+                    v.as_array()?
+                        .iter()
+                        .map(f64_from_json)
+                        .collect::<Option<Vec<_>>>()?,
+                ),
+                _ => return None,
+            };
+            Some((name, value))
+        })
+        .collect()
+}
+
+fn read_group_attrs(group: &H5Group, path: &Path, name: &str) -> Result<Vec<(String, AttrValue)>> {
+    let names = group.attr_names().map_err(h5(path))?;
+    if !names.iter().any(|n| n == GROUP_ATTRS_INDEX) {
+        if let Some(first) = names.first() {
+            return Err(ContainerError::BadAttribute {
+                path: path.to_path_buf(),
+                object: name.to_string(),
+                attr: first.clone(),
+                reason: format!(
+                    "group attributes without the {GROUP_ATTRS_INDEX} index cannot be read \
+                     (see docs/cube-format.md)"
+                ),
+            });
+        }
+        return Ok(Vec::new());
+    }
+    let text = group.attr_string(GROUP_ATTRS_INDEX).map_err(h5(path))?;
+    attrs_from_json(&text).ok_or_else(|| ContainerError::BadAttribute {
+        path: path.to_path_buf(),
+        object: name.to_string(),
+        attr: GROUP_ATTRS_INDEX.to_string(),
+        reason: "not a valid attribute index".into(),
+    })
+}
+
+// ---------------------------------------------------------------------------------------
+// Extra groups
+
+fn check_group(path: &Path, name: &str, data: &GroupData) -> Result<()> {
+    check_name(path, "group", name)?;
+    if name == CUBE_DATASET || name == MASK_DATASET {
+        return Err(invalid(path, format!("group name '{name}' is reserved")));
+    }
+    for (i, (a, _)) in data.attrs.iter().enumerate() {
+        check_name(path, "attribute", a)?;
+        if a == GROUP_ATTRS_INDEX || data.attrs[..i].iter().any(|(o, _)| o == a) {
+            return Err(invalid(
+                path,
+                format!("attribute '{a}' of group /{name} is reserved or given twice"),
+            ));
+        }
+    }
+    for (i, (d, shape, buf)) in data.datasets.iter().enumerate() {
+        check_name(path, "dataset", d)?;
+        if data.datasets[..i].iter().any(|(o, _, _)| o == d) {
+            return Err(invalid(path, format!("dataset /{name}/{d} given twice")));
+        }
+        if shape.is_empty() || shape.contains(&0) {
+            return Err(invalid(
+                path,
+                format!("dataset /{name}/{d} has shape {shape:?}: every axis needs length > 0"),
+            ));
+        }
+        let n: usize = shape.iter().product();
+        if n != buf.len() {
+            return Err(invalid(
+                path,
+                format!(
+                    "dataset /{name}/{d} has shape {shape:?} ({n} values) but {} values",
+                    buf.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Create a chunked, compressed dataset of `elem` in `group`.
+fn create_group_dataset(
+    group: &H5Group,
+    name: &str,
+    elem: Elem,
+    shape: &[usize],
+) -> rust_hdf5::Result<H5Dataset> {
+    fn make<T: H5Type>(
+        group: &H5Group,
+        name: &str,
+        shape: &[usize],
+        chunk: &[usize],
+    ) -> rust_hdf5::Result<H5Dataset> {
+        let b = group.new_dataset::<T>().shape(shape).chunk(chunk);
+        if T::element_size() > 1 {
+            b.shuffle_deflate(DEFLATE_LEVEL).create(name)
+        } else {
+            b.deflate(DEFLATE_LEVEL).create(name)
+        }
+    }
+    let row_elems: usize = shape[1..].iter().product();
+    let mut chunk = shape.to_vec();
+    chunk[0] = chunk_rows(row_elems * elem.size(), shape[0]);
+    match elem {
+        Elem::F64 => make::<f64>(group, name, shape, &chunk),
+        Elem::U8 => make::<u8>(group, name, shape, &chunk),
+        Elem::U32 => make::<u32>(group, name, shape, &chunk),
+        Elem::I32 => make::<i32>(group, name, shape, &chunk),
+        _ => make::<f32>(group, name, shape, &chunk),
+    }
+}
+
+/// Write `buf` as rows `r0 ..` of a group dataset of shape `shape`.
+fn write_group_rows(
+    ds: &H5Dataset,
+    shape: &[usize],
+    r0: usize,
+    buf: &DataBuf,
+) -> rust_hdf5::Result<()> {
+    let row_elems: usize = shape[1..].iter().product();
+    let mut starts = vec![0; shape.len()];
+    starts[0] = r0;
+    let mut counts = shape.to_vec();
+    counts[0] = buf.len() / row_elems;
+    match buf {
+        DataBuf::F32(v) => ds.write_slice(&starts, &counts, v),
+        DataBuf::F64(v) => ds.write_slice(&starts, &counts, v),
+        DataBuf::U8(v) => ds.write_slice(&starts, &counts, v),
+        DataBuf::U32(v) => ds.write_slice(&starts, &counts, v),
+        DataBuf::I32(v) => ds.write_slice(&starts, &counts, v),
+    }
+}
+
+fn write_group_attrs(group: &H5Group, attrs: &[(String, AttrValue)]) -> rust_hdf5::Result<()> {
+    for (k, v) in attrs {
+        set_attr(group, k, v)?;
+    }
+    group.set_attr_string(GROUP_ATTRS_INDEX, &attrs_to_json(attrs))
+}
+
+/// Add the given extra groups to the cube at `cube_path`, replacing groups of the same
+/// names, atomically.
+///
+/// A complete new file is written beside the old one (the cube copied slab by slab, other
+/// groups copied row slab by row slab) and renamed onto it, so on failure the old file is
+/// left as it was.
+pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()> {
+    for (i, (name, data)) in groups.iter().enumerate() {
+        check_group(cube_path, name, data)?;
+        if groups[..i].iter().any(|(o, _)| o == name) {
+            return Err(invalid(cube_path, format!("group /{name} given twice")));
+        }
+    }
+    write_atomically(cube_path, |tmp| {
+        let reader = CubeReader::open(cube_path)?;
+        let meta = reader.meta.clone();
+        let attrs = CubeAttrs {
+            axis: meta.axis,
+            frame: meta.frame,
+            units: &meta.units,
+            femto_version: meta.femto_version.as_deref(),
+            command_line: meta.command_line.as_deref(),
+            notes: &meta.notes,
+        };
+        let mut sink = CubeSink::create(tmp, cube_path, meta.nx, meta.ny, &attrs)?;
+        let row_len = meta.row_len();
+        let rows = slab_rows(row_len * 4, meta.ny);
+        let mut buf = vec![0.0f32; rows * row_len];
+        for y0 in (0..meta.ny).step_by(rows) {
+            let n = rows.min(meta.ny - y0);
+            reader.read_rows_into(y0, &mut buf[..n * row_len])?;
+            sink.write_rows(y0, &buf[..n * row_len])?;
+        }
+        drop(buf);
+        if let Some(mask) = reader.read_mask()? {
+            sink.write_mask(&mask)?;
+        }
+        let e = h5(cube_path);
+        for old in &meta.groups {
+            if groups.iter().any(|(n, _)| n == old) {
+                continue;
+            }
+            let src = reader.group(old)?;
+            let dst = sink.file.create_group(old).map_err(&e)?;
+            write_group_attrs(&dst, &read_group_attrs(&src, cube_path, old)?).map_err(&e)?;
+            for ds_name in reader.group_dataset_names(&src, old)? {
+                let (shape, _) = reader.group_dataset_shape(old, &ds_name)?;
+                let full = format!("{old}/{ds_name}");
+                let elem = group_elem(
+                    &open_dataset(&reader.file, cube_path, &full)?,
+                    cube_path,
+                    &full,
+                )?;
+                let ds = create_group_dataset(&dst, &ds_name, elem, &shape).map_err(&e)?;
+                let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
+                let step = slab_rows(row_bytes, shape[0]);
+                for r0 in (0..shape[0]).step_by(step) {
+                    let n = step.min(shape[0] - r0);
+                    let slab = reader.read_group_rows(old, &ds_name, r0, n)?;
+                    write_group_rows(&ds, &shape, r0, &slab).map_err(&e)?;
+                }
+            }
+        }
+        for (name, data) in groups {
+            let dst = sink.file.create_group(name).map_err(&e)?;
+            write_group_attrs(&dst, &data.attrs).map_err(&e)?;
+            for (ds_name, shape, values) in &data.datasets {
+                let ds = create_group_dataset(&dst, ds_name, values.elem(), shape).map_err(&e)?;
+                write_group_rows(&ds, shape, 0, values).map_err(&e)?;
+            }
+        }
+        drop(reader);
+        sink.close()
+    })
+    .map_err(|e| e.at(cube_path))
+}
+
+// ---------------------------------------------------------------------------------------
+// Image stacks (HDF5 input to `femto ingest`)
+
+/// Read a 3-D stack of streak images stored in one dataset, converting u8, u16, u32, i32,
+/// f32 or f64 values to f32. Returns the dataset's shape and its values in row-major order.
+pub fn read_image_stack(path: &Path, dataset: &str) -> Result<(Vec<usize>, Vec<f32>)> {
+    let file = open_h5(path)?;
+    let name = dataset.trim_start_matches('/');
+    let ds = open_dataset(&file, path, name)?;
+    let shape = ds.shape();
+    if shape.len() != 3 {
+        return Err(ContainerError::WrongRank {
+            path: path.to_path_buf(),
+            dataset: name.to_string(),
+            found: shape.len(),
+            expected: 3,
+        });
+    }
+    let (elem, found) = dataset_elem(&ds, path, name)?;
+    let e = h5(path);
+    let values: Vec<f32> = match elem {
+        Some(Elem::U8) => convert(ds.read_raw::<u8>().map_err(e)?, f32::from),
+        Some(Elem::U16) => convert(ds.read_raw::<u16>().map_err(e)?, f32::from),
+        Some(Elem::U32) => convert(ds.read_raw::<u32>().map_err(e)?, |v| v as f32),
+        Some(Elem::I32) => convert(ds.read_raw::<i32>().map_err(e)?, |v| v as f32),
+        Some(Elem::F32) => ds.read_raw::<f32>().map_err(e)?,
+        Some(Elem::F64) => convert(ds.read_raw::<f64>().map_err(e)?, |v| v as f32),
+        _ => {
+            return Err(ContainerError::WrongType {
+                path: path.to_path_buf(),
+                dataset: name.to_string(),
+                found,
+                expected: "u8, u16, u32, i32, f32 or f64".into(),
+            })
+        }
+    };
+    Ok((shape, values))
+}
+
+fn convert<T: Copy>(v: Vec<T>, f: impl Fn(T) -> f32) -> Vec<f32> {
+    v.into_iter().map(f).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunk_holds_whole_profiles_of_one_row() {
+        // 256 KiB / (4 bytes * 1024 bins) = 64 pixels per chunk.
+        assert_eq!(chunk_rows(4 * 1024, 1000), 64);
+        // Never wider than the row, never empty.
+        assert_eq!(chunk_rows(4 * 16, 10), 10);
+        assert_eq!(chunk_rows(4 << 20, 10), 1);
+    }
+
+    #[test]
+    fn attr_index_round_trips_every_kind() {
+        let attrs = vec![
+            ("a".to_string(), AttrValue::F64(0.1)),
+            ("b".to_string(), AttrValue::F64(f64::NAN)),
+            ("c".to_string(), AttrValue::I64(-3)),
+            ("d".to_string(), AttrValue::Str("x \"y\"".into())),
+            (
+                "e".to_string(),
+                AttrValue::F64Array(vec![1e-300, f64::INFINITY, -2.5]),
+            ),
+        ];
+        let back = attrs_from_json(&attrs_to_json(&attrs)).unwrap();
+        assert_eq!(back.len(), attrs.len());
+        for ((n0, v0), (n1, v1)) in attrs.iter().zip(&back) {
+            assert_eq!(n0, n1);
+            match (v0, v1) {
+                (AttrValue::F64(a), AttrValue::F64(b)) if a.is_nan() => assert!(b.is_nan()),
+                _ => assert_eq!(v0, v1),
+            }
+        }
+    }
+
+    #[test]
+    fn signature_found_after_user_block() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x");
+        let mut bytes = vec![0u8; 512];
+        bytes.extend_from_slice(&HDF5_SIGNATURE);
+        std::fs::write(&p, &bytes).unwrap();
+        assert!(is_hdf5(&p).unwrap());
+        std::fs::write(&p, b"\x89PNG\r\n\x1a\n").unwrap();
+        assert!(!is_hdf5(&p).unwrap());
+    }
+}
