@@ -14,6 +14,7 @@ pub mod cube;
 pub mod geometry;
 pub mod pyramid;
 pub mod relativity;
+pub mod render;
 pub mod resample;
 pub mod units;
 pub mod unwarp;
