@@ -80,8 +80,15 @@ fn main() {
     let cube = common::world_cube(&cal, &bvh, axis, common::single_bounce_energy(&cal, 60.0));
     let pyramid = Pyramid::build(&cube);
     let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).expect("scene");
-    let s = shortcut_path(&scene, Shortcut::Dolly { beta: 0.5 }, WIDTH, HEIGHT, 100, None)
-        .expect("dolly path");
+    let s = shortcut_path(
+        &scene,
+        Shortcut::Dolly { beta: 0.5 },
+        WIDTH,
+        HEIGHT,
+        100,
+        None,
+    )
+    .expect("dolly path");
     let state = s.path.frame(50);
     let mut all = RenderSettings::for_path(&s.path);
     all.time_offset_ps = s.time_offset_ps;
@@ -125,7 +132,11 @@ fn main() {
         ("--effects none", t_none),
         ("bare ray cast", t_cast),
     ] {
-        println!("  {name:<15} {:8.2} ms/frame {:8.1} frames/s", t * 1e3, 1.0 / t);
+        println!(
+            "  {name:<15} {:8.2} ms/frame {:8.1} frames/s",
+            t * 1e3,
+            1.0 / t
+        );
     }
     println!(
         "  physics cost (all effects - ray cast) / ray cast: {:.2}",

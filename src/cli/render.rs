@@ -94,9 +94,10 @@ pub struct RenderArgs {
     /// Laser wavelength in nm (default: the cube's `laser_nm` attribute, else 670).
     #[arg(long, value_name = "NM")]
     pub laser_nm: Option<f64>,
-    /// Contour spacing of the isochrone view, ps.
-    #[arg(long, value_name = "PS", default_value_t = 50.0)]
-    pub contour_ps: f64,
+    /// Contour spacing of the isochrone view, ps (default: a round value giving 10 to 25
+    /// contours over the frame's range).
+    #[arg(long, value_name = "PS")]
+    pub contour_ps: Option<f64>,
     /// Output format: png or exr (frame sequences in the folder --out), mp4 or gif (the file
     /// --out). Default: from the extension of --out, else png.
     #[arg(long, value_name = "FORMAT")]
@@ -115,7 +116,10 @@ pub struct RenderArgs {
 /// `WxH` with both positive.
 fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
     let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-        Some((w.trim().parse::<usize>().ok()?, h.trim().parse::<usize>().ok()?))
+        Some((
+            w.trim().parse::<usize>().ok()?,
+            h.trim().parse::<usize>().ok()?,
+        ))
     });
     match parsed {
         Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
@@ -183,15 +187,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // Flags first: cheap to check, before any file is read.
     let size = args.size.as_deref().map(parse_size).transpose()?;
     let frames_flag = args.frames.as_deref().map(parse_frames).transpose()?;
-    let effects = Effects::parse(&args.effects).map_err(|e| anyhow!("--effects {}: {e}", args.effects))?;
+    let effects =
+        Effects::parse(&args.effects).map_err(|e| anyhow!("--effects {}: {e}", args.effects))?;
     let radiometry = match args.radiometry.as_str() {
         "consistent" => Radiometry::Consistent,
         "paper" => Radiometry::Paper,
         other => bail!("--radiometry {other}: expected consistent or paper"),
     };
     // Validated now; the isochrone range is resolved once the scene is loaded.
-    View::parse(&args.view, Isochrones { t_min_ps: 0.0, t_max_ps: 1.0, contour_ps: 1.0 })
-        .map_err(|e| anyhow!("--view {}: {e}", args.view))?;
+    View::parse(
+        &args.view,
+        Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        },
+    )
+    .map_err(|e| anyhow!("--view {}: {e}", args.view))?;
     let format = output_format(&args)?;
     if let Some(n) = args.frame_count {
         if n == 0 {
@@ -209,8 +221,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps {}: must be a positive number", args.fps);
     }
-    if !(args.contour_ps.is_finite() && args.contour_ps > 0.0) {
-        bail!("--contour-ps {}: must be a positive number", args.contour_ps);
+    if let Some(c) = args.contour_ps {
+        if !(c.is_finite() && c > 0.0) {
+            bail!("--contour-ps {c}: must be a positive number");
+        }
     }
     if let Some(t) = args.time_offset_ps {
         if !t.is_finite() {
@@ -311,13 +325,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     check_path_clear(&bvh, &path).with_context(|| path_flag.clone())?;
     let frames = frames_flag.unwrap_or(0..spec.frames);
-    check_frames(&path, &frames).map_err(|e| {
-        anyhow!(
-            "--frames {}..{}: {e}",
-            frames.start,
-            frames.end
-        )
-    })?;
+    check_frames(&path, &frames)
+        .map_err(|e| anyhow!("--frames {}..{}: {e}", frames.start, frames.end))?;
 
     // Settings.
     let mut settings = RenderSettings::for_path(&path);
@@ -326,10 +335,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     settings.time_offset_ps = args.time_offset_ps.unwrap_or(default_offset_ps);
     settings.view = View::parse(
         &args.view,
-        Isochrones { t_min_ps: 0.0, t_max_ps: 1.0, contour_ps: args.contour_ps },
+        Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        },
     )?;
     if let View::Isochrones(_) = settings.view {
-        settings.view = View::Isochrones(isochrone_range(&scene, &settings, &path, args.contour_ps));
+        settings.view =
+            View::Isochrones(isochrone_range(&scene, &settings, &path, args.contour_ps));
     }
     settings.exposure = args.exposure * auto_exposure(&scene, &settings.view);
 
@@ -387,7 +401,10 @@ mod tests {
         }
         assert_eq!(parse_frames("3..9").unwrap(), 3..9);
         for bad in ["3..3", "9..3", "3-9", "..4"] {
-            assert!(parse_frames(bad).unwrap_err().to_string().contains("--frames"));
+            assert!(parse_frames(bad)
+                .unwrap_err()
+                .to_string()
+                .contains("--frames"));
         }
     }
 
@@ -411,7 +428,7 @@ mod tests {
             view: "transient".into(),
             exposure: 1.0,
             laser_nm: nm,
-            contour_ps: 50.0,
+            contour_ps: None,
             format: None,
             out: "o".into(),
             fps: 30.0,
@@ -420,7 +437,10 @@ mod tests {
         let notes = vec![("laser_nm".to_string(), "532".to_string())];
         assert_eq!(laser_wavelength(&args(Some(800.0)), &notes).unwrap(), 800.0);
         assert_eq!(laser_wavelength(&args(None), &notes).unwrap(), 532.0);
-        assert_eq!(laser_wavelength(&args(None), &[]).unwrap(), DEFAULT_LASER_NM);
+        assert_eq!(
+            laser_wavelength(&args(None), &[]).unwrap(),
+            DEFAULT_LASER_NM
+        );
         let bad = vec![("laser_nm".to_string(), "red".to_string())];
         assert!(laser_wavelength(&args(None), &bad)
             .unwrap_err()

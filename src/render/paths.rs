@@ -86,7 +86,10 @@ pub fn shortcut_path(
     let target = scene_target(scene);
     let r0_m = (target - start).norm();
     let up = cal.pose.world_from_camera * Vector3::new(0.0, -1.0, 0.0);
-    let vfov_deg = 2.0 * (0.5 * cal.intrinsics.height as f64 / cal.intrinsics.fy).atan().to_degrees();
+    let vfov_deg = 2.0
+        * (0.5 * cal.intrinsics.height as f64 / cal.intrinsics.fy)
+            .atan()
+            .to_degrees();
     let (t_a, t_b) = scene.world_span_ps();
     let span_ps = t_b - t_a;
     let steps = frames.saturating_sub(1).max(1) as f64;
