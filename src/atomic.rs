@@ -30,6 +30,12 @@ where
     // Keep the path reserved but release the handle, so writers that open by path work.
     let tmp_path = tmp.into_temp_path();
     let value = write(&tmp_path)?;
+    // tempfile creates files readable by the owner only; outputs are ordinary files.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))?;
+    }
     tmp_path.persist(dest).map_err(|e| e.error)?;
     Ok(value)
 }
@@ -52,5 +58,11 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         write_atomically::<_, io::Error, _>(&dest, |p| std::fs::write(p, "new")).unwrap();
         assert_eq!(std::fs::read_to_string(&dest).unwrap(), "new");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&dest).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o644);
+        }
     }
 }

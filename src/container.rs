@@ -463,9 +463,8 @@ fn open_dataset(file: &H5File, path: &Path, name: &str) -> Result<H5Dataset> {
 }
 
 /// The element type of a reader-mode dataset.
-fn dataset_elem(ds: &H5Dataset, path: &Path, name: &str) -> Result<(Option<Elem>, String)> {
+fn dataset_elem(ds: &H5Dataset, path: &Path) -> Result<(Option<Elem>, String)> {
     let dt = ds.datatype().map_err(h5(path))?;
-    let _ = name;
     Ok((Elem::of(&dt), type_description(&dt)))
 }
 
@@ -789,6 +788,14 @@ impl CubeWriter {
     pub fn finish(self) -> Result<()> {
         let CubeWriter { sink, tmp, dest } = self;
         sink.close()?;
+        // As `atomic::write_atomically` does: tempfile creates owner-only files, outputs are
+        // ordinary files.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))
+                .map_err(|e| ContainerError::from(e).at(&dest))?;
+        }
         tmp.persist(&dest).map_err(|e| ContainerError::Io {
             path: dest.clone(),
             source: e.error,
@@ -886,7 +893,7 @@ impl CubeReader {
                 expected: 3,
             });
         }
-        let (elem, found) = dataset_elem(&cube, path, CUBE_DATASET)?;
+        let (elem, found) = dataset_elem(&cube, path)?;
         if elem != Some(Elem::F32) {
             return Err(ContainerError::WrongType {
                 path: path.to_path_buf(),
@@ -1031,7 +1038,7 @@ impl CubeReader {
                 expected,
             });
         }
-        let (elem, found) = dataset_elem(&ds, &self.path, MASK_DATASET)?;
+        let (elem, found) = dataset_elem(&ds, &self.path)?;
         if elem != Some(Elem::U8) {
             return Err(ContainerError::WrongType {
                 path: self.path.clone(),
@@ -1191,7 +1198,7 @@ fn empty_buf(elem: Elem) -> DataBuf {
 
 /// The element type of a group dataset, which must be one [`DataBuf`] can hold.
 fn group_elem(ds: &H5Dataset, path: &Path, full: &str) -> Result<Elem> {
-    let (elem, found) = dataset_elem(ds, path, full)?;
+    let (elem, found) = dataset_elem(ds, path)?;
     match elem {
         Some(e @ (Elem::F32 | Elem::F64 | Elem::U8 | Elem::U32 | Elem::I32)) => Ok(e),
         _ => Err(ContainerError::WrongType {
@@ -1554,7 +1561,7 @@ pub fn read_image_stack(path: &Path, dataset: &str) -> Result<(Vec<usize>, Vec<f
             expected: 3,
         });
     }
-    let (elem, found) = dataset_elem(&ds, path, name)?;
+    let (elem, found) = dataset_elem(&ds, path)?;
     let e = h5(path);
     let values: Vec<f32> = match elem {
         Some(Elem::U8) => convert(ds.read_raw::<u8>().map_err(e)?, f32::from),

@@ -6,12 +6,16 @@
 //! z forward, pixel `(x, y)` covering `[x, x+1) x [y, y+1)` with its centre at `(x+0.5, y+0.5)`.
 
 pub mod atomic;
+pub mod calibrate;
 pub mod camera;
 pub mod camera_path;
 pub mod color;
 pub mod container;
 pub mod cube;
+pub mod formats;
 pub mod geometry;
+pub mod ingest;
+pub mod manifest;
 pub mod pyramid;
 pub mod relativity;
 pub mod render;

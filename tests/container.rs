@@ -76,6 +76,12 @@ fn round_trip_keeps_values_mask_and_provenance() {
     assert!(meta.groups.is_empty());
     assert_eq!(meta.size_bytes(), 5 * 4 * 7 * 4 + 5 * 4);
     assert_eq!(files_in(dir.path()), ["cube.h5"]);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "an ordinary file, not tempfile's 0600");
+    }
 
     // Without a mask, and with the default units.
     let plain = test_cube(3, 2, false);
@@ -212,7 +218,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
             &Provenance::new("new"),
         )
         .unwrap();
-        w.write_rows(0, &vec![1.0; 4 * AXIS.nt]).unwrap();
+        w.write_rows(0, &[1.0; 4 * AXIS.nt]).unwrap();
         assert_eq!(
             files_in(dir.path()).len(),
             2,
@@ -256,7 +262,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
     )
     .unwrap();
     assert!(w.write_rows(2, &vec![0.0; 2 * 4 * AXIS.nt]).is_err());
-    assert!(w.write_rows(0, &vec![0.0; 4 * AXIS.nt + 1]).is_err());
+    assert!(w.write_rows(0, &[0.0; 4 * AXIS.nt + 1]).is_err());
     drop(w);
     check_untouched();
     assert_eq!(container::read_cube(&path).unwrap(), old);
@@ -281,7 +287,7 @@ fn failed_writes_leave_no_file_and_keep_the_old_one() {
         &Provenance::new(""),
     )
     .unwrap();
-    w.write_rows(0, &vec![0.0; 4 * AXIS.nt]).unwrap();
+    w.write_rows(0, &[0.0; 4 * AXIS.nt]).unwrap();
     std::fs::remove_dir_all(&gone).unwrap();
     assert!(w.finish().is_err());
     assert!(!target.exists());
@@ -331,6 +337,12 @@ fn slabs_stream_in_any_order() {
     }
     assert!(r.read_rows(ny - 1, 2).is_err());
     assert_eq!(r.read_cube().unwrap(), expected);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "an ordinary file, not tempfile's 0600");
+    }
     // The streamed range equals the range of the closed form.
     let (lo, hi) = r.value_range(&|_| {}).unwrap().unwrap();
     assert_eq!(

@@ -633,6 +633,19 @@ fn glb_round_trip_keeps_triangles_per_material() {
     // Only the .glb is left in the folder (the write went through a temporary file).
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 
+    // Invalid meshes are refused without leaving a file behind.
+    let bad = dir.path().join("bad.glb");
+    let mut broken = mesh.clone();
+    broken.triangles[3][1] = 40;
+    assert!(write_glb(&broken, &bad)
+        .unwrap_err()
+        .to_string()
+        .contains("bad.glb"));
+    let mut huge = mesh.clone();
+    huge.material[0] = u32::MAX;
+    assert!(write_glb(&huge, &bad).is_err());
+    assert!(!bad.exists());
+
     let empty = dir.path().join("empty.glb");
     write_glb(&TriangleMesh::default(), &empty).unwrap();
     assert_eq!(load_mesh(&empty).unwrap().triangle_count(), 0);

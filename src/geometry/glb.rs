@@ -23,10 +23,24 @@ pub enum GlbError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// A material index above [`MAX_MATERIAL`] (the file lists one material entry per index).
+    #[error("{path}: material index {material} too large (at most {MAX_MATERIAL})")]
+    MaterialIndex { path: PathBuf, material: u32 },
+    /// A triangle refers to a vertex the mesh does not have.
+    #[error("{path}: triangle {triangle} refers to vertex {index}, but the mesh has {vertices}")]
+    IndexOutOfRange {
+        path: PathBuf,
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
     /// The file would exceed the 4 GiB that the GLB header can describe.
     #[error("{path}: mesh too large for a glTF binary ({bytes} bytes, limit 4 GiB)")]
     TooLarge { path: PathBuf, bytes: u64 },
 }
+
+/// Largest material index [`write_glb`] accepts.
+pub const MAX_MATERIAL: u32 = 65_535;
 
 const GLB_MAGIC: u32 = 0x4654_6C67; // "glTF"
 const CHUNK_JSON: u32 = 0x4E4F_534A; // "JSON"
@@ -50,6 +64,16 @@ pub fn write_glb(mesh: &TriangleMesh, path: &Path) -> Result<(), GlbError> {
 
 /// The `.glb` bytes of `mesh` (`path` only names the file in errors).
 fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
+    for (triangle, t) in mesh.triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= mesh.positions.len()) {
+            return Err(GlbError::IndexOutOfRange {
+                path: path.to_path_buf(),
+                triangle,
+                index,
+                vertices: mesh.positions.len(),
+            });
+        }
+    }
     // Triangles grouped by material, in increasing material order.
     let mut groups: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     for (i, &m) in mesh.material.iter().enumerate().take(mesh.triangles.len()) {
@@ -58,6 +82,13 @@ fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
     // Triangles beyond the material list (a malformed mesh) get material 0.
     for i in mesh.material.len()..mesh.triangles.len() {
         groups.entry(0).or_default().push(i);
+    }
+
+    if let Some(&material) = groups.keys().next_back().filter(|&&m| m > MAX_MATERIAL) {
+        return Err(GlbError::MaterialIndex {
+            path: path.to_path_buf(),
+            material,
+        });
     }
 
     let mut bin: Vec<u8> = Vec::new();

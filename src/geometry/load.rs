@@ -55,6 +55,13 @@ pub enum LoadError {
         mesh: String,
         primitive: usize,
     },
+    /// A primitive has an `indices` accessor whose data cannot be read.
+    #[error("{path}: mesh {mesh}, primitive {primitive}: unreadable indices accessor")]
+    BadIndices {
+        path: PathBuf,
+        mesh: String,
+        primitive: usize,
+    },
     /// The index list of a mesh or primitive is not a whole number of triangles.
     #[error("{path}: {part}: {count} indices is not a multiple of 3")]
     PartialTriangle {
@@ -178,9 +185,16 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
                     })?
                     .map(|p| world_from_node.transform_point(&Point3::from(p)))
                     .collect();
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(ix) => ix.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
+                let indices: Vec<u32> = match (prim.indices(), reader.read_indices()) {
+                    (_, Some(ix)) => ix.into_u32().collect(),
+                    (None, None) => (0..positions.len() as u32).collect(),
+                    (Some(_), None) => {
+                        return Err(LoadError::BadIndices {
+                            path: path.to_path_buf(),
+                            mesh: name,
+                            primitive: prim.index(),
+                        })
+                    }
                 };
                 let mut piece = checked_piece(path, &part, positions, &indices)?;
                 if mirrored {

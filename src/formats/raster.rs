@@ -1,0 +1,457 @@
+//! Streak images in general-purpose raster formats: PNG and TIFF (integers, via `image` and
+//! `tiff`), OpenEXR (half and single floats, via `exr`) and Radiance `.hdr` (RGBE, via
+//! `image`; other transient renderers write one such file per scanline).
+//!
+//! Readers return the pixels row-major as stored (top row first) with one value per pixel by
+//! the channel rule of [`super`]: grey is read as is; integer colour must be grey (R = G = B
+//! in every pixel) or the file is refused; float colour becomes `(R + G + B) / 3`; alpha is
+//! ignored. For EXR a channel named `Y` wins over `R, G, B`; a single channel of any name is
+//! read as is.
+//!
+//! Writers: [`write_png16`] stores `round(v / value_per_count)` clamped to `0..=65535` (so
+//! `v ≈ stored * value_per_count`; the value per count goes into the capture manifest), and
+//! [`write_exr_f32`] stores one `f32` channel named `Y` (lossless ZIP compression).
+
+use super::{write_file_atomically, FormatError, PixelType, StreakImage};
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+/// Pixels of a raster file as stored: `height` rows of `width` values, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RasterPixels {
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Row-major values, one per pixel.
+    pub data: Vec<f32>,
+    /// How the file stored them.
+    pub pixel_type: PixelType,
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
+    move |source| FormatError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn decode_err(path: &Path, e: impl std::fmt::Display) -> FormatError {
+    FormatError::Decode {
+        path: path.to_path_buf(),
+        message: e.to_string().replace('\n', " "),
+    }
+}
+
+/// Reduce interleaved integer samples with `channels` per pixel (colour first, alpha last if
+/// `has_alpha`) to one value per pixel, requiring grey colour.
+fn grey_from_interleaved<T: Copy + PartialEq + Into<f64>>(
+    path: &Path,
+    samples: &[T],
+    width: usize,
+    channels: usize,
+    has_alpha: bool,
+) -> Result<Vec<f32>, FormatError> {
+    let colour = channels - usize::from(has_alpha);
+    let mut out = Vec::with_capacity(samples.len() / channels);
+    for (i, px) in samples.chunks_exact(channels).enumerate() {
+        let first = px[0];
+        if px[1..colour].iter().any(|&c| c != first) {
+            return Err(FormatError::ChannelLayout {
+                path: path.to_path_buf(),
+                message: format!(
+                    "colour image with unequal R, G, B at x {}, row {} (a streak image is \
+                     monochrome; integer colour files must be grey)",
+                    i % width,
+                    i / width
+                ),
+            });
+        }
+        out.push(first.into() as f32);
+    }
+    Ok(out)
+}
+
+/// Mean of the first three samples of each pixel (`channels` per pixel, alpha ignored).
+fn mean_rgb(samples: &[f32], channels: usize) -> Vec<f32> {
+    samples
+        .chunks_exact(channels)
+        .map(|px| (px[0] + px[1] + px[2]) / 3.0)
+        .collect()
+}
+
+/// Read a PNG: 8- or 16-bit grey, grey+alpha, or RGB(A) / palette with equal channels.
+pub fn read_png(path: &Path) -> Result<RasterPixels, FormatError> {
+    let file = std::fs::File::open(path).map_err(io_err(path))?;
+    let image = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Png)
+        .decode()
+        .map_err(|e| decode_err(path, e))?;
+    let (width, height) = (image.width() as usize, image.height() as usize);
+    use image::DynamicImage as D;
+    let (data, pixel_type) = match &image {
+        D::ImageLuma8(b) => (
+            b.as_raw().iter().map(|&v| v as f32).collect(),
+            PixelType::U8,
+        ),
+        D::ImageLuma16(b) => (
+            b.as_raw().iter().map(|&v| v as f32).collect(),
+            PixelType::U16,
+        ),
+        D::ImageLumaA8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 2, true)?,
+            PixelType::U8,
+        ),
+        D::ImageLumaA16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 2, true)?,
+            PixelType::U16,
+        ),
+        D::ImageRgb8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 3, false)?,
+            PixelType::RgbU8,
+        ),
+        D::ImageRgba8(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 4, true)?,
+            PixelType::RgbU8,
+        ),
+        D::ImageRgb16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 3, false)?,
+            PixelType::RgbU16,
+        ),
+        D::ImageRgba16(b) => (
+            grey_from_interleaved(path, b.as_raw(), width, 4, true)?,
+            PixelType::RgbU16,
+        ),
+        other => {
+            return Err(FormatError::ChannelLayout {
+                path: path.to_path_buf(),
+                message: format!("PNG colour type {:?}", other.color()),
+            })
+        }
+    };
+    Ok(RasterPixels {
+        width,
+        height,
+        data,
+        pixel_type,
+    })
+}
+
+/// Read the first (and only) image of a TIFF: grey or grey+alpha of any integer or float
+/// sample type, RGB(A) integer with equal channels, or RGB(A) float (mean of R, G, B).
+pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
+    use tiff::decoder::{Decoder, DecodingResult as R};
+    use tiff::ColorType;
+    let file = std::fs::File::open(path).map_err(io_err(path))?;
+    let mut decoder = Decoder::new(BufReader::new(file)).map_err(|e| decode_err(path, e))?;
+    let (w, h) = decoder.dimensions().map_err(|e| decode_err(path, e))?;
+    let (width, height) = (w as usize, h as usize);
+    let colour = decoder.colortype().map_err(|e| decode_err(path, e))?;
+    let (channels, has_alpha) = match colour {
+        ColorType::Gray(_) => (1, false),
+        ColorType::GrayA(_) => (2, true),
+        ColorType::RGB(_) => (3, false),
+        ColorType::RGBA(_) => (4, true),
+        other => {
+            return Err(FormatError::ChannelLayout {
+                path: path.to_path_buf(),
+                message: format!("TIFF colour type {other:?} (expected grey or RGB)"),
+            })
+        }
+    };
+    let mut result = R::U8(Vec::new());
+    decoder
+        .read_image_to_buffer(&mut result)
+        .map_err(|e| decode_err(path, e))?;
+    if decoder.more_images() {
+        return Err(FormatError::Unsupported {
+            path: path.to_path_buf(),
+            what: "multi-page TIFF (one streak image per file)".into(),
+        });
+    }
+    let expected = width * height * channels;
+    let n = match &result {
+        R::U8(v) => v.len(),
+        R::U16(v) => v.len(),
+        R::U32(v) => v.len(),
+        R::U64(v) => v.len(),
+        R::F16(v) => v.len(),
+        R::F32(v) => v.len(),
+        R::F64(v) => v.len(),
+        R::I8(v) => v.len(),
+        R::I16(v) => v.len(),
+        R::I32(v) => v.len(),
+        R::I64(v) => v.len(),
+    };
+    if n != expected {
+        return Err(FormatError::SizeMismatch {
+            path: path.to_path_buf(),
+            what: "TIFF samples (planar colour TIFFs are not read)".into(),
+            expected,
+            found: n,
+        });
+    }
+    let integer = |samples: Result<Vec<f32>, FormatError>, grey: PixelType, rgb: PixelType| {
+        samples.map(|d| (d, if channels <= 2 { grey } else { rgb }))
+    };
+    let float = |samples: Vec<f32>, grey: PixelType, rgb: PixelType| {
+        if channels <= 2 {
+            (samples.chunks_exact(channels).map(|p| p[0]).collect(), grey)
+        } else {
+            (mean_rgb(&samples, channels), rgb)
+        }
+    };
+    let unsupported = |what: &str| FormatError::ChannelLayout {
+        path: path.to_path_buf(),
+        message: format!("TIFF sample type {what}"),
+    };
+    let (data, pixel_type) = match result {
+        R::U8(v) => integer(
+            grey_from_interleaved(path, &v, width, channels, has_alpha),
+            PixelType::U8,
+            PixelType::RgbU8,
+        )?,
+        R::U16(v) => integer(
+            grey_from_interleaved(path, &v, width, channels, has_alpha),
+            PixelType::U16,
+            PixelType::RgbU16,
+        )?,
+        R::U32(v) if channels <= 2 => (
+            grey_from_interleaved(path, &v, width, channels, has_alpha)?,
+            PixelType::U32,
+        ),
+        R::I16(v) if channels <= 2 => (
+            grey_from_interleaved(path, &v, width, channels, has_alpha)?,
+            PixelType::I16,
+        ),
+        R::I32(v) if channels <= 2 => (
+            grey_from_interleaved(path, &v, width, channels, has_alpha)?,
+            PixelType::I32,
+        ),
+        R::F16(v) => float(
+            v.iter().map(|x| x.to_f32()).collect(),
+            PixelType::F16,
+            PixelType::RgbF16,
+        ),
+        R::F32(v) => float(v, PixelType::F32, PixelType::RgbF32),
+        R::F64(v) if channels <= 2 => float(
+            v.iter().map(|&x| x as f32).collect(),
+            PixelType::F64,
+            PixelType::F64,
+        ),
+        R::U32(_) | R::I16(_) | R::I32(_) | R::F64(_) => {
+            return Err(unsupported("of this bit depth in colour (grey only)"))
+        }
+        R::U64(_) => return Err(unsupported("u64")),
+        R::I8(_) => return Err(unsupported("i8")),
+        R::I64(_) => return Err(unsupported("i64")),
+    };
+    Ok(RasterPixels {
+        width,
+        height,
+        data,
+        pixel_type,
+    })
+}
+
+/// Read the single layer of an OpenEXR file: channel `Y`, else the mean of `R, G, B`, else
+/// its only non-alpha channel. Half, single and u32 samples are accepted.
+pub fn read_exr(path: &Path) -> Result<RasterPixels, FormatError> {
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+    // Check existence first so that a missing file is an I/O error, not a decode error.
+    std::fs::metadata(path).map_err(io_err(path))?;
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| decode_err(path, e))?;
+    if image.layer_data.len() != 1 {
+        return Err(FormatError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!(
+                "{} layers in one EXR file (one streak image per file)",
+                image.layer_data.len()
+            ),
+        });
+    }
+    let layer = &image.layer_data[0];
+    let (width, height) = (layer.size.0, layer.size.1);
+    let channels = &layer.channel_data.list;
+    // Channel names may carry a layer prefix ("streak.Y"); match on the last component.
+    let short = |name: &str| name.rsplit('.').next().unwrap_or(name).to_string();
+    let names: Vec<String> = channels
+        .iter()
+        .map(|c| short(&c.name.to_string()))
+        .collect();
+    let find = |want: &str| names.iter().position(|n| n == want);
+    let to_f32 = |s: &FlatSamples| -> Vec<f32> {
+        match s {
+            FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+            FlatSamples::F32(v) => v.clone(),
+            FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+        }
+    };
+    let grey_type = |s: &FlatSamples| match s {
+        FlatSamples::F16(_) => PixelType::F16,
+        FlatSamples::F32(_) => PixelType::F32,
+        FlatSamples::U32(_) => PixelType::U32,
+    };
+    let non_alpha: Vec<usize> = (0..names.len()).filter(|&i| names[i] != "A").collect();
+    let (data, pixel_type) = if let Some(y) = find("Y") {
+        let s = &channels[y].sample_data;
+        (to_f32(s), grey_type(s))
+    } else if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+        let (r, g, b) = (
+            to_f32(&channels[r].sample_data),
+            to_f32(&channels[g].sample_data),
+            to_f32(&channels[b].sample_data),
+        );
+        let pixel_type = match &channels[find("R").expect("found")].sample_data {
+            FlatSamples::F16(_) => PixelType::RgbF16,
+            _ => PixelType::RgbF32,
+        };
+        let mean = r
+            .iter()
+            .zip(&g)
+            .zip(&b)
+            .map(|((r, g), b)| (r + g + b) / 3.0)
+            .collect();
+        (mean, pixel_type)
+    } else if non_alpha.len() == 1 {
+        let s = &channels[non_alpha[0]].sample_data;
+        (to_f32(s), grey_type(s))
+    } else {
+        return Err(FormatError::ChannelLayout {
+            path: path.to_path_buf(),
+            message: format!(
+                "EXR channels {names:?} (expected Y, or R, G and B, or a single channel)"
+            ),
+        });
+    };
+    if data.len() != width * height {
+        return Err(FormatError::SizeMismatch {
+            path: path.to_path_buf(),
+            what: "EXR samples (subsampled channels are not read)".into(),
+            expected: width * height,
+            found: data.len(),
+        });
+    }
+    Ok(RasterPixels {
+        width,
+        height,
+        data,
+        pixel_type,
+    })
+}
+
+/// Read a Radiance `.hdr` (RGBE) file; each pixel becomes the mean of R, G and B.
+pub fn read_hdr(path: &Path) -> Result<RasterPixels, FormatError> {
+    let file = std::fs::File::open(path).map_err(io_err(path))?;
+    let image = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Hdr)
+        .decode()
+        .map_err(|e| decode_err(path, e))?;
+    let (width, height) = (image.width() as usize, image.height() as usize);
+    let rgb = image.into_rgb32f();
+    Ok(RasterPixels {
+        width,
+        height,
+        data: mean_rgb(rgb.as_raw(), 3),
+        pixel_type: PixelType::Rgbe,
+    })
+}
+
+fn check_len(path: &Path, img: &StreakImage) -> Result<(), FormatError> {
+    if img.data.len() != img.nx * img.nt || img.nx == 0 || img.nt == 0 {
+        return Err(FormatError::SizeMismatch {
+            path: path.to_path_buf(),
+            what: format!("image data length for {} x {} (non-empty)", img.nx, img.nt),
+            expected: img.nx * img.nt,
+            found: img.data.len(),
+        });
+    }
+    if u32::try_from(img.nx).is_err() || u32::try_from(img.nt).is_err() {
+        return Err(FormatError::InvalidArgument {
+            path: path.to_path_buf(),
+            message: format!("image size {} x {} too large", img.nx, img.nt),
+        });
+    }
+    Ok(())
+}
+
+/// Write a 16-bit grey PNG: stored = `round(v / value_per_count)` (half away from zero)
+/// clamped to `0..=65535`, so that `v ≈ stored * value_per_count`. Returns how many values
+/// were clamped at the top (saturated); negative values become 0. Non-finite values and a
+/// `value_per_count` that is not finite and positive are errors. Written atomically.
+pub fn write_png16(
+    path: &Path,
+    img: &StreakImage,
+    value_per_count: f64,
+) -> Result<usize, FormatError> {
+    check_len(path, img)?;
+    if !(value_per_count.is_finite() && value_per_count > 0.0) {
+        return Err(FormatError::InvalidArgument {
+            path: path.to_path_buf(),
+            message: format!("PNG value per count {value_per_count} (must be finite and > 0)"),
+        });
+    }
+    let mut saturated = 0;
+    let mut stored = Vec::with_capacity(img.data.len());
+    for (i, &v) in img.data.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(FormatError::NonFinite {
+                path: path.to_path_buf(),
+                x: i % img.nx,
+                t: i / img.nx,
+                value: v,
+            });
+        }
+        let r = (v as f64 / value_per_count).round();
+        if r > u16::MAX as f64 {
+            saturated += 1;
+        }
+        stored.push(r.clamp(0.0, u16::MAX as f64) as u16);
+    }
+    let buffer = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(
+        img.nx as u32,
+        img.nt as u32,
+        stored,
+    )
+    .expect("buffer length checked");
+    write_file_atomically(path, |tmp| {
+        buffer
+            .save_with_format(tmp, image::ImageFormat::Png)
+            .map_err(|e| encode_err(path, e))
+    })?;
+    Ok(saturated)
+}
+
+fn encode_err(path: &Path, e: impl std::fmt::Display) -> FormatError {
+    FormatError::Io {
+        path: PathBuf::from(path),
+        source: std::io::Error::other(e.to_string()),
+    }
+}
+
+/// Write a single-layer OpenEXR file with one `f32` channel named `Y` (ZIP-compressed,
+/// lossless; NaN and infinities are stored as they are). Written atomically.
+pub fn write_exr_f32(path: &Path, img: &StreakImage) -> Result<(), FormatError> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, SmallVec,
+        WritableImage,
+    };
+    check_len(path, img)?;
+    let mut list = SmallVec::new();
+    list.push(AnyChannel::new("Y", FlatSamples::F32(img.data.clone())));
+    let layer = Layer::new(
+        (img.nx, img.nt),
+        LayerAttributes::named("streak"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let image = Image::from_layer(layer);
+    write_file_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| encode_err(path, e))
+    })
+}
