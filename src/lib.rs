@@ -20,6 +20,8 @@ pub mod pyramid;
 pub mod relativity;
 pub mod render;
 pub mod resample;
+pub mod scene;
+pub mod tracer;
 pub mod units;
 pub mod unwarp;
 pub mod video;

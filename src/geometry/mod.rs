@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod glb;
 pub mod load;
+pub mod primitives;
 
 use nalgebra::{Point3, Vector3};
 
