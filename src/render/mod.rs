@@ -682,7 +682,7 @@ pub fn isochrone_range(
             }
         }
     }
-    if !(lo < hi) {
+    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
         lo = 0.0;
         hi = 1.0;
     }
