@@ -1011,3 +1011,77 @@ fn cli_errors_name_the_flag_and_leave_no_output() {
     );
     assert!(!dir.join("o11").exists());
 }
+
+#[test]
+fn shortcut_paths_keep_the_target_in_the_centre_of_the_image() {
+    use femto::render::paths::{scene_target, shortcut_path, Shortcut};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let target = scene_target(&scene);
+    // The capture camera's optical axis meets the mesh there.
+    let d = cal.pose.forward();
+    let along = (target - cal.pose.position_m).dot(&d);
+    assert!(((target - cal.pose.position_m) - d * along).norm() < 1e-5);
+    let (w, h, frames) = (21usize, 15usize, 30usize);
+    let span = scene.world_span_ps();
+    for (shortcut, beta) in [
+        (Shortcut::Dolly { beta: 0.7 }, 0.7),
+        (Shortcut::Dolly { beta: -0.5 }, -0.5),
+        (Shortcut::Orbit { beta: 0.8 }, 0.8),
+        (Shortcut::Orbit { beta: -0.6 }, -0.6),
+        (Shortcut::CaptureView, 0.0),
+    ] {
+        let s = shortcut_path(&scene, shortcut, w, h, frames, None).unwrap();
+        let settings = RenderSettings::for_path(&s.path);
+        let g = gamma(beta);
+        let d_expect = match shortcut {
+            Shortcut::Dolly { .. } => g * (1.0 - beta),
+            Shortcut::Orbit { .. } => 1.0 / g,
+            Shortcut::CaptureView => 1.0,
+        };
+        // The frames sweep the cube's span at the target: dtau = D span / (frames - 1).
+        let dtau = s.path.spec().dtau_ps;
+        assert!((dtau / (d_expect * (span.1 - span.0) / (frames - 1) as f64) - 1.0).abs() < 1e-9);
+        let r0 = (target - cal.pose.position_m).norm();
+        assert!((s.time_offset_ps - (span.0 + r0 / C_M_PER_PS)).abs() < 1e-6);
+        for k in [0, frames / 2, frames - 1] {
+            let state = s.path.frame(k);
+            assert!(
+                (state.beta.norm() - beta.abs()).abs() < 1e-6,
+                "{shortcut:?} frame {k}"
+            );
+            let c = probe_pixel(&scene, &settings, &state, w / 2, h / 2);
+            let (p, _) = c.hit_m.unwrap();
+            assert!(
+                (p - target).norm() < 2e-3,
+                "{shortcut:?} frame {k}: sees {p:?}, target {target:?}"
+            );
+            assert!(
+                (c.doppler / d_expect - 1.0).abs() < 1e-3,
+                "{shortcut:?}: D {}",
+                c.doppler
+            );
+            if let Shortcut::Orbit { .. } = shortcut {
+                // On the circle: constant distance to the target, velocity perpendicular.
+                let rel = state.position_m - target;
+                assert!((rel.norm() - r0).abs() < 1e-6);
+                assert!(state.beta.dot(&rel).abs() < 1e-6);
+                assert!(
+                    ((state.t_world_ps - g * state.tau_ps) / (1.0 + state.t_world_ps)).abs() < 1e-6
+                );
+            }
+        }
+        if shortcut == Shortcut::CaptureView {
+            let f = s.path.frame(0);
+            assert_eq!(f.position_m, cal.pose.position_m);
+        }
+    }
+}

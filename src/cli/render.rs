@@ -1,6 +1,17 @@
 //! `femto render`: relativistic novel-view videos of a world-time cube (the library's
 //! [`femto::render`]). Reads the cube, the calibration and the mesh, builds the camera path
 //! (a TOML file or a shortcut), and writes PNG / EXR frame sequences, an MP4 or a GIF.
+//!
+//! ```text
+//! femto render --cube world.h5 --calibration capture.toml --mesh scene.glb \
+//!     --dolly 0.6 --size 640x480 --frame-count 120 --out dolly.mp4
+//! femto render ... --path path.toml --frames 0..60 --format exr --out frames/   # job 1
+//! femto render ... --path path.toml --frames 60..120 --format exr --out frames/ # job 2
+//! ```
+//!
+//! The world-time cube's prefix sums are built in memory (`Pyramid::build`) on every run:
+//! no cube file format for stored prefix sums exists yet. Frame sequences are numbered with
+//! the global frame index, so the parts of a split render land side by side.
 
 use anyhow::{anyhow, bail, Context};
 use clap::{ArgGroup, Args};
@@ -25,7 +36,7 @@ use std::time::Instant;
 /// Laser wavelength used when neither `--laser-nm` nor the cube says, nm.
 const DEFAULT_LASER_NM: f64 = 670.0;
 /// Cube attributes (provenance notes) that may hold the laser wavelength in nm.
-const LASER_NM_NOTES: [&str; 2] = ["laser_nm", "laser_wavelength_nm"];
+const LASER_NM_NOTES: [&str; 3] = ["laser_nm", "laser_wavelength_nm", "laser.wavelength_nm"];
 
 #[derive(Args, Debug)]
 #[command(group(
@@ -206,8 +217,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     .map_err(|e| anyhow!("--view {}: {e}", args.view))?;
     let format = output_format(&args)?;
     if let Some(n) = args.frame_count {
-        if n == 0 {
-            bail!("--frame-count 0: need at least one frame");
+        if n == 0 || n > MAX_FRAMES {
+            bail!("--frame-count {n}: need between 1 and {MAX_FRAMES} frames");
         }
     }
     if let Some(d) = args.dtau_ps {
@@ -396,7 +407,7 @@ mod tests {
     fn size_and_frame_ranges_parse_and_errors_name_the_flag() {
         assert_eq!(parse_size("640x480").unwrap(), (640, 480));
         assert_eq!(parse_size("64X48").unwrap(), (64, 48));
-        for bad in ["640", "0x10", "ax4", "10x-2"] {
+        for bad in ["640", "0x10", "ax4", "10x-2", "100000x10"] {
             assert!(parse_size(bad).unwrap_err().to_string().contains("--size"));
         }
         assert_eq!(parse_frames("3..9").unwrap(), 3..9);

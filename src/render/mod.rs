@@ -214,7 +214,7 @@ impl Effects {
         rotation: false,
     };
 
-    /// The names, in the order of [`Effects::flags`].
+    /// The effect names as [`Effects::parse`] reads them.
     pub const NAMES: [&'static str; 6] = [
         "unwarp",
         "aberration",
