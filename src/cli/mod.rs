@@ -9,6 +9,7 @@ pub mod info;
 pub mod pyramid;
 pub mod unwarp;
 pub mod simulate;
+pub mod render;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,6 +40,9 @@ pub enum Command {
     /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
     /// geometry, true calibration, fiducials and ground-truth cubes.
     Simulate(simulate::SimulateArgs),
+    /// Render a relativistic novel-view video of a world-time cube: a camera moving at
+    /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
+    Render(Box<render::RenderArgs>),
 }
 
 /// Run one parsed command line.
@@ -49,6 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Unwarp(args) => unwarp::run(args),
         Command::Pyramid(args) => pyramid::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Render(args) => render::run(*args),
     }
 }
 
