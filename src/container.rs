@@ -802,8 +802,7 @@ impl CubeWriter {
     pub fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
         let s = &mut self.sink;
         let cx = chunk_rows(s.nt * 4, s.nx);
-        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx)
-        {
+        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx) {
             return Err(invalid(
                 &s.path,
                 format!(

@@ -5,6 +5,7 @@
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
 pub mod info;
+pub mod ingest;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -24,12 +25,16 @@ pub struct Cli {
 pub enum Command {
     /// Describe a file: a cube's shape, time axis, time frame, value range and groups.
     Info(info::InfoArgs),
+    /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
+    /// the camera's flaws.
+    Ingest(ingest::IngestArgs),
 }
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(args) => info::run(args),
+        Command::Ingest(args) => ingest::run(args),
     }
 }
 
