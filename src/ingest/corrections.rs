@@ -208,8 +208,14 @@ pub fn resample_sweep(
 // ---------------------------------------------------------------------------------------------
 // Jitter.
 
-/// Fraction of the row's strongest pulse below which a pixel takes no part in the front.
+/// Fraction of the row's reference pulse height below which a pixel takes no part in the front.
 const FRONT_MIN_RELATIVE_AMPLITUDE: f32 = 0.2;
+
+/// Quantile of the pixels' pulse heights that serves as the row's reference height: a high
+/// quantile rather than the maximum, so that a few very bright pixels (a specular patch, a hot
+/// pixel) do not exclude the rest of the row, which would make the front depend on the scene
+/// content of that row alone.
+const FRONT_REFERENCE_QUANTILE: f64 = 0.9;
 
 fn median_f32(values: &mut [f32]) -> f32 {
     let mid = values.len() / 2;
@@ -276,9 +282,10 @@ fn leading_edge_from(
 
 /// A robust first-arrival time of a scanline, in ps: the interquartile mean (mean of the middle
 /// half) of the pixels' leading-edge times ([`leading_edge_ps`]), over the pixels whose pulse
-/// height is at least a fifth of the row's strongest. Robust to dead or hot pixels like the
-/// median, and smoother from row to row; a shift of the whole row by `s` moves it by exactly
-/// `s`. `None` when no pixel has a usable pulse.
+/// height is at least a fifth of the row's reference height (the 90th percentile of the pixels'
+/// heights, so that a few very bright pixels do not exclude the others). Robust to dead or hot
+/// pixels like the median, and smoother from row to row; a shift of the whole row by `s` moves
+/// it by exactly `s`. `None` when no pixel has a usable pulse.
 pub fn arrival_front(row: &[f32], nx: usize, axis: &TimeAxis) -> Option<f64> {
     let nt = axis.nt;
     debug_assert_eq!(row.len(), nx * nt);
@@ -290,7 +297,12 @@ pub fn arrival_front(row: &[f32], nx: usize, axis: &TimeAxis) -> Option<f64> {
         .chunks_exact(nt)
         .map(|p| pulse_stats(p, &mut scratch))
         .collect();
-    let strongest = stats.iter().map(|s| s.1).fold(0.0f32, f32::max);
+    let mut heights: Vec<f32> = stats.iter().map(|s| s.1).filter(|h| !h.is_nan()).collect();
+    if heights.is_empty() {
+        return None;
+    }
+    let k = ((heights.len() - 1) as f64 * FRONT_REFERENCE_QUANTILE).round() as usize;
+    let (_, &mut strongest, _) = heights.select_nth_unstable_by(k, f32::total_cmp);
     if strongest.is_nan() || strongest <= 0.0 {
         return None;
     }
