@@ -9,7 +9,9 @@ use clap::Args;
 use femto::container::Provenance;
 use femto::ingest::assemble::{self, rms, Pass};
 use femto::ingest::corrections::RefRegion;
-use femto::ingest::plan::{DarkInput, IngestOptions, IngestPlan, InputSpec, SaturationInput};
+use femto::ingest::plan::{
+    DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
+};
 use femto::ingest::IngestError;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -50,10 +52,11 @@ pub struct IngestArgs {
     /// Estimate and remove per-scanline trigger jitter.
     #[arg(long)]
     pub jitter: bool,
-    /// Laser power normalisation from a reference region, x0:x1,t0:t1 (recorded bins,
-    /// half-open).
-    #[arg(long, value_parser = parse_region)]
-    pub power_ref: Option<RefRegion>,
+    /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
+    /// that sees a fixed part of the scene in every scanline, or 'auto' (each scanline's
+    /// total against its neighbours').
+    #[arg(long, value_parser = parse_power_ref)]
+    pub power_ref: Option<PowerRef>,
     /// Mask saturated pixels: a level (value units) or 'auto' (the sample type's maximum).
     #[arg(long)]
     pub saturation: Option<String>,
@@ -79,6 +82,14 @@ fn parse_range(s: &str, what: &str) -> Result<(usize, usize), String> {
             .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
     };
     Ok((parse(a)?, parse(b)?))
+}
+
+/// `auto` or `x0:x1,t0:t1`.
+fn parse_power_ref(s: &str) -> Result<PowerRef, String> {
+    if s == "auto" {
+        return Ok(PowerRef::Auto);
+    }
+    parse_region(s).map(PowerRef::Region)
 }
 
 /// `x0:x1,t0:t1`.

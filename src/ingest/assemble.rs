@@ -11,8 +11,9 @@
 //! 2. dark subtraction (a level or a frame);
 //! 3. flat-field division (a pixel whose gain is not positive is zeroed and masked);
 //! 4. laser power normalisation: the row's reference region (recorded bins) is integrated,
-//!    and the row multiplied by `median / own` over all rows (a row whose reference holds no
-//!    positive signal cannot be normalised and is masked);
+//!    and the row multiplied by `median / own` over all rows; or, with no reference in view
+//!    (`auto`), the row's total against a smooth fit through its neighbours' totals (a row
+//!    whose reference holds no positive signal cannot be normalised and is masked);
 //! 5. sweep-linearity resampling from the recorded bin edges onto the uniform axis,
 //!    conserving each pixel's integral;
 //! 6. jitter removal: each row's arrival front (after 1-5) is compared with a smooth fit
@@ -48,9 +49,12 @@ use std::sync::{mpsc, Condvar, Mutex};
 
 use super::corrections::{
     apply_gain, arrival_front, divide_flat, estimate_jitter_with, power_factor, power_gains,
-    remove_shift, resample_sweep, saturation_mask, subtract_dark, Dark,
+    power_gains_smooth, remove_shift, resample_sweep, row_total, saturation_mask, subtract_dark,
+    Dark,
 };
-use super::plan::{stack_image, to_row_layout, DarkCorrection, IngestPlan, RowSource};
+use super::plan::{
+    stack_image, to_row_layout, DarkCorrection, IngestPlan, PowerCorrection, RowSource,
+};
 use super::IngestError;
 use crate::container::{CubeWriter, Provenance};
 use crate::cube::TimeFrame;
@@ -152,8 +156,12 @@ pub fn ingest(
             progress(Pass::Scan, y + 1);
             Ok(())
         })?;
-        if plan.power_ref.is_some() {
-            globals.gains = Some(power_gains(&factors));
+        match &plan.power {
+            Some(PowerCorrection::Region(_)) => globals.gains = Some(power_gains(&factors)),
+            Some(PowerCorrection::Smooth(fit)) => {
+                globals.gains = Some(power_gains_smooth(&factors, fit))
+            }
+            None => {}
         }
         if let Some(fit) = &plan.jitter {
             globals.shifts_ps = Some(estimate_jitter_with(&fronts, fit));
@@ -261,7 +269,7 @@ pub fn decode_only(
 fn writes_mask(plan: &IngestPlan) -> bool {
     plan.saturation.is_some()
         || plan.flat.is_some()
-        || plan.power_ref.is_some()
+        || plan.power.is_some()
         || !plan.missing.is_empty()
 }
 
@@ -317,11 +325,16 @@ fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String)> {
     if let Some(f) = &plan.flat {
         n.push(("ingest.flat".into(), f.path.display().to_string()));
     }
-    if let Some(r) = &plan.power_ref {
-        n.push((
+    match &plan.power {
+        Some(PowerCorrection::Region(r)) => n.push((
             "ingest.power_ref".into(),
             format!("x {}..{}, bins {}..{}", r.x0, r.x1, r.t0_bin, r.t1_bin),
-        ));
+        )),
+        Some(PowerCorrection::Smooth(_)) => n.push((
+            "ingest.power_ref".into(),
+            "auto (row totals against a smooth fit through the neighbouring rows)".into(),
+        )),
+        None => {}
     }
     if let Some(g) = &globals.gains {
         n.push(("ingest.power_gains".into(), json(serde_json::json!(g))));
@@ -462,7 +475,10 @@ fn prepare(plan: &IngestPlan, y: usize, raw: RawRow) -> Prepared {
     if let Some(flat) = &plan.flat {
         divide_flat(&mut row, flat.row(y, nx), &mut mask);
     }
-    let power_factor = plan.power_ref.map(|r| power_factor(&row, nx, nt, r));
+    let power_factor = plan.power.map(|p| match p {
+        PowerCorrection::Region(r) => power_factor(&row, nx, nt, r),
+        PowerCorrection::Smooth(_) => row_total(&row),
+    });
     if let Some(sweep) = &plan.sweep {
         let mut out = vec![0.0f32; nx * plan.out_axis.nt];
         resample_sweep(&row, nx, &sweep.edges_ps, &plan.out_axis, &mut out);

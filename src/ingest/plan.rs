@@ -29,8 +29,10 @@
 //! that is the table a test may feed to check the correction against the truth.
 //!
 //! Values: the samples read from the files times a value scale, which defaults to the
-//! manifest's `png_value_per_count` for PNG scanlines and to 1 otherwise; the dark level,
-//! the dark frame and the saturation level are in these scaled units.
+//! manifest's `png_value_per_count` for scanlines that store integer counts (16-bit PNG,
+//! HPD-TA `.img`) and to 1 otherwise; the dark level and the saturation level are in these
+//! scaled units. A dark frame with integer samples is scaled like the scanlines; one with
+//! float samples (EXR, as `femto simulate` writes `dark.exr`) is taken as signal values.
 
 use std::path::{Path, PathBuf};
 
@@ -190,8 +192,29 @@ impl InputSpec {
 pub enum DarkInput {
     /// A constant level (scaled value units).
     Level(f64),
-    /// A dark frame: a streak image of the scanlines' size (read like them).
+    /// A dark frame: a streak image of the scanlines' size (read like them; integer samples
+    /// are scaled by the value scale, float samples taken as they are).
     File(PathBuf),
+}
+
+/// The laser power normalisation asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PowerRef {
+    /// A block of every scanline that sees a fixed part of the scene (the laser spot, a
+    /// reference fibre): rows are scaled to the median of its integral.
+    Region(RefRegion),
+    /// No reference in view: each row's total signal against a smooth fit through its
+    /// neighbours' ([`super::corrections::power_gains_smooth`]).
+    Auto,
+}
+
+/// Laser power normalisation, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PowerCorrection {
+    /// Reference region (recorded bins), rows scaled to the median of its integral.
+    Region(RefRegion),
+    /// Row totals against a smooth fit through the neighbouring rows.
+    Smooth(JitterFit),
 }
 
 /// The saturation level asked for.
@@ -220,8 +243,8 @@ pub struct IngestOptions {
     pub sweep_table: Option<PathBuf>,
     /// Estimate and remove per-scanline trigger jitter.
     pub jitter: bool,
-    /// Laser power normalisation from this reference region (recorded bins).
-    pub power_ref: Option<RefRegion>,
+    /// Laser power normalisation (a reference region in recorded bins, or automatic).
+    pub power_ref: Option<PowerRef>,
     /// Mask saturated pixels.
     pub saturation: Option<SaturationInput>,
     /// Fill missing scanlines by interpolation (and mask them) instead of refusing.
@@ -323,7 +346,7 @@ pub struct IngestPlan {
     pub axis_source: String,
     pub dark: Option<DarkCorrection>,
     pub flat: Option<FlatCorrection>,
-    pub power_ref: Option<RefRegion>,
+    pub power: Option<PowerCorrection>,
     pub sweep: Option<SweepCorrection>,
     pub jitter: Option<JitterFit>,
     pub saturation: Option<SaturationCorrection>,
@@ -390,7 +413,7 @@ impl IngestPlan {
         let (nx, nt) = (probe.nx, probe.nt);
         let value_scale = match options.value_scale {
             Some(v) => v,
-            None => listed.default_value_scale(&reference),
+            None => listed.default_value_scale(probe.pixel_type),
         };
 
         // Time axis: manifest, else .img table, else explicit values.
@@ -520,8 +543,13 @@ impl IngestPlan {
                         reference: reference.clone(),
                     });
                 }
+                // Counts are scaled like the scanlines; float samples are signal already.
+                let scale = match img.pixel_type.max_stored_value() {
+                    Some(_) => value_scale as f32,
+                    None => 1.0,
+                };
                 let mut values_xt = vec![0.0f32; nx * nt];
-                to_row_layout(&img.data, nx, nt, value_scale as f32, &mut values_xt).map_err(
+                to_row_layout(&img.data, nx, nt, scale, &mut values_xt).map_err(
                     |(x, t, value)| IngestError::NonFinite {
                         path: path.clone(),
                         x,
@@ -560,14 +588,19 @@ impl IngestPlan {
             }
         };
 
-        if let Some(region) = &options.power_ref {
-            region
-                .check(nx, nt)
-                .map_err(|source| IngestError::Correction {
-                    what: "power reference region".into(),
-                    source,
-                })?;
-        }
+        let power = match options.power_ref {
+            None => None,
+            Some(PowerRef::Auto) => Some(PowerCorrection::Smooth(JitterFit::default())),
+            Some(PowerRef::Region(region)) => {
+                region
+                    .check(nx, nt)
+                    .map_err(|source| IngestError::Correction {
+                        what: "power reference region".into(),
+                        source,
+                    })?;
+                Some(PowerCorrection::Region(region))
+            }
+        };
 
         let saturation = match options.saturation {
             None => None,
@@ -630,7 +663,7 @@ impl IngestPlan {
             axis_source,
             dark,
             flat,
-            power_ref: options.power_ref,
+            power,
             sweep,
             jitter: options.jitter.then(JitterFit::default),
             saturation,
@@ -642,7 +675,7 @@ impl IngestPlan {
     /// written (laser power gains are relative to the median row; jitter is estimated
     /// against the neighbouring rows).
     pub fn needs_two_passes(&self) -> bool {
-        self.power_ref.is_some() || self.jitter.is_some()
+        self.power.is_some() || self.jitter.is_some()
     }
 
     /// The corrections this plan applies, in the order they are applied, with parameters.
@@ -672,11 +705,15 @@ impl IngestPlan {
                 f.path.display()
             ));
         }
-        if let Some(r) = &self.power_ref {
-            out.push(format!(
+        match &self.power {
+            Some(PowerCorrection::Region(r)) => out.push(format!(
                 "laser power normalisation (reference x {}..{}, bins {}..{})",
                 r.x0, r.x1, r.t0_bin, r.t1_bin
-            ));
+            )),
+            Some(PowerCorrection::Smooth(_)) => out.push(
+                "laser power normalisation (automatic: row totals against their neighbours)".into(),
+            ),
+            None => {}
         }
         if let Some(s) = &self.sweep {
             out.push(format!("sweep linearity resampling ({})", s.source));
@@ -819,13 +856,13 @@ struct Listed {
 }
 
 impl Listed {
-    /// The manifest's value per count for PNG scanlines, else 1.
-    fn default_value_scale(&self, reference: &Path) -> f64 {
-        let is_png = reference
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    /// The manifest's value per count for scanlines that store integer counts (16-bit PNG,
+    /// HPD-TA `.img`), else 1.
+    fn default_value_scale(&self, pixel_type: PixelType) -> f64 {
         match &self.manifest {
-            Some((m, _)) if is_png => m.capture.png_value_per_count.unwrap_or(1.0),
+            Some((m, _)) if pixel_type.max_stored_value().is_some() => {
+                m.capture.png_value_per_count.unwrap_or(1.0)
+            }
             _ => 1.0,
         }
     }
