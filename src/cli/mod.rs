@@ -10,6 +10,7 @@ pub mod pyramid;
 pub mod unwarp;
 pub mod simulate;
 pub mod render;
+pub mod ingest;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -43,6 +44,9 @@ pub enum Command {
     /// Render a relativistic novel-view video of a world-time cube: a camera moving at
     /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
     Render(Box<render::RenderArgs>),
+    /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
+    /// the camera's flaws.
+    Ingest(ingest::IngestArgs),
 }
 
 /// Run one parsed command line.
@@ -54,6 +58,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Pyramid(args) => pyramid::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Render(args) => render::run(*args),
+        Command::Ingest(args) => ingest::run(args),
     }
 }
 
