@@ -27,14 +27,14 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
     /// geometry, true calibration, fiducials and ground-truth cubes.
-    Simulate(simulate::SimulateArgs),
+    Simulate(Box<simulate::SimulateArgs>),
 }
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(args) => info::run(args),
-        Command::Simulate(args) => simulate::run(args),
+        Command::Simulate(args) => simulate::run(*args),
     }
 }
 
