@@ -323,14 +323,17 @@ fn markers(cal: &Calibration, step_m: f64) -> Vec<(String, Point3<f64>)> {
     pts
 }
 
-/// Correspondences `(name, pixel, point)` of `markers` seen by `cal` with seeded Gaussian
-/// noise of `noise_px` per axis.
+/// Correspondences `(name, pixel, point)`.
+type Observations = Vec<(String, (f64, f64), Point3<f64>)>;
+
+/// Correspondences of `markers` seen by `cal` with seeded Gaussian noise of `noise_px` per
+/// axis.
 fn observe(
     cal: &Calibration,
     markers: &[(String, Point3<f64>)],
     noise_px: f64,
     seed: u64,
-) -> Vec<(String, (f64, f64), Point3<f64>)> {
+) -> Observations {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
     let noise = Normal::new(0.0, noise_px).unwrap();
     markers
@@ -951,7 +954,7 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
     let known = dir.path().join("known.toml");
     write_known_intrinsics(&known, &cal);
     let laser = "-0.4,0,0.3";
-    let cases: Vec<(&str, Vec<(String, (f64, f64), Point3<f64>)>, bool, &str)> = vec![
+    let cases: Vec<(&str, Observations, bool, &str)> = vec![
         ("five", all[..5].to_vec(), false, "at least 6"),
         ("three_known", all[..3].to_vec(), true, "at least 4"),
         ("coplanar", floor, false, "lie on one plane"),
