@@ -20,7 +20,10 @@
 
 use crate::atomic::write_atomically;
 use crate::cube::{self, Cube, TimeAxis, TimeFrame};
-use rust_hdf5::{DatatypeMessage, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode};
+use rust_hdf5::format::messages::filter::apply_filters;
+use rust_hdf5::{
+    DatatypeMessage, FilterPipeline, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode,
+};
 use serde_json::{json, Value};
 use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom};
@@ -800,6 +803,46 @@ impl CubeWriter {
             .write_whole(&self.sink.file, &self.dest, name, data)
     }
 
+
+    /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
+    pub fn row_compressor(&self) -> RowCompressor {
+        RowCompressor {
+            nx: self.sink.nx,
+            nt: self.sink.nt,
+            cx: chunk_rows(self.sink.nt * 4, self.sink.nx),
+            pipeline: FilterPipeline::shuffle_deflate(4, DEFLATE_LEVEL),
+        }
+    }
+
+    /// Write row `y` from chunks compressed by this writer's [`RowCompressor`]: the bytes are
+    /// stored as they are, so the writer's thread does no compression.
+    pub fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
+        let s = &mut self.sink;
+        let cx = chunk_rows(s.nt * 4, s.nx);
+        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx) {
+            return Err(invalid(
+                &s.path,
+                format!(
+                    "compressed row {y} ({} x {} values in {} chunks) does not fit the cube's \
+                     {} rows of {} x {}",
+                    row.nx,
+                    row.nt,
+                    row.chunks.len(),
+                    s.ny,
+                    s.nx,
+                    s.nt
+                ),
+            ));
+        }
+        for (c, bytes) in row.chunks.iter().enumerate() {
+            s.cube
+                .write_chunk_raw_at(&[y, c, 0], bytes, 0)
+                .map_err(h5(&s.path))?;
+        }
+        s.rows_written[y] = true;
+        Ok(())
+    }
+
     /// Check every row (of the cube and of every group) was written, close the file and
     /// rename it onto the destination.
     pub fn finish(self) -> Result<()> {
@@ -812,6 +855,70 @@ impl CubeWriter {
         groups.close(&dest)?;
         sink.close()?;
         persist(tmp, &dest)
+    }
+}
+
+/// Compresses one row of a cube into the chunks of its `/cube` dataset (shuffle + deflate, the
+/// chunk shape of the schema), without touching the file.
+///
+/// HDF5 compression is the slow part of writing a cube and the writer runs it on one thread;
+/// a `RowCompressor` (from [`CubeWriter::row_compressor`]) is `Send + Sync`, so streaming
+/// commands compress rows on their worker threads and hand the bytes to
+/// [`CubeWriter::write_compressed_row`], which only appends them to the file.
+#[derive(Clone, Debug)]
+pub struct RowCompressor {
+    nx: usize,
+    nt: usize,
+    cx: usize,
+    pipeline: FilterPipeline,
+}
+
+/// One row of a cube as compressed chunks, from [`RowCompressor::compress`].
+#[derive(Clone, Debug)]
+pub struct CompressedRow {
+    nx: usize,
+    nt: usize,
+    chunks: Vec<Vec<u8>>,
+}
+
+impl CompressedRow {
+    /// Compressed size, bytes.
+    pub fn stored_bytes(&self) -> usize {
+        self.chunks.iter().map(Vec::len).sum()
+    }
+}
+
+impl RowCompressor {
+    /// Values in one row (`nx * nt`, layout `[x][t]`).
+    pub fn row_len(&self) -> usize {
+        self.nx * self.nt
+    }
+
+    /// Compress one row (`nx * nt` values, layout `[x][t]`). The last chunk along x is padded
+    /// with zeros when `nx` is not a multiple of the chunk width, as HDF5 stores edge chunks.
+    ///
+    /// # Panics
+    /// If `row.len() != self.row_len()` (a programming error, not bad input).
+    pub fn compress(&self, row: &[f32]) -> CompressedRow {
+        assert_eq!(row.len(), self.row_len(), "RowCompressor: row length");
+        let chunk_values = self.cx * self.nt;
+        let mut raw = vec![0u8; chunk_values * 4];
+        let chunks = row
+            .chunks(chunk_values)
+            .map(|values| {
+                raw.fill(0);
+                for (dst, v) in raw.chunks_exact_mut(4).zip(values) {
+                    dst.copy_from_slice(&v.to_le_bytes());
+                }
+                apply_filters(&self.pipeline, &raw)
+                    .expect("shuffle and deflate cannot fail on a whole chunk")
+            })
+            .collect();
+        CompressedRow {
+            nx: self.nx,
+            nt: self.nt,
+            chunks,
+        }
     }
 }
 
@@ -2113,6 +2220,54 @@ mod tests {
             match (v0, v1) {
                 (AttrValue::F64(a), AttrValue::F64(b)) if a.is_nan() => assert!(b.is_nan()),
                 _ => assert_eq!(v0, v1),
+            }
+        }
+    }
+
+    #[test]
+    fn compressed_rows_read_back_like_plain_rows() {
+        // nx = 70 with nt = 1024 gives 64-pixel chunks: one full chunk and a padded edge chunk.
+        let (nx, ny, nt) = (70usize, 3usize, 1024usize);
+        let axis = TimeAxis {
+            t0_ps: -3.0,
+            dt_ps: 0.5,
+            nt,
+        };
+        let value = |y: usize, i: usize| ((y * 7919 + i * 104_729) % 10_007) as f32 * 0.25 - 9.0;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.h5");
+        let mut w = CubeWriter::create(
+            &path,
+            nx,
+            ny,
+            axis,
+            TimeFrame::Camera,
+            DEFAULT_UNITS,
+            &Provenance::new("test"),
+        )
+        .unwrap();
+        let compressor = w.row_compressor();
+        assert_eq!(compressor.row_len(), nx * nt);
+        for y in [2, 0] {
+            let row: Vec<f32> = (0..nx * nt).map(|i| value(y, i)).collect();
+            let c = compressor.compress(&row);
+            assert!(c.stored_bytes() > 0);
+            w.write_compressed_row(y, &c).unwrap();
+        }
+        let plain: Vec<f32> = (0..nx * nt).map(|i| value(1, i)).collect();
+        w.write_rows(1, &plain).unwrap();
+        let bad = RowCompressor {
+            nx: nx - 1,
+            ..compressor.clone()
+        };
+        assert!(w
+            .write_compressed_row(0, &bad.compress(&plain[..(nx - 1) * nt]))
+            .is_err());
+        w.finish().unwrap();
+        let back = read_cube(&path).unwrap();
+        for y in 0..ny {
+            for i in 0..nx * nt {
+                assert_eq!(back.data[y * nx * nt + i], value(y, i), "y {y} i {i}");
             }
         }
     }

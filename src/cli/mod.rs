@@ -8,6 +8,9 @@ pub mod calibrate;
 pub mod info;
 pub mod pyramid;
 pub mod unwarp;
+pub mod simulate;
+pub mod render;
+pub mod ingest;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -35,6 +38,15 @@ pub enum Command {
     Unwarp(unwarp::UnwarpArgs),
     /// Store a cube's temporal prefix sums and mip levels (group `pyramid` or a side file).
     Pyramid(pyramid::PyramidArgs),
+    /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
+    /// geometry, true calibration, fiducials and ground-truth cubes.
+    Simulate(simulate::SimulateArgs),
+    /// Render a relativistic novel-view video of a world-time cube: a camera moving at
+    /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
+    Render(Box<render::RenderArgs>),
+    /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
+    /// the camera's flaws.
+    Ingest(ingest::IngestArgs),
 }
 
 /// Run one parsed command line.
@@ -44,6 +56,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Unwarp(args) => unwarp::run(args),
         Command::Pyramid(args) => pyramid::run(args),
+        Command::Simulate(args) => simulate::run(args),
+        Command::Render(args) => render::run(*args),
+        Command::Ingest(args) => ingest::run(args),
     }
 }
 
