@@ -39,7 +39,7 @@ pub struct SimulateArgs {
     /// Camera paths per pixel.
     #[arg(
         long,
-        default_value_t = 16,
+        default_value_t = 64,
         allow_negative_numbers = true,
         value_name = "N"
     )]
@@ -363,7 +363,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     if let Some(bar) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
         bar.finish_and_clear();
     }
-    let summary = summary?;
+    let summary = summary.map_err(|e| match e {
+        SimulateError::OutputExists { .. } => {
+            anyhow::anyhow!("--out {e} (--force replaces it)")
+        }
+        other => other.into(),
+    })?;
     let scanline_files = summary
         .files
         .iter()

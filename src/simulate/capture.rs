@@ -98,7 +98,7 @@ pub struct SimulateOptions {
 impl Default for SimulateOptions {
     fn default() -> Self {
         SimulateOptions {
-            spp: 16,
+            spp: 64,
             seed: 0,
             max_bounces: 4,
             formats: vec![StreakFormat::Png16],
@@ -395,7 +395,7 @@ fn check_destination(out_dir: &Path, force: bool) -> Result<(), SimulateError> {
                 .next()
                 .is_some();
             if non_empty && !force {
-                exists("folder exists and is not empty (use force to replace it)")
+                exists("folder exists and is not empty")
             } else {
                 Ok(())
             }
