@@ -866,7 +866,6 @@ impl CubeWriter {
             .write_whole(&self.sink.file, &self.dest, name, data)
     }
 
-
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
     pub fn row_compressor(&self) -> RowCompressor {
         RowCompressor {
@@ -2089,7 +2088,10 @@ fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
 /// What a [`GroupUpdate`] writes into.
 enum UpdateTarget {
     /// A copy of a cube file; its groups not rewritten are copied at the end.
-    Cube { sink: CubeSink, reader: CubeReader },
+    Cube {
+        sink: Box<CubeSink>,
+        reader: Box<CubeReader>,
+    },
     /// A file holding groups only.
     SideFile { file: H5File },
 }
@@ -2138,7 +2140,10 @@ impl GroupUpdate {
         }
         Ok(GroupUpdate {
             groups: GroupSinks::default(),
-            target: UpdateTarget::Cube { sink, reader },
+            target: UpdateTarget::Cube {
+                sink: Box::new(sink),
+                reader: Box::new(reader),
+            },
             tmp,
             dest: cube_path.to_path_buf(),
         })
