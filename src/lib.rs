@@ -18,5 +18,7 @@ pub mod ingest;
 pub mod manifest;
 pub mod relativity;
 pub mod resample;
+pub mod scene;
+pub mod tracer;
 pub mod units;
 pub mod video;

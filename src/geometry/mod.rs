@@ -4,6 +4,7 @@
 //! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading in `load`.
 
 pub mod bvh;
+pub mod primitives;
 
 use nalgebra::{Point3, Vector3};
 
