@@ -106,7 +106,7 @@ fn main() {
                 .zip(src.par_chunks(1 << 16))
                 .for_each(|(d, s)| d.copy_from_slice(s))
         });
-        report(&format!("copy ({threads} threads)"), t, bytes);
+        report(&format!("copy (rayon, {threads} thr)"), t, bytes);
         assert_eq!(dst[dst.len() / 2], src[src.len() / 2]);
     }
 

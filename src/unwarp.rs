@@ -16,8 +16,10 @@
 //!
 //! Piecewise-constant reconstruction followed by box integration returns, for a shift of
 //! `k + f` bins, `(1 - f) c[j - k] + f c[j - k - 1]`: the linear interpolation, between the two
-//! neighbouring whole-bin shifts, of the exactly binned shifted signal. Equivalently, the true
-//! shifted signal convolved with a box of `f` bins before binning. For a signal `s(t)` the
+//! neighbouring whole-bin shifts, of the exactly binned shifted signal. Equivalently, the exact
+//! shifted bin values blurred by a two-point kernel one bin wide (weight `1 - f` at `-f` bins,
+//! `f` at `1 - f` bins): its mean offset is zero, so pulses are widened, not moved, and sums
+//! are kept. For a signal `s(t)` the
 //! error per bin is at most `dt^3 / 8 * max|s''|` (interpolation error of the bin-integral
 //! function `g(u) = integral of s over [u, u + dt]`, whose second derivative is at most
 //! `dt * max|s''|`). For a Gaussian pulse of standard deviation `sigma` that is
