@@ -18,6 +18,7 @@ pub mod ingest;
 pub mod manifest;
 pub mod pyramid;
 pub mod relativity;
+pub mod render;
 pub mod resample;
 pub mod scene;
 pub mod tracer;

@@ -5,6 +5,7 @@
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
 pub mod info;
+pub mod render;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -24,12 +25,16 @@ pub struct Cli {
 pub enum Command {
     /// Describe a file: a cube's shape, time axis, time frame, value range and groups.
     Info(info::InfoArgs),
+    /// Render a relativistic novel-view video of a world-time cube: a camera moving at
+    /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
+    Render(Box<render::RenderArgs>),
 }
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(args) => info::run(args),
+        Command::Render(args) => render::run(*args),
     }
 }
 
