@@ -21,6 +21,8 @@ pub mod relativity;
 pub mod render;
 pub mod resample;
 pub mod scene;
+pub mod simulate;
+pub mod store;
 pub mod tracer;
 pub mod units;
 pub mod unwarp;

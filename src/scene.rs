@@ -867,7 +867,7 @@ fn load_mesh_file(path: &Path) -> Result<TriangleMesh, String> {
     if !path.is_file() {
         return Err("not found".into());
     }
-    Err("mesh files need geometry::load (not available in this build)".into())
+    crate::geometry::load::load_mesh(path).map_err(|e| e.to_string())
 }
 
 /// The mesh with vertices at bit-identical positions merged (files often repeat a vertex per

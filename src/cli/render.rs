@@ -1,6 +1,17 @@
 //! `femto render`: relativistic novel-view videos of a world-time cube (the library's
 //! [`femto::render`]). Reads the cube, the calibration and the mesh, builds the camera path
 //! (a TOML file or a shortcut), and writes PNG / EXR frame sequences, an MP4 or a GIF.
+//!
+//! ```text
+//! femto render --cube world.h5 --calibration capture.toml --mesh scene.glb \
+//!     --dolly 0.6 --size 640x480 --frame-count 120 --out dolly.mp4
+//! femto render ... --path path.toml --frames 0..60 --format exr --out frames/   # job 1
+//! femto render ... --path path.toml --frames 60..120 --format exr --out frames/ # job 2
+//! ```
+//!
+//! The world-time cube's prefix sums are built in memory (`Pyramid::build`) on every run:
+//! no cube file format for stored prefix sums exists yet. Frame sequences are numbered with
+//! the global frame index, so the parts of a split render land side by side.
 
 use anyhow::{anyhow, bail, Context};
 use clap::{ArgGroup, Args};
@@ -22,10 +33,13 @@ use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// Largest number of frames accepted.
+const MAX_FRAMES: usize = 1_000_000;
+
 /// Laser wavelength used when neither `--laser-nm` nor the cube says, nm.
 const DEFAULT_LASER_NM: f64 = 670.0;
 /// Cube attributes (provenance notes) that may hold the laser wavelength in nm.
-const LASER_NM_NOTES: [&str; 2] = ["laser_nm", "laser_wavelength_nm"];
+const LASER_NM_NOTES: [&str; 3] = ["laser_nm", "laser_wavelength_nm", "laser.wavelength_nm"];
 
 #[derive(Args, Debug)]
 #[command(group(
@@ -94,9 +108,10 @@ pub struct RenderArgs {
     /// Laser wavelength in nm (default: the cube's `laser_nm` attribute, else 670).
     #[arg(long, value_name = "NM")]
     pub laser_nm: Option<f64>,
-    /// Contour spacing of the isochrone view, ps.
-    #[arg(long, value_name = "PS", default_value_t = 50.0)]
-    pub contour_ps: f64,
+    /// Contour spacing of the isochrone view, ps (default: a round value giving 10 to 25
+    /// contours over the frame's range).
+    #[arg(long, value_name = "PS")]
+    pub contour_ps: Option<f64>,
     /// Output format: png or exr (frame sequences in the folder --out), mp4 or gif (the file
     /// --out). Default: from the extension of --out, else png.
     #[arg(long, value_name = "FORMAT")]
@@ -115,7 +130,10 @@ pub struct RenderArgs {
 /// `WxH` with both positive.
 fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
     let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-        Some((w.trim().parse::<usize>().ok()?, h.trim().parse::<usize>().ok()?))
+        Some((
+            w.trim().parse::<usize>().ok()?,
+            h.trim().parse::<usize>().ok()?,
+        ))
     });
     match parsed {
         Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
@@ -183,19 +201,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // Flags first: cheap to check, before any file is read.
     let size = args.size.as_deref().map(parse_size).transpose()?;
     let frames_flag = args.frames.as_deref().map(parse_frames).transpose()?;
-    let effects = Effects::parse(&args.effects).map_err(|e| anyhow!("--effects {}: {e}", args.effects))?;
+    let effects =
+        Effects::parse(&args.effects).map_err(|e| anyhow!("--effects {}: {e}", args.effects))?;
     let radiometry = match args.radiometry.as_str() {
         "consistent" => Radiometry::Consistent,
         "paper" => Radiometry::Paper,
         other => bail!("--radiometry {other}: expected consistent or paper"),
     };
     // Validated now; the isochrone range is resolved once the scene is loaded.
-    View::parse(&args.view, Isochrones { t_min_ps: 0.0, t_max_ps: 1.0, contour_ps: 1.0 })
-        .map_err(|e| anyhow!("--view {}: {e}", args.view))?;
+    View::parse(
+        &args.view,
+        Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        },
+    )
+    .map_err(|e| anyhow!("--view {}: {e}", args.view))?;
     let format = output_format(&args)?;
     if let Some(n) = args.frame_count {
-        if n == 0 {
-            bail!("--frame-count 0: need at least one frame");
+        if n == 0 || n > MAX_FRAMES {
+            bail!("--frame-count {n}: need between 1 and {MAX_FRAMES} frames");
         }
     }
     if let Some(d) = args.dtau_ps {
@@ -209,8 +235,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps {}: must be a positive number", args.fps);
     }
-    if !(args.contour_ps.is_finite() && args.contour_ps > 0.0) {
-        bail!("--contour-ps {}: must be a positive number", args.contour_ps);
+    if let Some(c) = args.contour_ps {
+        if !(c.is_finite() && c > 0.0) {
+            bail!("--contour-ps {c}: must be a positive number");
+        }
     }
     if let Some(t) = args.time_offset_ps {
         if !t.is_finite() {
@@ -311,13 +339,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     check_path_clear(&bvh, &path).with_context(|| path_flag.clone())?;
     let frames = frames_flag.unwrap_or(0..spec.frames);
-    check_frames(&path, &frames).map_err(|e| {
-        anyhow!(
-            "--frames {}..{}: {e}",
-            frames.start,
-            frames.end
-        )
-    })?;
+    check_frames(&path, &frames)
+        .map_err(|e| anyhow!("--frames {}..{}: {e}", frames.start, frames.end))?;
 
     // Settings.
     let mut settings = RenderSettings::for_path(&path);
@@ -326,10 +349,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     settings.time_offset_ps = args.time_offset_ps.unwrap_or(default_offset_ps);
     settings.view = View::parse(
         &args.view,
-        Isochrones { t_min_ps: 0.0, t_max_ps: 1.0, contour_ps: args.contour_ps },
+        Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        },
     )?;
     if let View::Isochrones(_) = settings.view {
-        settings.view = View::Isochrones(isochrone_range(&scene, &settings, &path, args.contour_ps));
+        settings.view =
+            View::Isochrones(isochrone_range(&scene, &settings, &path, args.contour_ps));
     }
     settings.exposure = args.exposure * auto_exposure(&scene, &settings.view);
 
@@ -382,12 +410,15 @@ mod tests {
     fn size_and_frame_ranges_parse_and_errors_name_the_flag() {
         assert_eq!(parse_size("640x480").unwrap(), (640, 480));
         assert_eq!(parse_size("64X48").unwrap(), (64, 48));
-        for bad in ["640", "0x10", "ax4", "10x-2"] {
+        for bad in ["640", "0x10", "ax4", "10x-2", "100000x10"] {
             assert!(parse_size(bad).unwrap_err().to_string().contains("--size"));
         }
         assert_eq!(parse_frames("3..9").unwrap(), 3..9);
         for bad in ["3..3", "9..3", "3-9", "..4"] {
-            assert!(parse_frames(bad).unwrap_err().to_string().contains("--frames"));
+            assert!(parse_frames(bad)
+                .unwrap_err()
+                .to_string()
+                .contains("--frames"));
         }
     }
 
@@ -411,7 +442,7 @@ mod tests {
             view: "transient".into(),
             exposure: 1.0,
             laser_nm: nm,
-            contour_ps: 50.0,
+            contour_ps: None,
             format: None,
             out: "o".into(),
             fps: 30.0,
@@ -420,7 +451,10 @@ mod tests {
         let notes = vec![("laser_nm".to_string(), "532".to_string())];
         assert_eq!(laser_wavelength(&args(Some(800.0)), &notes).unwrap(), 800.0);
         assert_eq!(laser_wavelength(&args(None), &notes).unwrap(), 532.0);
-        assert_eq!(laser_wavelength(&args(None), &[]).unwrap(), DEFAULT_LASER_NM);
+        assert_eq!(
+            laser_wavelength(&args(None), &[]).unwrap(),
+            DEFAULT_LASER_NM
+        );
         let bad = vec![("laser_nm".to_string(), "red".to_string())];
         assert!(laser_wavelength(&args(None), &bad)
             .unwrap_err()

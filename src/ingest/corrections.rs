@@ -17,7 +17,9 @@
 //!   neighbours (so a front that moves smoothly with `y`, which is scene geometry, is kept),
 //!   and [`remove_shift`] moves the row back ([`crate::resample::shift_into`]);
 //! - laser power drift between scanlines: [`power_factor`] integrates a reference region of
-//!   the row and [`power_gains`] normalises the rows to their median;
+//!   the row and [`power_gains`] normalises the rows to their median; without a reference in
+//!   view, [`power_gains_smooth`] compares each row's total ([`row_total`]) with a smooth fit
+//!   through its neighbours', as the jitter estimate does with fronts;
 //! - saturation: [`saturation_mask`] flags pixels whose raw profile reaches the saturation
 //!   level.
 //!
@@ -208,8 +210,14 @@ pub fn resample_sweep(
 // ---------------------------------------------------------------------------------------------
 // Jitter.
 
-/// Fraction of the row's strongest pulse below which a pixel takes no part in the front.
+/// Fraction of the row's reference pulse height below which a pixel takes no part in the front.
 const FRONT_MIN_RELATIVE_AMPLITUDE: f32 = 0.2;
+
+/// Quantile of the pixels' pulse heights that serves as the row's reference height: a high
+/// quantile rather than the maximum, so that a few very bright pixels (a specular patch, a hot
+/// pixel) do not exclude the rest of the row, which would make the front depend on the scene
+/// content of that row alone.
+const FRONT_REFERENCE_QUANTILE: f64 = 0.9;
 
 fn median_f32(values: &mut [f32]) -> f32 {
     let mid = values.len() / 2;
@@ -276,9 +284,10 @@ fn leading_edge_from(
 
 /// A robust first-arrival time of a scanline, in ps: the interquartile mean (mean of the middle
 /// half) of the pixels' leading-edge times ([`leading_edge_ps`]), over the pixels whose pulse
-/// height is at least a fifth of the row's strongest. Robust to dead or hot pixels like the
-/// median, and smoother from row to row; a shift of the whole row by `s` moves it by exactly
-/// `s`. `None` when no pixel has a usable pulse.
+/// height is at least a fifth of the row's reference height (the 90th percentile of the pixels'
+/// heights, so that a few very bright pixels do not exclude the others). Robust to dead or hot
+/// pixels like the median, and smoother from row to row; a shift of the whole row by `s` moves
+/// it by exactly `s`. `None` when no pixel has a usable pulse.
 pub fn arrival_front(row: &[f32], nx: usize, axis: &TimeAxis) -> Option<f64> {
     let nt = axis.nt;
     debug_assert_eq!(row.len(), nx * nt);
@@ -290,7 +299,12 @@ pub fn arrival_front(row: &[f32], nx: usize, axis: &TimeAxis) -> Option<f64> {
         .chunks_exact(nt)
         .map(|p| pulse_stats(p, &mut scratch))
         .collect();
-    let strongest = stats.iter().map(|s| s.1).fold(0.0f32, f32::max);
+    let mut heights: Vec<f32> = stats.iter().map(|s| s.1).filter(|h| !h.is_nan()).collect();
+    if heights.is_empty() {
+        return None;
+    }
+    let k = ((heights.len() - 1) as f64 * FRONT_REFERENCE_QUANTILE).round() as usize;
+    let (_, &mut strongest, _) = heights.select_nth_unstable_by(k, f32::total_cmp);
     if strongest.is_nan() || strongest <= 0.0 {
         return None;
     }
@@ -492,6 +506,33 @@ pub fn power_gains(factors: &[f64]) -> Vec<Option<f64>> {
     factors
         .iter()
         .map(|&f| usable(f).then(|| median / f))
+        .collect()
+}
+
+/// Total signal of a scanline (non-finite values skipped): the laser power measure of
+/// [`power_gains_smooth`], for captures with no fixed reference in view.
+pub fn row_total(row: &[f32]) -> f64 {
+    row.iter()
+        .filter(|v| v.is_finite())
+        .map(|&v| v as f64)
+        .sum()
+}
+
+/// Gain per row from the rows' total signals when the scene holds no fixed power reference:
+/// the scene's brightness changes smoothly from row to row while the laser power does not, so
+/// each row's `ln(total)` is compared with a polynomial fit through its neighbours', exactly
+/// as [`estimate_jitter_with`] does with arrival fronts, and the gain is `exp(-(ln total -
+/// fit))`. Like jitter, a fluctuation that is smooth over the fit window cannot be told from
+/// the scene and stays. `None` for rows whose total is not positive.
+pub fn power_gains_smooth(totals: &[f64], fit: &JitterFit) -> Vec<Option<f64>> {
+    let logs: Vec<Option<f64>> = totals
+        .iter()
+        .map(|&t| (t.is_finite() && t > 0.0).then(|| t.ln()))
+        .collect();
+    let deviations = estimate_jitter_with(&logs, fit);
+    logs.iter()
+        .zip(deviations)
+        .map(|(l, d)| l.map(|_| (-d).exp()))
         .collect()
 }
 
@@ -937,6 +978,31 @@ mod tests {
                 + gains[y].unwrap() * nt as f64;
             assert!((got / want - 1.0).abs() < 0.01, "row {y}: {got} vs {want}");
         }
+    }
+
+    #[test]
+    fn smooth_power_gains_recover_row_to_row_fluctuations() {
+        // Row totals: a scene brightness that curves with y, times a laser power that
+        // fluctuates from row to row by 5 % rms.
+        let ny = 96;
+        let mut rng = Pcg64::seed_from_u64(3);
+        let normal = Normal::new(0.0, 0.05).unwrap();
+        let powers: Vec<f64> = (0..ny).map(|_| 1.0 + normal.sample(&mut rng)).collect();
+        let scene = |y: usize| 1e4 * (1.0 + 0.5 * (y as f64 / 40.0).sin());
+        let mut totals: Vec<f64> = (0..ny).map(|y| scene(y) * powers[y]).collect();
+        totals[10] = 0.0; // a dark row
+        let gains = power_gains_smooth(&totals, &JitterFit::default());
+        assert_eq!(gains[10], None);
+        // After the gain each row should be at the scene's brightness, up to the smooth part
+        // of the fluctuation (a fit over 32 rows absorbs about a quarter of it).
+        let errors: Vec<f64> = (0..ny)
+            .filter(|&y| y != 10)
+            .map(|y| totals[y] * gains[y].unwrap() / scene(y) - 1.0)
+            .collect();
+        let err = rms(errors.iter().copied());
+        let before = rms((0..ny).map(|y| powers[y] - 1.0));
+        eprintln!("smooth power gains: {before:.4} rms before, {err:.4} after");
+        assert!(err < 0.35 * before, "{err} vs {before}");
     }
 
     #[test]

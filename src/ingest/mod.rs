@@ -1,7 +1,189 @@
 //! Ingest of real streak-camera captures: from one streak image per scanline to a calibrated
-//! x-y-t [`Cube`](crate::cube::Cube).
+//! x-y-t [`Cube`](crate::cube::Cube) in camera time.
 //!
-//! [`corrections`] holds the per-scanline correction kernels (dark, flat, sweep linearity,
-//! time jitter, laser power, saturation); the readers and the assembly of a cube come on top.
+//! A capture is `ny` streak images, one per scanline `y` (physics.md, "Transient path
+//! tracing": the seed's capture is 672 x by 512 time pixels per image, a mirror scanning the
+//! rows). Ingest works in two steps, "resolve, then compute":
+//!
+//! - [`plan`] resolves what the user named (a capture folder with its manifest, a glob or
+//!   printf pattern of files, a stack of images in one HDF5 dataset) into a typed
+//!   [`plan::IngestPlan`]: the file of each scanline, the image size, the time axis, and each
+//!   requested correction with its parameters (dark frame, flat field, sweep table, ...).
+//! - [`assemble`] streams the scanlines through the corrections of [`corrections`] into the
+//!   HDF5 cube (`docs/cube-format.md`), decoding rows in parallel with a bounded number in
+//!   flight, so peak memory does not grow with the number of scanlines.
+//!
+//! Errors of both steps are [`IngestError`]; each message names the file (and the row, the
+//! pixel or the size) that is wrong.
 
+pub mod assemble;
 pub mod corrections;
+pub mod plan;
+
+use std::path::PathBuf;
+
+use crate::container::ContainerError;
+use crate::formats::FormatError;
+use crate::manifest::ManifestError;
+use corrections::CorrectionError;
+
+/// Everything that can go wrong resolving or assembling a capture.
+#[derive(Debug, thiserror::Error)]
+pub enum IngestError {
+    /// The input is none of the accepted kinds (capture folder, manifest, glob, printf
+    /// pattern, HDF5 file with a dataset name).
+    #[error(
+        "{input}: not a capture folder (with manifest.toml), a manifest, a glob or printf \
+         pattern of scanline files, or an HDF5 file with a dataset name"
+    )]
+    NotAnInput { input: String },
+    /// A printf pattern was given without the number of scanlines.
+    #[error("{pattern}: a printf pattern needs the number of scanlines (rows)")]
+    PrintfNeedsRows { pattern: String },
+    /// A printf pattern that is not exactly one `%d`, `%Nd` or `%0Nd` conversion.
+    #[error("{pattern}: bad printf pattern: {message}")]
+    BadPrintf { pattern: String, message: String },
+    /// A glob pattern that does not parse.
+    #[error("{pattern}: bad glob pattern: {message}")]
+    BadGlob { pattern: String, message: String },
+    /// A glob pattern that matches no file.
+    #[error("{pattern}: no file matches")]
+    NoMatches { pattern: String },
+    /// Two files of a glob carry the same scanline number.
+    #[error("{}: scanline number {number} is also carried by {}", second.display(), first.display())]
+    DuplicateNumber {
+        number: u64,
+        first: PathBuf,
+        second: PathBuf,
+    },
+    /// A scanline has no file (a gap in the numbering, or a file of a printf pattern that is
+    /// not there).
+    #[error("scanline {row} is missing: {expected}")]
+    MissingScanline { row: usize, expected: String },
+    /// The manifest names a scanline file that is not there.
+    #[error("{}: scanline {row}: file {} is not there", manifest.display(), file.display())]
+    ManifestFileMissing {
+        manifest: PathBuf,
+        row: usize,
+        file: PathBuf,
+    },
+    /// Every scanline is missing: there is nothing to interpolate from.
+    #[error("{input}: every scanline is missing")]
+    AllMissing { input: String },
+    /// The manifest could not be read or is invalid.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// A streak image (scanline, dark frame, flat field) could not be read.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// The HDF5 input stack could not be read or the cube could not be written.
+    #[error(transparent)]
+    Container(#[from] ContainerError),
+    /// An HDF5 stack that is not `ny` streak images.
+    #[error("{}: dataset /{dataset} has shape {shape:?}: {message}", path.display())]
+    StackShape {
+        path: PathBuf,
+        dataset: String,
+        shape: Vec<usize>,
+        message: String,
+    },
+    /// A scanline (or dark frame, flat field) whose size differs from the capture's.
+    #[error(
+        "{}: {what} is {found_nx} x {found_nt} (x by t), but the capture's scanlines are \
+         {nx} x {nt} (as in {})",
+        path.display(), reference.display()
+    )]
+    SizeMismatch {
+        path: PathBuf,
+        what: String,
+        found_nx: usize,
+        found_nt: usize,
+        nx: usize,
+        nt: usize,
+        reference: PathBuf,
+    },
+    /// A flat field that is neither one row per scanline nor a single row.
+    #[error(
+        "{}: flat field is {width} x {height}, expected {nx} wide and {ny} (one row per \
+         scanline) or 1 high",
+        path.display()
+    )]
+    FlatSize {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+        nx: usize,
+        ny: usize,
+    },
+    /// A NaN or infinite value in an input image.
+    #[error("{}: non-finite value {value} at x {x}, t {t} (NaN and infinite values are refused)", path.display())]
+    NonFinite {
+        path: PathBuf,
+        x: usize,
+        t: usize,
+        value: f32,
+    },
+    /// No source gives the time axis (no manifest, no `.img` time table, no bin width given).
+    #[error(
+        "{input}: no time axis: no manifest and no .img time table, and no bin width and \
+         start time (dt_ps, t0_ps) given"
+    )]
+    NoTimeAxis { input: String },
+    /// A time axis value given explicitly disagrees with the one the capture records.
+    #[error("{what} = {given} disagrees with {source_name}, which gives {recorded}")]
+    AxisConflict {
+        what: String,
+        given: f64,
+        source_name: String,
+        recorded: f64,
+    },
+    /// The scanline images do not have the size the manifest records.
+    #[error("{}: capture.{what} = {manifest_value}, but {} has {found}", manifest.display(), file.display())]
+    ManifestSize {
+        manifest: PathBuf,
+        what: String,
+        manifest_value: usize,
+        file: PathBuf,
+        found: usize,
+    },
+    /// A `.img` time table that differs from the first scanline's.
+    #[error("{}: the .img time table differs from that of {} at row {row} ({found_ps} ps vs {expected_ps} ps)", path.display(), reference.display())]
+    TimeTableMismatch {
+        path: PathBuf,
+        reference: PathBuf,
+        row: usize,
+        found_ps: f64,
+        expected_ps: f64,
+    },
+    /// A sweep calibration table that cannot be read or parsed.
+    #[error("{}: line {line}: {message}", path.display())]
+    SweepTable {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    /// A correction's parameters do not fit the capture (`what` names the file or option).
+    #[error("{what}: {source}")]
+    Correction {
+        what: String,
+        #[source]
+        source: CorrectionError,
+    },
+    /// `auto` saturation asked of files with floating-point samples, which have no maximum.
+    #[error("{}: automatic saturation level needs integer samples, this file has {pixel_type} (give a level)", path.display())]
+    SaturationAuto { path: PathBuf, pixel_type: String },
+    /// An option value out of its range (names the option and the value).
+    #[error("{what} = {value}: {message}")]
+    BadValue {
+        what: String,
+        value: String,
+        message: String,
+    },
+    /// The scratch file of a two-pass ingest (beside the output) could not be written or read.
+    #[error("{}: scratch file: {source}", dir.display())]
+    Scratch {
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}

@@ -214,7 +214,7 @@ impl Effects {
         rotation: false,
     };
 
-    /// The names, in the order of [`Effects::flags`].
+    /// The effect names as [`Effects::parse`] reads them.
     pub const NAMES: [&'static str; 6] = [
         "unwarp",
         "aberration",
@@ -382,7 +382,10 @@ impl RenderSettings {
         if self.width == 0 || self.height == 0 {
             return bad(
                 "size",
-                format!("{}x{}: width and height must be positive", self.width, self.height),
+                format!(
+                    "{}x{}: width and height must be positive",
+                    self.width, self.height
+                ),
             );
         }
         if !(self.dtau_ps.is_finite() && self.dtau_ps > 0.0) {
@@ -516,7 +519,11 @@ impl<'a> RenderScene<'a> {
     /// `p_m`), or None when the capture camera does not see that side of that point or the
     /// pixel is masked out.
     #[inline]
-    pub fn capture_pixel(&self, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> Option<(usize, usize)> {
+    pub fn capture_pixel(
+        &self,
+        p_m: &Point3<f64>,
+        d_world: &Vector3<f64>,
+    ) -> Option<(usize, usize)> {
         let (u, v) = self.capture.project(p_m)?;
         let k = &self.capture.intrinsics;
         if !(u >= 0.0 && v >= 0.0 && u < k.width as f64 && v < k.height as f64) {
@@ -655,12 +662,13 @@ pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
 
 /// The range of first-arrival times that [`View::Isochrones`] colour-codes for `path`:
 /// the smallest and largest arrival time over the pixels of frame 0 (whatever range is
-/// rendered, so split renders agree), with contour lines every `contour_ps`.
+/// rendered, so split renders agree), with contour lines every `contour_ps` (None: a round
+/// spacing giving 10 to 25 intervals, [`views::round_contour_ps`]).
 pub fn isochrone_range(
     scene: &RenderScene,
     settings: &RenderSettings,
     path: &CameraPath,
-    contour_ps: f64,
+    contour_ps: Option<f64>,
 ) -> Isochrones {
     let state = path.frame(0);
     let mut lo = f64::INFINITY;
@@ -674,14 +682,14 @@ pub fn isochrone_range(
             }
         }
     }
-    if !(lo < hi) {
+    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
         lo = 0.0;
         hi = 1.0;
     }
     Isochrones {
         t_min_ps: lo,
         t_max_ps: hi,
-        contour_ps,
+        contour_ps: contour_ps.unwrap_or_else(|| views::round_contour_ps(hi - lo)),
     }
 }
 
@@ -692,7 +700,11 @@ pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &m
     if settings.view.is_radiance() {
         color::encode_frame(pixels, settings.exposure, out_rgb8);
     } else {
-        assert_eq!(out_rgb8.len(), 3 * pixels.len(), "encode_srgb8: output size");
+        assert_eq!(
+            out_rgb8.len(),
+            3 * pixels.len(),
+            "encode_srgb8: output size"
+        );
         for (px, out) in pixels.iter().zip(out_rgb8.chunks_exact_mut(3)) {
             let rgb = [px[0] as f64, px[1] as f64, px[2] as f64];
             out.copy_from_slice(&color::encode_u8(rgb));

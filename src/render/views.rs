@@ -20,7 +20,9 @@ pub struct Isochrones {
 impl Isochrones {
     /// Check that the range is increasing and the contour spacing positive.
     pub fn validate(&self) -> Result<(), RenderError> {
-        if !(self.t_min_ps.is_finite() && self.t_max_ps.is_finite() && self.t_min_ps < self.t_max_ps)
+        if !(self.t_min_ps.is_finite()
+            && self.t_max_ps.is_finite()
+            && self.t_min_ps < self.t_max_ps)
         {
             return Err(RenderError::Setting {
                 name: "isochrones",
@@ -41,6 +43,21 @@ impl Isochrones {
         }
         Ok(())
     }
+}
+
+/// A round contour spacing for a range of `span_ps`: the largest of 1, 2 or 5 times a power of
+/// ten that gives at least 10 intervals over the span (1 ps for an empty or invalid span).
+pub fn round_contour_ps(span_ps: f64) -> f64 {
+    if !(span_ps.is_finite() && span_ps > 0.0) {
+        return 1.0;
+    }
+    let target = span_ps / 10.0;
+    let decade = 10f64.powf(target.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|&s| s <= target)
+        .unwrap_or(decade)
 }
 
 /// World time (ps, 0 = the pulse leaves the spot) at which direct light from the laser spot
@@ -73,7 +90,11 @@ pub fn laser_sees(scene: &RenderScene, p_m: &Point3<f64>) -> bool {
 /// camera's warp gives, `t_receive - eta |p - o_capture| / c`.
 #[inline]
 pub fn naive_emission_ps(scene: &RenderScene, p_m: &Point3<f64>, t_receive_ps: f64) -> f64 {
-    t_receive_ps - flight_time_ps(scene.capture.eta, (p_m - scene.capture.pose.position_m).norm())
+    t_receive_ps
+        - flight_time_ps(
+            scene.capture.eta,
+            (p_m - scene.capture.pose.position_m).norm(),
+        )
 }
 
 /// Hue ramp from blue (`s = 0`) through cyan, green and yellow to red (`s = 1`), linear
@@ -119,7 +140,7 @@ mod tests {
         assert_eq!(hue_ramp(0.5), [0.0, 1.0, 0.0]);
         assert_eq!(hue_ramp(0.25), [0.0, 1.0, 1.0]); // cyan
         assert_eq!(hue_ramp(0.75), [1.0, 1.0, 0.0]); // yellow
-        // Out-of-range times clamp to the ends.
+                                                     // Out-of-range times clamp to the ends.
         assert_eq!(hue_ramp(-3.0), hue_ramp(0.0));
         assert_eq!(hue_ramp(7.0), hue_ramp(1.0));
         for k in 0..=100 {
@@ -130,13 +151,30 @@ mod tests {
     }
 
     #[test]
+    fn round_contours_give_ten_to_twenty_five_intervals() {
+        assert_eq!(round_contour_ps(1000.0), 100.0);
+        assert_eq!(round_contour_ps(4300.0), 200.0);
+        assert_eq!(round_contour_ps(9.0), 0.5);
+        assert_eq!(round_contour_ps(0.0), 1.0);
+        for span in [0.37, 3.0, 77.0, 1234.5, 98765.0] {
+            let n = span / round_contour_ps(span);
+            assert!((10.0..=25.0).contains(&n), "{span}: {n} intervals");
+        }
+    }
+
+    #[test]
     fn contour_lines_fall_on_multiples_of_the_spacing() {
         let iso = Isochrones {
             t_min_ps: 0.0,
             t_max_ps: 100.0,
             contour_ps: 10.0,
         };
-        let bright = |t: f64| isochrone_colour(&iso, t, true).iter().cloned().fold(0.0, f64::max);
+        let bright = |t: f64| {
+            isochrone_colour(&iso, t, true)
+                .iter()
+                .cloned()
+                .fold(0.0, f64::max)
+        };
         assert!(bright(30.0) < 0.2 && bright(29.7) < 0.2 && bright(30.4) < 0.2);
         assert!(bright(35.0) > 0.99 && bright(31.0) > 0.99);
         assert_eq!(isochrone_colour(&iso, 35.0, false), [0.02; 3]);

@@ -68,21 +68,21 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> TriangleMesh {
     }
 }
 
-/// The cube scene: a 2 m x 2 m floor (y = 0), a back wall at z = -1, and a 0.4 m box on the
+/// The cube scene: a 4 m x 2 m floor (y = 0), a back wall at z = -1, and a 0.4 m box on the
 /// floor in front of the wall.
 pub fn cube_scene_mesh() -> TriangleMesh {
     let mut mesh = quad([
-        [-1.0, 0.0, -1.0],
-        [-1.0, 0.0, 1.0],
-        [1.0, 0.0, 1.0],
-        [1.0, 0.0, -1.0],
+        [-2.0, 0.0, -1.0],
+        [-2.0, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.0, 0.0, -1.0],
     ]);
     mesh.append(
         &quad([
-            [-1.0, 0.0, -1.0],
-            [1.0, 0.0, -1.0],
-            [1.0, 1.5, -1.0],
-            [-1.0, 1.5, -1.0],
+            [-2.0, 0.0, -1.0],
+            [2.0, 0.0, -1.0],
+            [2.0, 2.0, -1.0],
+            [-2.0, 2.0, -1.0],
         ]),
         1,
     );

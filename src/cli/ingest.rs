@@ -1,0 +1,255 @@
+//! `femto ingest INPUT --out CUBE.h5`: assemble a streak capture into an x-y-t cube.
+//!
+//! Flags map onto [`femto::ingest::plan::IngestOptions`]; the library resolves the plan and
+//! streams the rows ([`femto::ingest::assemble`]). This module draws the progress bar and
+//! prints the summary.
+
+use anyhow::Context;
+use clap::Args;
+use femto::container::Provenance;
+use femto::ingest::assemble::{self, rms, Pass};
+use femto::ingest::corrections::RefRegion;
+use femto::ingest::plan::{
+    DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
+};
+use femto::ingest::IngestError;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct IngestArgs {
+    /// The capture: a folder with manifest.toml, a manifest, a glob ('scan_*.png', quoted),
+    /// a printf pattern (scan_%04d.png, with --rows) or an HDF5 file (with --dataset).
+    pub input: String,
+    /// The cube to write (HDF5, camera time).
+    #[arg(long, short = 'o', required_unless_present = "decode_only")]
+    pub out: Option<PathBuf>,
+    /// Number of scanlines of a printf pattern (rows 0..N).
+    #[arg(long)]
+    pub rows: Option<usize>,
+    /// Dataset of an HDF5 input holding the streak images, shape (ny, nt, nx), or
+    /// (ny, nx, nt) with --transpose.
+    #[arg(long)]
+    pub dataset: Option<String>,
+    /// Width of a time bin, ps (when there is no manifest and no .img time table).
+    #[arg(long)]
+    pub dt_ps: Option<f64>,
+    /// Camera time of the start of the first bin, ps (likewise).
+    #[arg(long, allow_hyphen_values = true)]
+    pub t0_ps: Option<f64>,
+    /// The files store time across and x down.
+    #[arg(long)]
+    pub transpose: bool,
+    /// Dark signal to subtract: a constant (in value units) or a dark-frame image file.
+    #[arg(long, allow_hyphen_values = true)]
+    pub dark: Option<String>,
+    /// Flat-field gains: an image nx wide, one row per scanline or a single row.
+    #[arg(long)]
+    pub flat: Option<PathBuf>,
+    /// Sweep calibration: text/CSV of nt+1 true bin-edge times, ps.
+    #[arg(long)]
+    pub sweep_table: Option<PathBuf>,
+    /// Estimate and remove per-scanline trigger jitter.
+    #[arg(long)]
+    pub jitter: bool,
+    /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
+    /// that sees a fixed part of the scene in every scanline, or 'auto' (each scanline's
+    /// total against its neighbours').
+    #[arg(long, value_parser = parse_power_ref)]
+    pub power_ref: Option<PowerRef>,
+    /// Mask saturated pixels: a level (value units) or 'auto' (the sample type's maximum).
+    #[arg(long)]
+    pub saturation: Option<String>,
+    /// Fill missing scanlines by interpolation (masked) instead of failing.
+    #[arg(long)]
+    pub allow_missing: bool,
+    /// Signal value of one stored count (default: the manifest's png_value_per_count for
+    /// PNG scanlines, else 1).
+    #[arg(long)]
+    pub value_scale: Option<f64>,
+    /// Only decode the scanlines (benchmark baseline); writes nothing.
+    #[arg(long, hide = true)]
+    pub decode_only: bool,
+}
+
+fn parse_range(s: &str, what: &str) -> Result<(usize, usize), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("{what} '{s}' is not A:B"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
+    };
+    Ok((parse(a)?, parse(b)?))
+}
+
+/// `auto` or `x0:x1,t0:t1`.
+fn parse_power_ref(s: &str) -> Result<PowerRef, String> {
+    if s == "auto" {
+        return Ok(PowerRef::Auto);
+    }
+    parse_region(s).map(PowerRef::Region)
+}
+
+/// `x0:x1,t0:t1`.
+fn parse_region(s: &str) -> Result<RefRegion, String> {
+    let (xs, ts) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}' is not x0:x1,t0:t1"))?;
+    let (x0, x1) = parse_range(xs, "x range")?;
+    let (t0_bin, t1_bin) = parse_range(ts, "bin range")?;
+    Ok(RefRegion {
+        x0,
+        x1,
+        t0_bin,
+        t1_bin,
+    })
+}
+
+fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
+    let dark = match &args.dark {
+        None => None,
+        Some(s) => match s.parse::<f64>() {
+            Ok(v) if !std::path::Path::new(s).exists() => Some(DarkInput::Level(v)),
+            _ => Some(DarkInput::File(PathBuf::from(s))),
+        },
+    };
+    let saturation = match args.saturation.as_deref() {
+        None => None,
+        Some("auto") => Some(SaturationInput::Auto),
+        Some(s) => Some(SaturationInput::Level(s.parse().with_context(|| {
+            format!("--saturation {s}: expected a level or 'auto'")
+        })?)),
+    };
+    Ok(IngestOptions {
+        dt_ps: args.dt_ps,
+        t0_ps: args.t0_ps,
+        transpose: args.transpose,
+        dark,
+        flat: args.flat.clone(),
+        sweep_table: args.sweep_table.clone(),
+        jitter: args.jitter,
+        power_ref: args.power_ref,
+        saturation,
+        allow_missing: args.allow_missing,
+        value_scale: args.value_scale,
+    })
+}
+
+/// Add the flag to use where the library's message names a missing value.
+fn with_hint(e: IngestError) -> anyhow::Error {
+    let hint = match &e {
+        IngestError::PrintfNeedsRows { .. } => Some("give --rows N"),
+        IngestError::NoTimeAxis { .. } => Some("give --dt-ps and --t0-ps"),
+        IngestError::SaturationAuto { .. } => Some("use --saturation LEVEL"),
+        IngestError::MissingScanline { .. } | IngestError::ManifestFileMissing { .. } => {
+            Some("--allow-missing fills missing scanlines by interpolation")
+        }
+        _ => None,
+    };
+    match hint {
+        Some(h) => anyhow::anyhow!("{e} ({h})"),
+        None => anyhow::Error::new(e),
+    }
+}
+
+pub fn run(args: IngestArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let input =
+        InputSpec::classify(&args.input, args.rows, args.dataset.as_deref()).map_err(with_hint)?;
+    let plan = IngestPlan::resolve(&input, &options(&args)?).map_err(with_hint)?;
+    let mb = |bytes: u64| bytes as f64 / 1e6;
+
+    if args.decode_only {
+        let bar = super::progress(plan.ny as u64, "decoding");
+        let s = assemble::decode_only(&plan, &|n| bar.set_position(n as u64))?;
+        bar.finish_and_clear();
+        let secs = start.elapsed().as_secs_f64();
+        println!(
+            "decoded {} scanlines, {:.1} MB in {:.2} s ({:.1} MB/s)",
+            s.rows,
+            mb(s.bytes_read),
+            secs,
+            mb(s.bytes_read) / secs
+        );
+        return Ok(());
+    }
+
+    let out = args.out.as_ref().expect("clap requires --out");
+    let passes = if plan.needs_two_passes() { 2 } else { 1 };
+    let bar = super::progress((passes * plan.ny) as u64, "ingesting");
+    let ny = plan.ny as u64;
+    let two = passes == 2;
+    let progress = |pass: Pass, n: usize| {
+        let done = match pass {
+            Pass::Scan => n as u64,
+            Pass::Write if two => ny + n as u64,
+            Pass::Write => n as u64,
+        };
+        bar.set_position(done);
+    };
+    let s = assemble::ingest(
+        &plan,
+        out,
+        &Provenance::new(super::command_line()),
+        &progress,
+    )?;
+    bar.finish_and_clear();
+    let secs = start.elapsed().as_secs_f64();
+
+    println!(
+        "ingested {} scanlines ({} x {} bins of {} ps from {} ps) -> {}",
+        s.rows,
+        s.nx,
+        s.nt,
+        plan.out_axis.dt_ps,
+        plan.out_axis.t0_ps,
+        out.display()
+    );
+    println!(
+        "read {:.1} MB in {:.2} s ({:.1} MB/s), wrote {:.1} MB, {} pass{}",
+        mb(s.bytes_read),
+        secs,
+        mb(s.bytes_read) / secs,
+        mb(s.stored_bytes),
+        s.passes,
+        if s.passes == 1 { "" } else { "es" }
+    );
+    println!("time axis: {}", plan.axis_source);
+    if s.corrections.is_empty() {
+        println!("corrections: none");
+    } else {
+        println!("corrections: {}", s.corrections.join("; "));
+    }
+    if let Some(shifts) = &s.jitter_shifts_ps {
+        let max = shifts.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        println!(
+            "jitter estimates: rms {:.3} ps, largest {:.3} ps (per scanline in the cube's \
+             ingest.jitter_shifts_ps)",
+            rms(shifts),
+            max
+        );
+    }
+    if let Some(gains) = &s.power_gains {
+        let usable: Vec<f64> = gains.iter().flatten().copied().collect();
+        let (lo, hi) = usable
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(l, h), g| (l.min(*g), h.max(*g)));
+        println!(
+            "power gains: {} of {} scanlines normalised, gains {lo:.4} .. {hi:.4}",
+            usable.len(),
+            gains.len()
+        );
+    }
+    if s.masked_pixels > 0 {
+        println!(
+            "masked pixels: {} ({} saturated)",
+            s.masked_pixels, s.saturated_pixels
+        );
+    }
+    if !s.missing_rows.is_empty() {
+        println!("missing scanlines filled: {:?}", s.missing_rows);
+    }
+    Ok(())
+}
