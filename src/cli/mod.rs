@@ -40,7 +40,7 @@ pub enum Command {
     Pyramid(pyramid::PyramidArgs),
     /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
     /// geometry, true calibration, fiducials and ground-truth cubes.
-    Simulate(simulate::SimulateArgs),
+    Simulate(Box<simulate::SimulateArgs>),
     /// Render a relativistic novel-view video of a world-time cube: a camera moving at
     /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
     Render(Box<render::RenderArgs>),
@@ -56,7 +56,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Unwarp(args) => unwarp::run(args),
         Command::Pyramid(args) => pyramid::run(args),
-        Command::Simulate(args) => simulate::run(args),
+        Command::Simulate(args) => simulate::run(*args),
         Command::Render(args) => render::run(*args),
         Command::Ingest(args) => ingest::run(args),
     }
