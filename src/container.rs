@@ -193,6 +193,22 @@ fn invalid(path: &Path, reason: impl Into<String>) -> ContainerError {
     }
 }
 
+/// How the `/cube` dataset of a streamed cube is stored (the chunk shape is the same).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CubeCompression {
+    /// Shuffle + deflate at this level (0-9); level 4 is femto's default, as h5py's gzip.
+    Deflate(u32),
+    /// No filter: chunks stored as they are (fastest to write, about three times larger for
+    /// camera data).
+    None,
+}
+
+impl Default for CubeCompression {
+    fn default() -> Self {
+        CubeCompression::Deflate(DEFLATE_LEVEL)
+    }
+}
+
 /// Who made a cube: stored as string attributes of `/cube`. The femto version is added
 /// automatically.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -479,6 +495,7 @@ fn dataset_elem(ds: &H5Dataset, path: &Path) -> Result<(Option<Elem>, String)> {
 struct CubeSink {
     cube: H5Dataset,
     file: H5File,
+    compression: CubeCompression,
     path: PathBuf,
     nx: usize,
     ny: usize,
@@ -529,6 +546,25 @@ fn chunk_rows(row_bytes: usize, rows: usize) -> usize {
 
 impl CubeSink {
     fn create(tmp: &Path, path: &Path, nx: usize, ny: usize, attrs: &CubeAttrs) -> Result<Self> {
+        Self::create_with(tmp, path, nx, ny, attrs, CubeCompression::default())
+    }
+
+    fn create_with(
+        tmp: &Path,
+        path: &Path,
+        nx: usize,
+        ny: usize,
+        attrs: &CubeAttrs,
+        compression: CubeCompression,
+    ) -> Result<Self> {
+        if let CubeCompression::Deflate(level) = compression {
+            if level > 9 {
+                return Err(invalid(
+                    path,
+                    format!("deflate level {level} (levels are 0 to 9)"),
+                ));
+            }
+        }
         check_axis(path, &attrs.axis)?;
         if nx == 0 || ny == 0 {
             return Err(invalid(
@@ -555,13 +591,15 @@ impl CubeSink {
             .create(tmp)
             .map_err(&e)?;
         let cx = chunk_rows(nt * 4, nx);
-        let cube = file
+        let builder = file
             .new_dataset::<f32>()
             .shape([ny, nx, nt])
-            .chunk(&[1, cx, nt])
-            .shuffle_deflate(DEFLATE_LEVEL)
-            .create(CUBE_DATASET)
-            .map_err(&e)?;
+            .chunk(&[1, cx, nt]);
+        let builder = match compression {
+            CubeCompression::Deflate(level) => builder.shuffle_deflate(level),
+            CubeCompression::None => builder,
+        };
+        let cube = builder.create(CUBE_DATASET).map_err(&e)?;
         set_attr(&cube, "t0_ps", &AttrValue::F64(attrs.axis.t0_ps)).map_err(&e)?;
         set_attr(&cube, "dt_ps", &AttrValue::F64(attrs.axis.dt_ps)).map_err(&e)?;
         let frame = AttrValue::Str(attrs.frame.as_str().to_string());
@@ -579,6 +617,7 @@ impl CubeSink {
         Ok(CubeSink {
             cube,
             file,
+            compression,
             path: path.to_path_buf(),
             nx,
             ny,
@@ -746,6 +785,30 @@ impl CubeWriter {
         units: &str,
         provenance: &Provenance,
     ) -> Result<CubeWriter> {
+        Self::create_with(
+            path,
+            nx,
+            ny,
+            axis,
+            frame,
+            units,
+            provenance,
+            CubeCompression::default(),
+        )
+    }
+
+    /// [`CubeWriter::create`] with a choice of compression for `/cube`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn create_with(
+        path: &Path,
+        nx: usize,
+        ny: usize,
+        axis: TimeAxis,
+        frame: TimeFrame,
+        units: &str,
+        provenance: &Provenance,
+        compression: CubeCompression,
+    ) -> Result<CubeWriter> {
         let tmp = temp_beside(path)?;
         let attrs = CubeAttrs {
             axis,
@@ -755,7 +818,7 @@ impl CubeWriter {
             command_line: Some(&provenance.command_line),
             notes: &provenance.notes,
         };
-        let sink = CubeSink::create(&tmp, path, nx, ny, &attrs)?;
+        let sink = CubeSink::create_with(&tmp, path, nx, ny, &attrs, compression)?;
         Ok(CubeWriter {
             groups: GroupSinks::default(),
             sink,
@@ -803,14 +866,16 @@ impl CubeWriter {
             .write_whole(&self.sink.file, &self.dest, name, data)
     }
 
-
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
     pub fn row_compressor(&self) -> RowCompressor {
         RowCompressor {
             nx: self.sink.nx,
             nt: self.sink.nt,
             cx: chunk_rows(self.sink.nt * 4, self.sink.nx),
-            pipeline: FilterPipeline::shuffle_deflate(4, DEFLATE_LEVEL),
+            pipeline: match self.sink.compression {
+                CubeCompression::Deflate(level) => Some(FilterPipeline::shuffle_deflate(4, level)),
+                CubeCompression::None => None,
+            },
         }
     }
 
@@ -834,10 +899,19 @@ impl CubeWriter {
                 ),
             ));
         }
+        if row.filtered != matches!(s.compression, CubeCompression::Deflate(_)) {
+            return Err(invalid(
+                &s.path,
+                "compressed row made by another writer's compressor",
+            ));
+        }
         for (c, bytes) in row.chunks.iter().enumerate() {
-            s.cube
-                .write_chunk_raw_at(&[y, c, 0], bytes, 0)
-                .map_err(h5(&s.path))?;
+            if row.filtered {
+                s.cube.write_chunk_raw_at(&[y, c, 0], bytes, 0)
+            } else {
+                s.cube.write_chunk_at(&[y, c, 0], bytes)
+            }
+            .map_err(h5(&s.path))?;
         }
         s.rows_written[y] = true;
         Ok(())
@@ -858,8 +932,9 @@ impl CubeWriter {
     }
 }
 
-/// Compresses one row of a cube into the chunks of its `/cube` dataset (shuffle + deflate, the
-/// chunk shape of the schema), without touching the file.
+/// Compresses one row of a cube into the chunks of its `/cube` dataset (the writer's filters,
+/// shuffle + deflate by default, and the chunk shape of the schema), without touching the
+/// file.
 ///
 /// HDF5 compression is the slow part of writing a cube and the writer runs it on one thread;
 /// a `RowCompressor` (from [`CubeWriter::row_compressor`]) is `Send + Sync`, so streaming
@@ -870,7 +945,8 @@ pub struct RowCompressor {
     nx: usize,
     nt: usize,
     cx: usize,
-    pipeline: FilterPipeline,
+    /// The filters of the cube (`None`: stored as is).
+    pipeline: Option<FilterPipeline>,
 }
 
 /// One row of a cube as compressed chunks, from [`RowCompressor::compress`].
@@ -878,6 +954,8 @@ pub struct RowCompressor {
 pub struct CompressedRow {
     nx: usize,
     nt: usize,
+    /// Whether the chunks went through the filters (else they are the raw bytes).
+    filtered: bool,
     chunks: Vec<Vec<u8>>,
 }
 
@@ -910,13 +988,17 @@ impl RowCompressor {
                 for (dst, v) in raw.chunks_exact_mut(4).zip(values) {
                     dst.copy_from_slice(&v.to_le_bytes());
                 }
-                apply_filters(&self.pipeline, &raw)
-                    .expect("shuffle and deflate cannot fail on a whole chunk")
+                match &self.pipeline {
+                    Some(p) => apply_filters(p, &raw)
+                        .expect("shuffle and deflate cannot fail on a whole chunk"),
+                    None => raw.clone(),
+                }
             })
             .collect();
         CompressedRow {
             nx: self.nx,
             nt: self.nt,
+            filtered: self.pipeline.is_some(),
             chunks,
         }
     }
@@ -2006,7 +2088,10 @@ fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
 /// What a [`GroupUpdate`] writes into.
 enum UpdateTarget {
     /// A copy of a cube file; its groups not rewritten are copied at the end.
-    Cube { sink: CubeSink, reader: CubeReader },
+    Cube {
+        sink: Box<CubeSink>,
+        reader: Box<CubeReader>,
+    },
     /// A file holding groups only.
     SideFile { file: H5File },
 }
@@ -2055,7 +2140,10 @@ impl GroupUpdate {
         }
         Ok(GroupUpdate {
             groups: GroupSinks::default(),
-            target: UpdateTarget::Cube { sink, reader },
+            target: UpdateTarget::Cube {
+                sink: Box::new(sink),
+                reader: Box::new(reader),
+            },
             tmp,
             dest: cube_path.to_path_buf(),
         })
@@ -2264,6 +2352,94 @@ mod tests {
                 assert_eq!(back.data[y * nx * nt + i], value(y, i), "y {y} i {i}");
             }
         }
+
+        // Uncompressed and fast-deflate cubes read back the same.
+        for compression in [CubeCompression::None, CubeCompression::Deflate(1)] {
+            let p = dir.path().join("d.h5");
+            let mut w = CubeWriter::create_with(
+                &p,
+                nx,
+                ny,
+                axis,
+                TimeFrame::Camera,
+                DEFAULT_UNITS,
+                &Provenance::new("test"),
+                compression,
+            )
+            .unwrap();
+            let row0: Vec<f32> = (0..nx * nt).map(|i| value(0, i)).collect();
+            // Deflated chunks decode whatever their level; raw ones only fit an unfiltered cube.
+            let foreign = w.write_compressed_row(0, &compressor.compress(&row0));
+            assert_eq!(foreign.is_err(), compression == CubeCompression::None);
+            let c = w.row_compressor();
+            for y in 0..ny {
+                let row: Vec<f32> = (0..nx * nt).map(|i| value(y, i)).collect();
+                w.write_compressed_row(y, &c.compress(&row)).unwrap();
+            }
+            w.finish().unwrap();
+            assert_eq!(read_cube(&p).unwrap().data, back.data, "{compression:?}");
+        }
+        assert!(CubeWriter::create_with(
+            &dir.path().join("e.h5"),
+            nx,
+            ny,
+            axis,
+            TimeFrame::Camera,
+            DEFAULT_UNITS,
+            &Provenance::new("test"),
+            CubeCompression::Deflate(10),
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn streamed_groups_must_be_complete_and_leave_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let side = dir.path().join("side.h5");
+        let spec = [DatasetSpec::new("d", &[3, 2], GroupElem::F64)];
+        let attrs = vec![("n".to_string(), AttrValue::I64(3))];
+        // Row 2 never written: refused, and neither the file nor a temporary file remains.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        up.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0, 2.0, 3.0, 4.0]))
+            .unwrap();
+        let e = up.finish().unwrap_err().to_string();
+        assert!(e.contains("/g/d") && e.contains("row 2"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // Wrong type, past the end, undeclared dataset, then a complete file read back.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        assert!(up
+            .write_group_rows("g", "d", 0, &DataBuf::F32(vec![0.0; 2]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "d", 2, &DataBuf::F64(vec![0.0; 4]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "e", 0, &DataBuf::F64(vec![0.0; 2]))
+            .is_err());
+        assert!(up.begin_group("g", &[], &[]).is_err());
+        for r in [2, 0, 1] {
+            let v = vec![r as f64, -(r as f64)];
+            up.write_group_rows("g", "d", r, &DataBuf::F64(v)).unwrap();
+        }
+        up.finish().unwrap();
+        let reader = GroupReader::open(&side).unwrap();
+        assert!(!reader.has_cube());
+        assert_eq!(reader.groups(), ["g"]);
+        let g = reader.read_group("g").unwrap();
+        assert_eq!(g.attrs, attrs);
+        assert_eq!(
+            g.dataset("d").unwrap(),
+            (
+                &[3usize, 2][..],
+                &DataBuf::F64(vec![0.0, -0.0, 1.0, -1.0, 2.0, -2.0])
+            )
+        );
+        assert!(matches!(
+            CubeReader::open(&side),
+            Err(ContainerError::NoCube { .. })
+        ));
     }
 
     #[test]

@@ -6,7 +6,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use femto::container::Provenance;
+use femto::container::{CubeCompression, Provenance};
 use femto::ingest::assemble::{self, rms, Pass};
 use femto::ingest::corrections::RefRegion;
 use femto::ingest::plan::{
@@ -67,6 +67,11 @@ pub struct IngestArgs {
     /// PNG scanlines, else 1).
     #[arg(long)]
     pub value_scale: Option<f64>,
+    /// Compression of the cube: a deflate level 0-9 (with shuffle; 4, the default, is h5py's
+    /// gzip default; 1 is about twice as fast for 15 % more bytes) or 'none' (fastest, about
+    /// three times the bytes).
+    #[arg(long, default_value = "4", value_parser = parse_compression)]
+    pub compression: CubeCompression,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
     #[arg(long, hide = true)]
     pub decode_only: bool,
@@ -82,6 +87,17 @@ fn parse_range(s: &str, what: &str) -> Result<(usize, usize), String> {
             .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
     };
     Ok((parse(a)?, parse(b)?))
+}
+
+/// `none` or a deflate level 0-9.
+fn parse_compression(s: &str) -> Result<CubeCompression, String> {
+    if s == "none" {
+        return Ok(CubeCompression::None);
+    }
+    match s.parse::<u32>() {
+        Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
+        _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
+    }
 }
 
 /// `auto` or `x0:x1,t0:t1`.
@@ -189,12 +205,8 @@ pub fn run(args: IngestArgs) -> anyhow::Result<()> {
         };
         bar.set_position(done);
     };
-    let s = assemble::ingest(
-        &plan,
-        out,
-        &Provenance::new(super::command_line()),
-        &progress,
-    )?;
+    let provenance = Provenance::new(super::command_line());
+    let s = assemble::ingest(&plan, out, &provenance, args.compression, &progress)?;
     bar.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
 

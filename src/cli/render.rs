@@ -127,7 +127,12 @@ pub struct RenderArgs {
     pub threads: Option<usize>,
 }
 
-/// `WxH` with both positive.
+/// Largest frame side accepted, pixels.
+const MAX_SIDE: usize = 16384;
+/// Largest number of frames accepted.
+const MAX_FRAMES: usize = 1_000_000;
+
+/// `WxH` with both positive and at most [`MAX_SIDE`].
 fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
     let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
         Some((
@@ -136,7 +141,10 @@ fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
         ))
     });
     match parsed {
-        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
+        Some((w, h)) if w > 0 && h > 0 && w <= MAX_SIDE && h <= MAX_SIDE => Ok((w, h)),
+        Some((w, h)) if w > 0 && h > 0 => {
+            bail!("--size {text}: each side must be at most {MAX_SIDE} pixels")
+        }
         _ => bail!("--size {text}: expected WIDTHxHEIGHT with positive integers, e.g. 640x480"),
     }
 }
@@ -328,6 +336,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (s.path, s.time_offset_ps, flag)
     };
     let spec = path.spec();
+    if spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.frames > MAX_FRAMES {
+        bail!(
+            "{path_flag}: {}x{} pixels and {} frames: at most {MAX_SIDE} pixels a side and {MAX_FRAMES} frames",
+            spec.width,
+            spec.height,
+            spec.frames
+        );
+    }
     if format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         bail!(
             "--size {}x{}: MP4 (H.264, 4:2:0) needs an even width and height; use --size {}x{} or another --format",

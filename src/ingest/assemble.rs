@@ -56,7 +56,7 @@ use super::plan::{
     stack_image, to_row_layout, DarkCorrection, IngestPlan, PowerCorrection, RowSource,
 };
 use super::IngestError;
-use crate::container::{CubeWriter, Provenance};
+use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
 use crate::formats::read_streak;
 
@@ -116,11 +116,14 @@ const ROWS_IN_FLIGHT_PER_THREAD: usize = 2;
 ///
 /// `provenance` gives the command line and any notes of the caller; the plan's inputs and
 /// corrections, and the jitter and power estimates, are added as `ingest.*` notes.
-/// `progress` is called on the calling thread with the pass and the rows done in it.
+/// `compression` is the storage of `/cube` (shuffle + deflate level 4 by default, see
+/// `docs/cube-format.md`). `progress` is called on the calling thread with the pass and the
+/// rows done in it.
 pub fn ingest(
     plan: &IngestPlan,
     out: &Path,
     provenance: &Provenance,
+    compression: CubeCompression,
     progress: &dyn Fn(Pass, usize),
 ) -> Result<IngestSummary, IngestError> {
     let (nx, ny) = (plan.nx, plan.ny);
@@ -174,7 +177,14 @@ pub fn ingest(
     // The output, created now that every provenance note is known.
     let mut prov = provenance.clone();
     prov.notes.extend(notes(plan, &globals));
-    let mut writer = CubeWriter::create(
+    prov.notes.push((
+        "ingest.compression".into(),
+        match compression {
+            CubeCompression::Deflate(level) => format!("shuffle + deflate level {level}"),
+            CubeCompression::None => "none".into(),
+        },
+    ));
+    let mut writer = CubeWriter::create_with(
         out,
         nx,
         ny,
@@ -182,6 +192,7 @@ pub fn ingest(
         TimeFrame::Camera,
         crate::container::DEFAULT_UNITS,
         &prov,
+        compression,
     )?;
     let compressor = writer.row_compressor();
     let ctx = Context {

@@ -96,6 +96,14 @@
 //!   integral of the capture pixel's signal, times the constant-light factor
 //!   ([`crate::relativity::constant_light_factor`]) with Doppler colour (seed Fig. 2 right).
 //!
+//! # Entry points
+//!
+//! Resolve, then compute: [`RenderScene::new`] (geometry, capture calibration, prefix sums,
+//! wavelength), a [`crate::camera_path::CameraPath`] (a file, or [`paths::shortcut_path`] for
+//! a dolly, an orbit or the capture camera's view), [`RenderSettings`] (with
+//! [`auto_exposure`] and, for isochrones, [`isochrone_range`]); then [`render_sequence`] (or
+//! [`render_frame`] per frame) and [`encode_srgb8`] for display.
+//!
 //! # Visibility
 //!
 //! [`RenderScene::new`] casts one ray through every capture pixel centre once and keeps its
