@@ -652,9 +652,27 @@ fn scene_label(figure: &str) -> &'static str {
     }
 }
 
+/// The exposure that puts the 99.9th percentile of a frame's non-zero luminances at 1 (half
+/// of white after tone mapping), None for a black frame.
+pub fn frame_exposure(pixels: &[[f32; 3]]) -> Option<f64> {
+    let mut lum: Vec<f64> = pixels
+        .iter()
+        .map(|p| crate::color::luminance([p[0] as f64, p[1] as f64, p[2] as f64]))
+        .filter(|&y| y > 0.0 && y.is_finite())
+        .collect();
+    if lum.is_empty() {
+        return None;
+    }
+    let k = ((lum.len() as f64 * 0.999) as usize).min(lum.len() - 1);
+    Some(1.0 / *lum.select_nth_unstable_by(k, f64::total_cmp).1)
+}
+
 /// Seed Fig. 8: the capture camera's view with a sensor rolling about its optical axis,
 /// `beta_edge` 0, 0.4, 0.8, 0.99 (every effect on, the camera itself at rest): one PNG each
-/// and a contact sheet.
+/// and a contact sheet. Each frame gets its own exposure ([`frame_exposure`]): away from the
+/// axis the sensor moves across the line of sight, `D` approaches `gamma` and the frame
+/// dims by `D^-3` (about 1/360 at the edge at 0.99), which would leave nothing to see of the
+/// distortion; the exposures relative to the sensor at rest are in the parameters.
 pub fn fig8(
     scene: &RenderScene,
     sizes: &DemoSizes,
@@ -666,15 +684,20 @@ pub fn fig8(
     let t_receive_ps = st.show_offset(scene, &pose.position_m);
     let mut outputs = Vec::new();
     let mut frames = Vec::new();
+    let mut reference_exposure = None;
     for beta_edge in FIG8_BETA_EDGE {
         let path = capture_view(scene, w, h, st.dtau_ps)?.with_rotation(Some(SensorRotation {
             axis: RotationAxis::Roll,
             beta_edge,
         }))?;
         let mut s = settings(w, h, st.dtau_ps, Effects::ALL, View::Transient);
-        s.exposure = st.exposure;
         s.time_offset_ps = t_receive_ps;
-        let rgb = render_rgb8(scene, &s, &path, 0);
+        let mut pixels = vec![[0.0f32; 3]; w * h];
+        render_frame(scene, &s, &path.frame(0), &mut pixels);
+        s.exposure = frame_exposure(&pixels).unwrap_or(st.exposure);
+        let relative = s.exposure / *reference_exposure.get_or_insert(s.exposure);
+        let mut rgb = vec![0u8; 3 * pixels.len()];
+        encode_srgb8(&s, &pixels, &mut rgb);
         let file = format!("fig8_rotation_{beta_edge}.png");
         write_png(&out.join(&file), w, h, &rgb)?;
         outputs.push(still_output(
@@ -690,7 +713,8 @@ pub fn fig8(
                 ("size", format!("{w}x{h}")),
                 ("t_receive_ps", format!("{t_receive_ps:.1}")),
                 ("exposure_window_ps", format!("{}", st.dtau_ps)),
-                ("exposure", format!("{:.4e}", st.exposure)),
+                ("exposure", format!("{:.4e} (this frame's own)", s.exposure)),
+                ("exposure_relative_to_edge_0", format!("{relative:.3}")),
             ],
         ));
         frames.push((format!("edge={beta_edge}"), rgb));
@@ -711,7 +735,7 @@ pub fn fig8(
         figure: "fig8".into(),
         path: file.into(),
         kind: OutputKind::Sheet,
-        caption: "the four rotating-sensor frames side by side".into(),
+        caption: "the four rotating-sensor frames side by side, each exposed on its own".into(),
         params: params(&[("beta_edge", "0, 0.4, 0.8, 0.99".into())]),
     });
     Ok(outputs)
