@@ -1124,3 +1124,62 @@ fn shortcut_paths_keep_the_target_in_the_centre_of_the_image() {
         }
     }
 }
+
+#[test]
+fn capture_visibility_agrees_with_a_ray_cast_from_the_capture_camera() {
+    let bvh = Bvh::new(cube_scene_mesh());
+    let (cw, ch) = (64usize, 48usize);
+    let cal = cube_scene_calibration(cw, ch);
+    let cube = constant_cube(&cal, &bvh, 1.0);
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    // A viewpoint to the left of and above the capture camera: parts of the floor behind the
+    // box and the box's left side are hidden from the capture camera.
+    let pose = Pose::look_at(
+        Point3::new(-1.1, 1.0, 1.4),
+        Point3::new(0.0, 0.2, -0.2),
+        Vector3::y(),
+    )
+    .unwrap();
+    let (w, h) = (96usize, 72usize);
+    let path = CameraPath::static_view(&pose, 45.0, spec(w, h, 1, 1.0)).unwrap();
+    let settings = RenderSettings::for_path(&path);
+    let state = path.frame(0);
+    let o = cal.pose.position_m;
+    let (mut hits, mut hidden, mut disagree) = (0, 0, 0);
+    for j in 0..h {
+        for i in 0..w {
+            let s = probe_pixel(&scene, &settings, &state, i, j);
+            let Some((p, _)) = s.hit_m else { continue };
+            hits += 1;
+            // Brute force: does the capture camera's ray towards p stop at p, and does p
+            // project into the capture image?
+            let to_p = p - o;
+            let dist = to_p.norm();
+            let dir = to_p / dist;
+            let ray = femto::geometry::Ray::new(
+                Point3::new(o.x as f32, o.y as f32, o.z as f32),
+                Vector3::new(dir.x as f32, dir.y as f32, dir.z as f32),
+            );
+            let first = bvh.intersect(&ray, 0.0, f32::INFINITY).map(|h| h.t as f64);
+            let inside = cal
+                .project(&p)
+                .is_some_and(|(u, v)| u >= 0.0 && v >= 0.0 && u < cw as f64 && v < ch as f64);
+            let seen = inside && first.is_some_and(|t| (t - dist).abs() < 1e-4 * dist + 1e-5);
+            if !seen {
+                hidden += 1;
+            }
+            if seen != s.capture_pixel.is_some() {
+                disagree += 1;
+            }
+        }
+    }
+    assert!(
+        hidden > hits / 20,
+        "the test view hides too little: {hidden} of {hits}"
+    );
+    assert!(
+        (disagree as f64) < 0.02 * hits as f64,
+        "{disagree} of {hits} pixels disagree ({hidden} hidden)"
+    );
+}
