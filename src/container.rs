@@ -803,7 +803,6 @@ impl CubeWriter {
             .write_whole(&self.sink.file, &self.dest, name, data)
     }
 
-
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
     pub fn row_compressor(&self) -> RowCompressor {
         RowCompressor {
