@@ -33,9 +33,6 @@ use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Largest number of frames accepted.
-const MAX_FRAMES: usize = 1_000_000;
-
 /// Laser wavelength used when neither `--laser-nm` nor the cube says, nm.
 const DEFAULT_LASER_NM: f64 = 670.0;
 /// Cube attributes (provenance notes) that may hold the laser wavelength in nm.
