@@ -146,7 +146,7 @@ pub enum ContainerError {
 }
 
 impl From<io::Error> for ContainerError {
-    /// An I/O error without a path yet; [`ContainerError::at`] fills it in.
+    /// An I/O error without a path yet; `ContainerError::at` fills it in.
     fn from(source: io::Error) -> Self {
         ContainerError::Io {
             path: PathBuf::new(),
