@@ -1183,3 +1183,36 @@ fn capture_visibility_agrees_with_a_ray_cast_from_the_capture_camera() {
         "{disagree} of {hits} pixels disagree ({hidden} hidden)"
     );
 }
+
+#[test]
+fn emitted_energy_equals_the_pyramid_integral_at_cube_times() {
+    use rand::{Rng, SeedableRng};
+    let wall = Bvh::new(wall_z0(10.0));
+    let mut cal = calibration(8, 6, 40.0, Point3::new(0.0, 0.0, 2.0), Point3::origin());
+    cal.t0_ps = 137.5;
+    cal.time_scale = 1.03;
+    let axis = TimeAxis {
+        t0_ps: -20.0,
+        dt_ps: 2.5,
+        nt: 40,
+    };
+    let cube = world_cube(&cal, &wall, axis, |p, _, a, b| {
+        (1.0 + p.x * p.x) * ((0.01 * b).sin() - (0.01 * a).sin()).abs() + 0.1 * (b - a)
+    });
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+    for _ in 0..2000 {
+        let (x, y) = (rng.random_range(0..8), rng.random_range(0..6));
+        // World times from well before to well after the axis (cube -20 .. 80 ps).
+        let ta = rng.random_range(-250.0..0.0);
+        let tb = ta + rng.random_range(0.0..120.0);
+        let got = scene.emitted_energy(x, y, ta, tb);
+        let cube_t = |t: f64| cal.t0_ps + cal.time_scale * t;
+        let expect = pyramid.integral(x, y, cube_t(ta), cube_t(tb));
+        assert!(
+            (got - expect).abs() <= 1e-12 * expect.abs().max(1.0),
+            "({x}, {y}) [{ta}, {tb}]: {got} vs {expect}"
+        );
+    }
+}
