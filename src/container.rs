@@ -768,6 +768,7 @@ pub fn write_cube_with_units(
 /// leaves any earlier file at the destination untouched.
 pub struct CubeWriter {
     // Field order matters: the HDF5 file is closed before the temporary path is deleted.
+    groups: GroupSinks,
     sink: CubeSink,
     tmp: tempfile::TempPath,
     dest: PathBuf,
@@ -808,22 +809,7 @@ impl CubeWriter {
         provenance: &Provenance,
         compression: CubeCompression,
     ) -> Result<CubeWriter> {
-        // The same temporary-file scheme as `atomic::write_atomically`, held open across
-        // calls instead of inside one closure.
-        let dir = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let stem = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "out".into());
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".{stem}."))
-            .suffix(".tmp")
-            .tempfile_in(&dir)
-            .map_err(|e| ContainerError::from(e).at(path))?
-            .into_temp_path();
+        let tmp = temp_beside(path)?;
         let attrs = CubeAttrs {
             axis,
             frame,
@@ -834,6 +820,7 @@ impl CubeWriter {
         };
         let sink = CubeSink::create_with(&tmp, path, nx, ny, &attrs, compression)?;
         Ok(CubeWriter {
+            groups: GroupSinks::default(),
             sink,
             tmp,
             dest: path.to_path_buf(),
@@ -848,6 +835,35 @@ impl CubeWriter {
     /// Write the validity mask (`ny * nx` bytes, `[y][x]`, 1 = valid). At most once.
     pub fn write_mask(&mut self, mask: &[u8]) -> Result<()> {
         self.sink.write_mask(mask)
+    }
+
+    /// Create extra group `name` with its attributes and empty datasets, to be filled by
+    /// [`CubeWriter::write_group_rows`].
+    pub fn begin_group(
+        &mut self,
+        name: &str,
+        attrs: &[(String, AttrValue)],
+        datasets: &[DatasetSpec],
+    ) -> Result<()> {
+        self.groups
+            .begin(&self.sink.file, &self.dest, name, attrs, datasets)
+    }
+
+    /// Write rows `r0 ..` of dataset `dataset` of group `group` (begun before).
+    pub fn write_group_rows(
+        &mut self,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        rows: &DataBuf,
+    ) -> Result<()> {
+        self.groups.write_rows(&self.dest, group, dataset, r0, rows)
+    }
+
+    /// Write a whole extra group at once.
+    pub fn write_group(&mut self, name: &str, data: &GroupData) -> Result<()> {
+        self.groups
+            .write_whole(&self.sink.file, &self.dest, name, data)
     }
 
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
@@ -901,23 +917,18 @@ impl CubeWriter {
         Ok(())
     }
 
-    /// Check every row was written, close the file and rename it onto the destination.
+    /// Check every row (of the cube and of every group) was written, close the file and
+    /// rename it onto the destination.
     pub fn finish(self) -> Result<()> {
-        let CubeWriter { sink, tmp, dest } = self;
+        let CubeWriter {
+            groups,
+            sink,
+            tmp,
+            dest,
+        } = self;
+        groups.close(&dest)?;
         sink.close()?;
-        // As `atomic::write_atomically` does: tempfile creates owner-only files, outputs are
-        // ordinary files.
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))
-                .map_err(|e| ContainerError::from(e).at(&dest))?;
-        }
-        tmp.persist(&dest).map_err(|e| ContainerError::Io {
-            path: dest.clone(),
-            source: e.error,
-        })?;
-        Ok(())
+        persist(tmp, &dest)
     }
 }
 
@@ -1273,41 +1284,19 @@ impl CubeReader {
 
     /// Read one extra group whole.
     pub fn read_group(&self, name: &str) -> Result<GroupData> {
-        let group = self.group(name)?;
-        let attrs = read_group_attrs(&group, &self.path, name)?;
-        let mut datasets = Vec::new();
-        for ds_name in self.group_dataset_names(&group, name)? {
-            let (shape, _) = self.group_dataset_shape(name, &ds_name)?;
-            let rows = shape[0];
-            let data = self.read_group_rows(name, &ds_name, 0, rows)?;
-            datasets.push((ds_name, shape, data));
-        }
-        Ok(GroupData { attrs, datasets })
+        read_group_in(&self.file, &self.path, name)
     }
 
-    fn group(&self, name: &str) -> Result<H5Group> {
-        self.file.root_group().group(name).map_err(|e| match e {
-            Hdf5Error::NotFound(_) => ContainerError::NoGroup {
-                path: self.path.clone(),
-                group: name.to_string(),
-            },
-            other => h5(&self.path)(other),
-        })
+    /// The attributes of extra group `name`, without reading its datasets.
+    pub fn read_group_attrs(&self, name: &str) -> Result<Vec<(String, AttrValue)>> {
+        let group = open_group(&self.file, &self.path, name)?;
+        read_group_attrs(&group, &self.path, name)
     }
 
-    fn group_dataset_names(&self, group: &H5Group, name: &str) -> Result<Vec<String>> {
-        let sub = group.group_names().map_err(h5(&self.path))?;
-        if let Some(s) = sub.first() {
-            return Err(invalid(
-                &self.path,
-                format!(
-                    "group /{name} holds a nested group /{name}/{s}, which femto does not read"
-                ),
-            ));
-        }
-        let mut names = group.dataset_names().map_err(h5(&self.path))?;
-        names.sort();
-        Ok(names)
+    /// Names of the datasets of extra group `name`, sorted.
+    pub fn group_dataset_names(&self, name: &str) -> Result<Vec<String>> {
+        let group = open_group(&self.file, &self.path, name)?;
+        dataset_names_in(&group, &self.path, name)
     }
 
     /// Shape and element type name ("f32", "f64", "u8", "u32" or "i32") of dataset
@@ -1317,20 +1306,7 @@ impl CubeReader {
         group: &str,
         dataset: &str,
     ) -> Result<(Vec<usize>, &'static str)> {
-        let full = format!("{group}/{dataset}");
-        self.group(group)?;
-        let ds = open_dataset(&self.file, &self.path, &full)?;
-        let elem = group_elem(&ds, &self.path, &full)?;
-        let shape = ds.shape();
-        if shape.is_empty() {
-            return Err(ContainerError::WrongRank {
-                path: self.path.clone(),
-                dataset: full,
-                found: 0,
-                expected: 1,
-            });
-        }
-        Ok((shape, elem.name()))
+        group_dataset_shape_in(&self.file, &self.path, group, dataset)
     }
 
     /// Read rows `r0 .. r0 + n` (along the first axis) of dataset `dataset` of group
@@ -1342,37 +1318,185 @@ impl CubeReader {
         r0: usize,
         n: usize,
     ) -> Result<DataBuf> {
-        let (shape, _) = self.group_dataset_shape(group, dataset)?;
-        let full = format!("{group}/{dataset}");
-        if r0 + n > shape[0] {
-            return Err(invalid(
-                &self.path,
-                format!(
-                    "rows {r0}..{} past the {} rows of /{full}",
-                    r0 + n,
-                    shape[0]
-                ),
-            ));
-        }
-        let ds = open_dataset(&self.file, &self.path, &full)?;
-        let elem = group_elem(&ds, &self.path, &full)?;
-        let mut starts = vec![0; shape.len()];
-        starts[0] = r0;
-        let mut counts = shape.clone();
-        counts[0] = n;
-        if n == 0 {
-            return Ok(empty_buf(elem));
-        }
-        let e = h5(&self.path);
-        Ok(match elem {
-            Elem::F32 => DataBuf::F32(ds.read_slice(&starts, &counts).map_err(e)?),
-            Elem::F64 => DataBuf::F64(ds.read_slice(&starts, &counts).map_err(e)?),
-            Elem::U8 => DataBuf::U8(ds.read_slice(&starts, &counts).map_err(e)?),
-            Elem::U32 => DataBuf::U32(ds.read_slice(&starts, &counts).map_err(e)?),
-            Elem::I32 => DataBuf::I32(ds.read_slice(&starts, &counts).map_err(e)?),
-            _ => unreachable!("group_elem admits the DataBuf types only"),
+        read_group_rows_in(&self.file, &self.path, group, dataset, r0, n)
+    }
+}
+
+/// Reader of the extra groups of any HDF5 file: a cube file, or a side file that holds
+/// groups only (e.g. `femto pyramid --side-file`), which [`CubeReader`] refuses for lack
+/// of a `/cube`.
+pub struct GroupReader {
+    file: H5File,
+    path: PathBuf,
+    groups: Vec<String>,
+    has_cube: bool,
+}
+
+impl GroupReader {
+    /// Open the HDF5 file at `path` and list its groups.
+    pub fn open(path: &Path) -> Result<GroupReader> {
+        let file = open_h5(path)?;
+        let root = file.root_group();
+        let mut groups = root.group_names().map_err(h5(path))?;
+        groups.sort();
+        let has_cube = root
+            .dataset_names()
+            .map_err(h5(path))?
+            .iter()
+            .any(|n| n == CUBE_DATASET);
+        Ok(GroupReader {
+            file,
+            path: path.to_path_buf(),
+            groups,
+            has_cube,
         })
     }
+
+    /// Names of the groups at the file root, sorted.
+    pub fn groups(&self) -> &[String] {
+        &self.groups
+    }
+
+    /// Whether the file also holds a `/cube` dataset.
+    pub fn has_cube(&self) -> bool {
+        self.has_cube
+    }
+
+    /// Read one group whole.
+    pub fn read_group(&self, name: &str) -> Result<GroupData> {
+        read_group_in(&self.file, &self.path, name)
+    }
+
+    /// The attributes of group `name`, without reading its datasets.
+    pub fn read_group_attrs(&self, name: &str) -> Result<Vec<(String, AttrValue)>> {
+        let group = open_group(&self.file, &self.path, name)?;
+        read_group_attrs(&group, &self.path, name)
+    }
+
+    /// Names of the datasets of group `name`, sorted.
+    pub fn group_dataset_names(&self, name: &str) -> Result<Vec<String>> {
+        let group = open_group(&self.file, &self.path, name)?;
+        dataset_names_in(&group, &self.path, name)
+    }
+
+    /// Shape and element type name of dataset `dataset` of group `group`.
+    pub fn group_dataset_shape(
+        &self,
+        group: &str,
+        dataset: &str,
+    ) -> Result<(Vec<usize>, &'static str)> {
+        group_dataset_shape_in(&self.file, &self.path, group, dataset)
+    }
+
+    /// Read rows `r0 .. r0 + n` (along the first axis) of dataset `dataset` of group
+    /// `group`, in row-major order.
+    pub fn read_group_rows(
+        &self,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        n: usize,
+    ) -> Result<DataBuf> {
+        read_group_rows_in(&self.file, &self.path, group, dataset, r0, n)
+    }
+}
+
+fn read_group_in(file: &H5File, path: &Path, name: &str) -> Result<GroupData> {
+    let group = open_group(file, path, name)?;
+    let attrs = read_group_attrs(&group, path, name)?;
+    let mut datasets = Vec::new();
+    for ds_name in dataset_names_in(&group, path, name)? {
+        let (shape, _) = group_dataset_shape_in(file, path, name, &ds_name)?;
+        let rows = shape[0];
+        let data = read_group_rows_in(file, path, name, &ds_name, 0, rows)?;
+        datasets.push((ds_name, shape, data));
+    }
+    Ok(GroupData { attrs, datasets })
+}
+
+fn open_group(file: &H5File, path: &Path, name: &str) -> Result<H5Group> {
+    file.root_group().group(name).map_err(|e| match e {
+        Hdf5Error::NotFound(_) => ContainerError::NoGroup {
+            path: path.to_path_buf(),
+            group: name.to_string(),
+        },
+        other => h5(path)(other),
+    })
+}
+
+fn dataset_names_in(group: &H5Group, path: &Path, name: &str) -> Result<Vec<String>> {
+    let sub = group.group_names().map_err(h5(path))?;
+    if let Some(s) = sub.first() {
+        return Err(invalid(
+            path,
+            format!("group /{name} holds a nested group /{name}/{s}, which femto does not read"),
+        ));
+    }
+    let mut names = group.dataset_names().map_err(h5(path))?;
+    names.sort();
+    Ok(names)
+}
+
+fn group_dataset_shape_in(
+    file: &H5File,
+    path: &Path,
+    group: &str,
+    dataset: &str,
+) -> Result<(Vec<usize>, &'static str)> {
+    let full = format!("{group}/{dataset}");
+    open_group(file, path, group)?;
+    let ds = open_dataset(file, path, &full)?;
+    let elem = group_elem(&ds, path, &full)?;
+    let shape = ds.shape();
+    if shape.is_empty() {
+        return Err(ContainerError::WrongRank {
+            path: path.to_path_buf(),
+            dataset: full,
+            found: 0,
+            expected: 1,
+        });
+    }
+    Ok((shape, elem.name()))
+}
+
+fn read_group_rows_in(
+    file: &H5File,
+    path: &Path,
+    group: &str,
+    dataset: &str,
+    r0: usize,
+    n: usize,
+) -> Result<DataBuf> {
+    let (shape, _) = group_dataset_shape_in(file, path, group, dataset)?;
+    let full = format!("{group}/{dataset}");
+    if r0 + n > shape[0] {
+        return Err(invalid(
+            path,
+            format!(
+                "rows {r0}..{} past the {} rows of /{full}",
+                r0 + n,
+                shape[0]
+            ),
+        ));
+    }
+    let ds = open_dataset(file, path, &full)?;
+    let elem = group_elem(&ds, path, &full)?;
+    let mut starts = vec![0; shape.len()];
+    starts[0] = r0;
+    let mut counts = shape.clone();
+    counts[0] = n;
+    if n == 0 {
+        return Ok(empty_buf(elem));
+    }
+    let e = h5(path);
+    Ok(match elem {
+        Elem::F32 => DataBuf::F32(ds.read_slice(&starts, &counts).map_err(e)?),
+        Elem::F64 => DataBuf::F64(ds.read_slice(&starts, &counts).map_err(e)?),
+        Elem::U8 => DataBuf::U8(ds.read_slice(&starts, &counts).map_err(e)?),
+        Elem::U32 => DataBuf::U32(ds.read_slice(&starts, &counts).map_err(e)?),
+        Elem::I32 => DataBuf::I32(ds.read_slice(&starts, &counts).map_err(e)?),
+        _ => unreachable!("group_elem admits the DataBuf types only"),
+    })
 }
 
 fn empty_buf(elem: Elem) -> DataBuf {
@@ -1557,30 +1681,13 @@ fn read_group_attrs(group: &H5Group, path: &Path, name: &str) -> Result<Vec<(Str
 // Extra groups
 
 fn check_group(path: &Path, name: &str, data: &GroupData) -> Result<()> {
-    check_name(path, "group", name)?;
-    if name == CUBE_DATASET || name == MASK_DATASET {
-        return Err(invalid(path, format!("group name '{name}' is reserved")));
-    }
-    for (i, (a, _)) in data.attrs.iter().enumerate() {
-        check_name(path, "attribute", a)?;
-        if a == GROUP_ATTRS_INDEX || data.attrs[..i].iter().any(|(o, _)| o == a) {
-            return Err(invalid(
-                path,
-                format!("attribute '{a}' of group /{name} is reserved or given twice"),
-            ));
-        }
-    }
-    for (i, (d, shape, buf)) in data.datasets.iter().enumerate() {
-        check_name(path, "dataset", d)?;
-        if data.datasets[..i].iter().any(|(o, _, _)| o == d) {
-            return Err(invalid(path, format!("dataset /{name}/{d} given twice")));
-        }
-        if shape.is_empty() || shape.contains(&0) {
-            return Err(invalid(
-                path,
-                format!("dataset /{name}/{d} has shape {shape:?}: every axis needs length > 0"),
-            ));
-        }
+    let layout: Vec<(&str, &[usize])> = data
+        .datasets
+        .iter()
+        .map(|(d, shape, _)| (d.as_str(), shape.as_slice()))
+        .collect();
+    check_group_layout(path, name, &data.attrs, &layout)?;
+    for (d, shape, buf) in &data.datasets {
         let n: usize = shape.iter().product();
         if n != buf.len() {
             return Err(invalid(
@@ -1589,6 +1696,41 @@ fn check_group(path: &Path, name: &str, data: &GroupData) -> Result<()> {
                     "dataset /{name}/{d} has shape {shape:?} ({n} values) but {} values",
                     buf.len()
                 ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Check the names of a group, its attributes and datasets, and the datasets' shapes.
+fn check_group_layout(
+    path: &Path,
+    name: &str,
+    attrs: &[(String, AttrValue)],
+    datasets: &[(&str, &[usize])],
+) -> Result<()> {
+    check_name(path, "group", name)?;
+    if name == CUBE_DATASET || name == MASK_DATASET {
+        return Err(invalid(path, format!("group name '{name}' is reserved")));
+    }
+    for (i, (a, _)) in attrs.iter().enumerate() {
+        check_name(path, "attribute", a)?;
+        if a == GROUP_ATTRS_INDEX || attrs[..i].iter().any(|(o, _)| o == a) {
+            return Err(invalid(
+                path,
+                format!("attribute '{a}' of group /{name} is reserved or given twice"),
+            ));
+        }
+    }
+    for (i, (d, shape)) in datasets.iter().enumerate() {
+        check_name(path, "dataset", d)?;
+        if datasets[..i].iter().any(|(o, _)| o == d) {
+            return Err(invalid(path, format!("dataset /{name}/{d} given twice")));
+        }
+        if shape.is_empty() || shape.contains(&0) {
+            return Err(invalid(
+                path,
+                format!("dataset /{name}/{d} has shape {shape:?}: every axis needs length > 0"),
             ));
         }
     }
@@ -1660,7 +1802,7 @@ fn write_group_attrs(group: &H5Group, attrs: &[(String, AttrValue)]) -> rust_hdf
 ///
 /// A complete new file is written beside the old one (the cube copied slab by slab, other
 /// groups copied row slab by row slab) and renamed onto it, so on failure the old file is
-/// left as it was.
+/// left as it was. [`GroupUpdate`] does the same with groups streamed by rows.
 pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()> {
     for (i, (name, data)) in groups.iter().enumerate() {
         check_group(cube_path, name, data)?;
@@ -1668,8 +1810,309 @@ pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()
             return Err(invalid(cube_path, format!("group /{name} given twice")));
         }
     }
-    write_atomically(cube_path, |tmp| {
+    let mut update = GroupUpdate::open(cube_path)?;
+    for (name, data) in groups {
+        update.write_group(name, data)?;
+    }
+    update.finish()
+}
+
+/// Copy every row of group `name` of `reader` into a new group of `file`.
+fn copy_group(reader: &CubeReader, file: &H5File, name: &str) -> Result<()> {
+    let path = &reader.path;
+    let e = h5(path);
+    let src = open_group(&reader.file, path, name)?;
+    let dst = file.create_group(name).map_err(&e)?;
+    write_group_attrs(&dst, &read_group_attrs(&src, path, name)?).map_err(&e)?;
+    for ds_name in dataset_names_in(&src, path, name)? {
+        let (shape, _) = reader.group_dataset_shape(name, &ds_name)?;
+        let full = format!("{name}/{ds_name}");
+        let elem = group_elem(&open_dataset(&reader.file, path, &full)?, path, &full)?;
+        let ds = create_group_dataset(&dst, &ds_name, elem, &shape).map_err(&e)?;
+        let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
+        let step = slab_rows(row_bytes, shape[0]);
+        for r0 in (0..shape[0]).step_by(step) {
+            let n = step.min(shape[0] - r0);
+            let slab = reader.read_group_rows(name, &ds_name, r0, n)?;
+            write_group_rows(&ds, &shape, r0, &slab).map_err(&e)?;
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// Extra groups streamed by rows
+
+/// Element type of a dataset of an extra group: the types a [`DataBuf`] holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupElem {
+    F32,
+    F64,
+    U8,
+    U32,
+    I32,
+}
+
+impl GroupElem {
+    fn elem(self) -> Elem {
+        match self {
+            GroupElem::F32 => Elem::F32,
+            GroupElem::F64 => Elem::F64,
+            GroupElem::U8 => Elem::U8,
+            GroupElem::U32 => Elem::U32,
+            GroupElem::I32 => Elem::I32,
+        }
+    }
+
+    /// The type's name as documented in docs/cube-format.md ("f32", "u8", ...).
+    pub fn name(self) -> &'static str {
+        self.elem().name()
+    }
+}
+
+impl DataBuf {
+    /// The element type of the values.
+    pub fn group_elem(&self) -> GroupElem {
+        match self {
+            DataBuf::F32(_) => GroupElem::F32,
+            DataBuf::F64(_) => GroupElem::F64,
+            DataBuf::U8(_) => GroupElem::U8,
+            DataBuf::U32(_) => GroupElem::U32,
+            DataBuf::I32(_) => GroupElem::I32,
+        }
+    }
+}
+
+/// A dataset of an extra group that is written by row slabs ([`GroupUpdate::begin_group`],
+/// [`CubeWriter::begin_group`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DatasetSpec {
+    /// Name inside the group.
+    pub name: String,
+    /// Shape, C order; slabs are cut along the first axis.
+    pub shape: Vec<usize>,
+    pub elem: GroupElem,
+}
+
+impl DatasetSpec {
+    pub fn new(name: impl Into<String>, shape: &[usize], elem: GroupElem) -> DatasetSpec {
+        DatasetSpec {
+            name: name.into(),
+            shape: shape.to_vec(),
+            elem,
+        }
+    }
+}
+
+/// One dataset of a group being written, and which of its rows have been.
+struct OpenGroupDataset {
+    group: String,
+    name: String,
+    ds: H5Dataset,
+    shape: Vec<usize>,
+    elem: Elem,
+    rows_written: Vec<bool>,
+}
+
+/// The extra groups of a file being written, their datasets filled by row slabs.
+#[derive(Default)]
+struct GroupSinks {
+    /// Names of the groups created so far.
+    written: Vec<String>,
+    datasets: Vec<OpenGroupDataset>,
+}
+
+impl GroupSinks {
+    fn begin(
+        &mut self,
+        file: &H5File,
+        path: &Path,
+        name: &str,
+        attrs: &[(String, AttrValue)],
+        specs: &[DatasetSpec],
+    ) -> Result<()> {
+        let layout: Vec<(&str, &[usize])> = specs
+            .iter()
+            .map(|d| (d.name.as_str(), d.shape.as_slice()))
+            .collect();
+        check_group_layout(path, name, attrs, &layout)?;
+        if self.written.iter().any(|g| g == name) {
+            return Err(invalid(path, format!("group /{name} given twice")));
+        }
+        let e = h5(path);
+        let group = file.create_group(name).map_err(&e)?;
+        write_group_attrs(&group, attrs).map_err(&e)?;
+        for d in specs {
+            let ds = create_group_dataset(&group, &d.name, d.elem.elem(), &d.shape).map_err(&e)?;
+            self.datasets.push(OpenGroupDataset {
+                group: name.to_string(),
+                name: d.name.clone(),
+                ds,
+                shape: d.shape.clone(),
+                elem: d.elem.elem(),
+                rows_written: vec![false; d.shape[0]],
+            });
+        }
+        self.written.push(name.to_string());
+        Ok(())
+    }
+
+    fn write_rows(
+        &mut self,
+        path: &Path,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        rows: &DataBuf,
+    ) -> Result<()> {
+        let d = self
+            .datasets
+            .iter_mut()
+            .find(|d| d.group == group && d.name == dataset)
+            .ok_or_else(|| {
+                invalid(
+                    path,
+                    format!("dataset /{group}/{dataset} was not declared by begin_group"),
+                )
+            })?;
+        if rows.elem() != d.elem {
+            return Err(invalid(
+                path,
+                format!(
+                    "dataset /{group}/{dataset} holds {}, not {}",
+                    d.elem.name(),
+                    rows.type_name()
+                ),
+            ));
+        }
+        let row_elems: usize = d.shape[1..].iter().product();
+        if rows.is_empty() || !rows.len().is_multiple_of(row_elems) {
+            return Err(invalid(
+                path,
+                format!(
+                    "{} values are not whole rows of {row_elems} of /{group}/{dataset}",
+                    rows.len()
+                ),
+            ));
+        }
+        let n = rows.len() / row_elems;
+        if r0 + n > d.shape[0] {
+            return Err(invalid(
+                path,
+                format!(
+                    "rows {r0}..{} past the {} rows of /{group}/{dataset}",
+                    r0 + n,
+                    d.shape[0]
+                ),
+            ));
+        }
+        write_group_rows(&d.ds, &d.shape, r0, rows).map_err(h5(path))?;
+        d.rows_written[r0..r0 + n].fill(true);
+        Ok(())
+    }
+
+    fn write_whole(
+        &mut self,
+        file: &H5File,
+        path: &Path,
+        name: &str,
+        data: &GroupData,
+    ) -> Result<()> {
+        check_group(path, name, data)?;
+        let specs: Vec<DatasetSpec> = data
+            .datasets
+            .iter()
+            .map(|(n, shape, buf)| DatasetSpec::new(n.clone(), shape, buf.group_elem()))
+            .collect();
+        self.begin(file, path, name, &data.attrs, &specs)?;
+        for (n, _, buf) in &data.datasets {
+            self.write_rows(path, name, n, 0, buf)?;
+        }
+        Ok(())
+    }
+
+    /// Check that every row of every dataset was written, then release the datasets.
+    fn close(self, path: &Path) -> Result<()> {
+        for d in &self.datasets {
+            if let Some(r) = d.rows_written.iter().position(|w| !w) {
+                let n = d.rows_written.iter().filter(|w| !**w).count();
+                return Err(invalid(
+                    path,
+                    format!(
+                        "{n} rows of /{}/{} were never written (first: row {r})",
+                        d.group, d.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A temporary file beside `dest`, for a writer that renames it onto `dest` when done (the
+/// scheme of `atomic::write_atomically`, held open across calls).
+fn temp_beside(dest: &Path) -> Result<tempfile::TempPath> {
+    let dir = match dest.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let stem = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    Ok(tempfile::Builder::new()
+        .prefix(&format!(".{stem}."))
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| ContainerError::from(e).at(dest))?
+        .into_temp_path())
+}
+
+/// Give a finished temporary file ordinary permissions and rename it onto `dest`.
+fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
+    // As `atomic::write_atomically` does: tempfile creates owner-only files, outputs are
+    // ordinary files.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))
+            .map_err(|e| ContainerError::from(e).at(dest))?;
+    }
+    tmp.persist(dest).map_err(|e| ContainerError::Io {
+        path: dest.to_path_buf(),
+        source: e.error,
+    })?;
+    Ok(())
+}
+
+/// What a [`GroupUpdate`] writes into.
+enum UpdateTarget {
+    /// A copy of a cube file; its groups not rewritten are copied at the end.
+    Cube { sink: CubeSink, reader: CubeReader },
+    /// A file holding groups only.
+    SideFile { file: H5File },
+}
+
+/// Adds or replaces extra groups of an existing cube file, or writes a side file that holds
+/// groups only, with datasets streamed by row slabs so that peak memory is one slab.
+///
+/// Like [`CubeWriter`], everything goes to a temporary file beside the destination, renamed
+/// onto it by [`GroupUpdate::finish`]; dropping an unfinished update deletes the temporary file
+/// and leaves the old file as it was. For a cube, the cube and mask are copied when the update
+/// is opened, and the groups that were not rewritten when it is finished.
+pub struct GroupUpdate {
+    // Field order matters: the HDF5 file is closed before the temporary path is deleted.
+    groups: GroupSinks,
+    target: UpdateTarget,
+    tmp: tempfile::TempPath,
+    dest: PathBuf,
+}
+
+impl GroupUpdate {
+    /// Start an update of the cube file at `cube_path` (copying its cube and mask).
+    pub fn open(cube_path: &Path) -> Result<GroupUpdate> {
         let reader = CubeReader::open(cube_path)?;
+        let tmp = temp_beside(cube_path)?;
         let meta = reader.meta.clone();
         let attrs = CubeAttrs {
             axis: meta.axis,
@@ -1679,7 +2122,7 @@ pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()
             command_line: meta.command_line.as_deref(),
             notes: &meta.notes,
         };
-        let mut sink = CubeSink::create(tmp, cube_path, meta.nx, meta.ny, &attrs)?;
+        let mut sink = CubeSink::create(&tmp, cube_path, meta.nx, meta.ny, &attrs)?;
         let row_len = meta.row_len();
         let rows = slab_rows(row_len * 4, meta.ny);
         let mut buf = vec![0.0f32; rows * row_len];
@@ -1692,44 +2135,90 @@ pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()
         if let Some(mask) = reader.read_mask()? {
             sink.write_mask(&mask)?;
         }
-        let e = h5(cube_path);
-        for old in &meta.groups {
-            if groups.iter().any(|(n, _)| n == old) {
-                continue;
-            }
-            let src = reader.group(old)?;
-            let dst = sink.file.create_group(old).map_err(&e)?;
-            write_group_attrs(&dst, &read_group_attrs(&src, cube_path, old)?).map_err(&e)?;
-            for ds_name in reader.group_dataset_names(&src, old)? {
-                let (shape, _) = reader.group_dataset_shape(old, &ds_name)?;
-                let full = format!("{old}/{ds_name}");
-                let elem = group_elem(
-                    &open_dataset(&reader.file, cube_path, &full)?,
-                    cube_path,
-                    &full,
-                )?;
-                let ds = create_group_dataset(&dst, &ds_name, elem, &shape).map_err(&e)?;
-                let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
-                let step = slab_rows(row_bytes, shape[0]);
-                for r0 in (0..shape[0]).step_by(step) {
-                    let n = step.min(shape[0] - r0);
-                    let slab = reader.read_group_rows(old, &ds_name, r0, n)?;
-                    write_group_rows(&ds, &shape, r0, &slab).map_err(&e)?;
+        Ok(GroupUpdate {
+            groups: GroupSinks::default(),
+            target: UpdateTarget::Cube { sink, reader },
+            tmp,
+            dest: cube_path.to_path_buf(),
+        })
+    }
+
+    /// Start a new side file at `path` that will hold groups only (no `/cube`); read it back
+    /// with [`GroupReader`].
+    pub fn side_file(path: &Path) -> Result<GroupUpdate> {
+        let tmp = temp_beside(path)?;
+        let file = H5File::options()
+            .best_effort_locking()
+            .create(&tmp)
+            .map_err(h5(path))?;
+        Ok(GroupUpdate {
+            groups: GroupSinks::default(),
+            target: UpdateTarget::SideFile { file },
+            tmp,
+            dest: path.to_path_buf(),
+        })
+    }
+
+    /// Create group `name` with its attributes and empty datasets, to be filled by
+    /// [`GroupUpdate::write_group_rows`]. A group of that name in the old file is replaced.
+    pub fn begin_group(
+        &mut self,
+        name: &str,
+        attrs: &[(String, AttrValue)],
+        datasets: &[DatasetSpec],
+    ) -> Result<()> {
+        let file = match &self.target {
+            UpdateTarget::Cube { sink, .. } => &sink.file,
+            UpdateTarget::SideFile { file } => file,
+        };
+        self.groups.begin(file, &self.dest, name, attrs, datasets)
+    }
+
+    /// Write rows `r0 ..` of dataset `dataset` of group `group` (begun before).
+    pub fn write_group_rows(
+        &mut self,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        rows: &DataBuf,
+    ) -> Result<()> {
+        self.groups.write_rows(&self.dest, group, dataset, r0, rows)
+    }
+
+    /// Write a whole group at once.
+    pub fn write_group(&mut self, name: &str, data: &GroupData) -> Result<()> {
+        let file = match &self.target {
+            UpdateTarget::Cube { sink, .. } => &sink.file,
+            UpdateTarget::SideFile { file } => file,
+        };
+        self.groups.write_whole(file, &self.dest, name, data)
+    }
+
+    /// Check that every row was written, copy the untouched groups of the old cube file,
+    /// close the file and rename it onto the destination.
+    pub fn finish(self) -> Result<()> {
+        let GroupUpdate {
+            groups,
+            target,
+            tmp,
+            dest,
+        } = self;
+        let written = groups.written.clone();
+        groups.close(&dest)?;
+        match target {
+            UpdateTarget::Cube { sink, reader } => {
+                for old in &reader.meta.groups {
+                    if !written.contains(old) {
+                        copy_group(&reader, &sink.file, old)?;
+                    }
                 }
+                drop(reader);
+                sink.close()?;
             }
+            UpdateTarget::SideFile { file } => file.close().map_err(h5(&dest))?,
         }
-        for (name, data) in groups {
-            let dst = sink.file.create_group(name).map_err(&e)?;
-            write_group_attrs(&dst, &data.attrs).map_err(&e)?;
-            for (ds_name, shape, values) in &data.datasets {
-                let ds = create_group_dataset(&dst, ds_name, values.elem(), shape).map_err(&e)?;
-                write_group_rows(&ds, shape, 0, values).map_err(&e)?;
-            }
-        }
-        drop(reader);
-        sink.close()
-    })
-    .map_err(|e| e.at(cube_path))
+        persist(tmp, &dest)
+    }
 }
 
 // ---------------------------------------------------------------------------------------

@@ -118,7 +118,8 @@ pub struct CaptureInfo {
     /// Time resolution of the streak sensor (FWHM of its impulse response), ps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_fwhm_ps: Option<f64>,
-    /// Signal value of one count of the 16-bit PNGs (required when `png16` is written).
+    /// Signal value of one count of the 16-bit PNGs (required when `png16` is written); the
+    /// simulator's `.img` files hold the same counts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub png_value_per_count: Option<f64>,
     /// Refractive index of the medium.
@@ -162,6 +163,13 @@ pub struct CaptureFiles {
     /// True direct (single-bounce) component (`.h5`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth_direct: Option<PathBuf>,
+    /// Flat field: the gain of every pixel, an image of `nx` columns by `ny` rows (`.exr`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flat: Option<PathBuf>,
+    /// Dark frame: a streak image (`nx` by `nt`) taken with no light, same units as the
+    /// scanlines (`.exr`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dark: Option<PathBuf>,
 }
 
 /// `[[scanline]]`: the streak image of scanline `index`.

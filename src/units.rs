@@ -25,7 +25,7 @@ mod tests {
     #[test]
     fn one_metre_in_vacuum_is_3336_ps() {
         // 1 m / 299 792 458 m/s = 3.335 640 95 ns.
-        assert!((flight_time_ps(1.0, 1.0) - 3335.640_95).abs() < 1e-3);
+        assert!((flight_time_ps(1.0, 1.0) - 3_335.640_95).abs() < 1e-3);
         assert!((flight_distance_m(1.0, flight_time_ps(1.0, 2.5)) - 2.5).abs() < 1e-12);
     }
 }

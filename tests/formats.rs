@@ -671,6 +671,8 @@ fn full_manifest() -> Manifest {
             truth_camera: Some("truth_camera.h5".into()),
             truth_world: Some("truth_world.h5".into()),
             truth_direct: None,
+            flat: Some("flat.exr".into()),
+            dark: None,
         },
         imperfections: Imperfections {
             photon_noise: Some(PhotonNoise {

@@ -4,7 +4,12 @@
 //! Exit codes: 0 success, 2 bad input (the default for any reported error: a missing file,
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
+pub mod calibrate;
 pub mod info;
+pub mod pyramid;
+pub mod unwarp;
+pub mod simulate;
+pub mod render;
 pub mod ingest;
 
 use clap::{Parser, Subcommand};
@@ -23,8 +28,22 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Describe a file: a cube's shape, time axis, time frame, value range and groups.
+    /// Describe a file: a cube (shape, time axis, value range, registration, pyramid), a
+    /// pyramid side file, a mesh or a streak image.
     Info(info::InfoArgs),
+    /// Fit the capture camera and time offset to correspondences and the cube's first
+    /// arrivals; write the calibration TOML and the cube's registration group.
+    Calibrate(calibrate::CalibrateArgs),
+    /// Convert a cube between camera time and world time with its registration's distances.
+    Unwarp(unwarp::UnwarpArgs),
+    /// Store a cube's temporal prefix sums and mip levels (group `pyramid` or a side file).
+    Pyramid(pyramid::PyramidArgs),
+    /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
+    /// geometry, true calibration, fiducials and ground-truth cubes.
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Render a relativistic novel-view video of a world-time cube: a camera moving at
+    /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
+    Render(Box<render::RenderArgs>),
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
     Ingest(ingest::IngestArgs),
@@ -34,6 +53,11 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(args) => info::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
+        Command::Unwarp(args) => unwarp::run(args),
+        Command::Pyramid(args) => pyramid::run(args),
+        Command::Simulate(args) => simulate::run(*args),
+        Command::Render(args) => render::run(*args),
         Command::Ingest(args) => ingest::run(args),
     }
 }

@@ -1,9 +1,13 @@
 //! Triangle geometry: meshes in metres, rays, and hits.
 //!
 //! Geometry is single precision (the tracer and renderer cast billions of rays); calibration
-//! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading in `load`.
+//! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading (OBJ, glTF) in
+//! [`load`]; writing binary glTF in [`glb`]; built-in primitive meshes in [`primitives`].
 
 pub mod bvh;
+pub mod glb;
+pub mod load;
+pub mod primitives;
 
 use nalgebra::{Point3, Vector3};
 

@@ -1,0 +1,403 @@
+//! `femto simulate`: write a simulated streak capture of a scene (library:
+//! [`femto::simulate`]). Flags are checked here and named in errors; the scene, the render,
+//! the imperfections and the files are the library's.
+
+use anyhow::{bail, Context};
+use clap::Args;
+use femto::manifest::StreakFormat;
+use femto::scene::{Scene, BUILTIN_NAMES};
+use femto::simulate::{simulate_capture, Flaws, SimulateError, SimulateOptions, Stage};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
+const SEED_SIZE: (usize, usize, usize, f64) = (672, 600, 512, 1.71);
+
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// Scene: a built-in name (cube, cornell, bunny) or a scene file (.toml).
+    #[arg(long, default_value = "cube")]
+    pub scene: String,
+    /// Capture folder to create (must not exist or be empty, unless --force).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace the capture folder if it exists.
+    #[arg(long)]
+    pub force: bool,
+    /// Mesh file of the bunny scene (e.g. the Stanford bunny OBJ).
+    #[arg(long, value_name = "PATH")]
+    pub bunny: Option<PathBuf>,
+    /// Scanline formats, comma-separated: png16, exr, img16 (or img), img32. The first is the
+    /// manifest's primary file.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "png16",
+        value_name = "LIST"
+    )]
+    pub format: Vec<String>,
+    /// Camera paths per pixel.
+    #[arg(
+        long,
+        default_value_t = 64,
+        allow_negative_numbers = true,
+        value_name = "N"
+    )]
+    pub spp: i64,
+    /// Random seed (0 to 2^63 - 1).
+    #[arg(
+        long,
+        default_value_t = 0,
+        allow_negative_numbers = true,
+        value_name = "S"
+    )]
+    pub seed: i64,
+    /// Most surface interactions per path (1 = direct light only).
+    #[arg(
+        long,
+        default_value_t = 4,
+        allow_negative_numbers = true,
+        value_name = "N"
+    )]
+    pub bounces: i64,
+    /// Image size in pixels, e.g. 64x48 (default: the scene's).
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Number of time bins (default: the scene's).
+    #[arg(long, allow_negative_numbers = true, value_name = "N")]
+    pub nt: Option<i64>,
+    /// Width of a time bin, ps (default: the scene's).
+    #[arg(long, allow_negative_numbers = true, value_name = "PS")]
+    pub dt_ps: Option<f64>,
+    /// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
+    #[arg(long, conflicts_with_all = ["size", "nt", "dt_ps"])]
+    pub seed_size: bool,
+    /// Spacing of the fiducial marker grid on flat surfaces, metres.
+    #[arg(long, default_value_t = femto::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
+          allow_negative_numbers = true, value_name = "M")]
+    pub marker_spacing_m: f64,
+
+    /// Start from the realistic set of imperfections (the flags below override it).
+    #[arg(long, help_heading = "Imperfections")]
+    pub realistic: bool,
+    /// Photon (Poisson) noise: expected photons at the clean cube's maximum.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        help_heading = "Imperfections"
+    )]
+    pub photon_noise: Option<f64>,
+    /// Dark signal: offset and noise sigma, fractions of the clean maximum.
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_name = "OFFSET,SIGMA",
+        help_heading = "Imperfections"
+    )]
+    pub dark: Option<String>,
+    /// Vignetting strength in [0, 1): gain 1 - S r^2 (r = 1 at the corners).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "S",
+        help_heading = "Imperfections"
+    )]
+    pub vignetting: Option<f64>,
+    /// Per-scanline trigger jitter, standard deviation in ps.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "PS",
+        help_heading = "Imperfections"
+    )]
+    pub jitter_ps: Option<f64>,
+    /// Per-scanline laser power fluctuation, relative standard deviation.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "S",
+        help_heading = "Imperfections"
+    )]
+    pub power_sigma: Option<f64>,
+    /// Sweep non-linearity strength in [0, 1): largest relative change of a bin's width.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "S",
+        help_heading = "Imperfections"
+    )]
+    pub sweep: Option<f64>,
+    /// Saturation level, fraction of the clean maximum.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "LEVEL",
+        help_heading = "Imperfections"
+    )]
+    pub saturation: Option<f64>,
+}
+
+/// The flag that sets each [`Flaws`] field.
+fn flaw_flag(field: &str) -> &'static str {
+    match field {
+        "photon_noise" => "--photon-noise",
+        "dark" => "--dark",
+        "vignetting" => "--vignetting",
+        "jitter_ps" => "--jitter-ps",
+        "power_sigma" => "--power-sigma",
+        "sweep" => "--sweep",
+        "saturation" => "--saturation",
+        _ => "an imperfection flag",
+    }
+}
+
+fn parse_format(s: &str) -> anyhow::Result<StreakFormat> {
+    Ok(match s.trim().to_ascii_lowercase().as_str() {
+        "png16" | "png" => StreakFormat::Png16,
+        "exr" => StreakFormat::ExrF32,
+        "img16" | "img" => StreakFormat::Img16,
+        "img32" => StreakFormat::Img32,
+        other => bail!("--format: unknown format '{other}' (known: png16, exr, img16, img32)"),
+    })
+}
+
+fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || anyhow::anyhow!("--size: '{s}' is not WIDTHxHEIGHT with both at least 1");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+fn parse_dark(s: &str) -> anyhow::Result<(f64, f64)> {
+    let bad = || anyhow::anyhow!("--dark: '{s}' is not OFFSET,SIGMA (two numbers)");
+    let (o, sd) = s.split_once(',').ok_or_else(bad)?;
+    Ok((
+        o.trim().parse().map_err(|_| bad())?,
+        sd.trim().parse().map_err(|_| bad())?,
+    ))
+}
+
+fn load_scene(args: &SimulateArgs) -> anyhow::Result<Scene> {
+    let name = args.scene.as_str();
+    if BUILTIN_NAMES.contains(&name) {
+        if name == "bunny" && args.bunny.is_none() {
+            bail!("--scene bunny needs --bunny PATH (a mesh file, e.g. the Stanford bunny OBJ)");
+        }
+        if name != "bunny" && args.bunny.is_some() {
+            bail!("--bunny applies only to --scene bunny");
+        }
+        return Scene::builtin(name, args.bunny.as_deref()).context("--scene");
+    }
+    if args.bunny.is_some() {
+        bail!("--bunny applies only to --scene bunny");
+    }
+    let path = Path::new(name);
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+        || path.exists()
+    {
+        return Scene::load(path).context("--scene");
+    }
+    bail!(
+        "--scene: '{name}' is neither a built-in scene ({}) nor a scene file (.toml)",
+        BUILTIN_NAMES.join(", ")
+    )
+}
+
+/// Everything the flags ask for, checked.
+struct Plan {
+    scene: Scene,
+    opts: SimulateOptions,
+}
+
+fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
+    if args.spp < 1 || args.spp > u32::MAX as i64 {
+        bail!("--spp {} must be between 1 and {}", args.spp, u32::MAX);
+    }
+    if args.seed < 0 {
+        bail!("--seed {} must be between 0 and {}", args.seed, i64::MAX);
+    }
+    if args.bounces < 1 || args.bounces > 1000 {
+        bail!("--bounces {} must be between 1 and 1000", args.bounces);
+    }
+    let size = args.size.as_deref().map(parse_size).transpose()?;
+    if let Some(nt) = args.nt {
+        if !(1..=1 << 20).contains(&nt) {
+            bail!("--nt {nt} must be between 1 and {}", 1 << 20);
+        }
+    }
+    if let Some(dt) = args.dt_ps {
+        if !(dt.is_finite() && dt > 0.0) {
+            bail!("--dt-ps {dt} must be finite and > 0");
+        }
+    }
+    if !(args.marker_spacing_m.is_finite() && args.marker_spacing_m > 0.0) {
+        bail!(
+            "--marker-spacing-m {} must be finite and > 0",
+            args.marker_spacing_m
+        );
+    }
+    let formats = args
+        .format
+        .iter()
+        .map(|f| parse_format(f))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+
+    let mut flaws = if args.realistic {
+        Flaws::realistic()
+    } else {
+        Flaws::default()
+    };
+    let dark = args.dark.as_deref().map(parse_dark).transpose()?;
+    let set = |slot: &mut Option<f64>, v: Option<f64>| {
+        if v.is_some() {
+            *slot = v;
+        }
+    };
+    set(&mut flaws.photon_noise, args.photon_noise);
+    set(&mut flaws.vignetting, args.vignetting);
+    set(&mut flaws.jitter_ps, args.jitter_ps);
+    set(&mut flaws.power_sigma, args.power_sigma);
+    set(&mut flaws.sweep, args.sweep);
+    set(&mut flaws.saturation, args.saturation);
+    if dark.is_some() {
+        flaws.dark = dark;
+    }
+    if let Err(e) = flaws.validate() {
+        bail!("{}: {}", flaw_flag(e.flaw), e.message);
+    }
+
+    let mut scene = load_scene(args)?;
+    let cam = &scene.camera;
+    let (mut nx, mut ny, mut nt, mut dt_ps) = (
+        cam.intrinsics.width,
+        cam.intrinsics.height,
+        cam.axis.nt,
+        cam.axis.dt_ps,
+    );
+    if args.seed_size {
+        (nx, ny, nt, dt_ps) = SEED_SIZE;
+    }
+    if let Some((w, h)) = size {
+        (nx, ny) = (w, h);
+    }
+    if let Some(n) = args.nt {
+        nt = n as usize;
+    }
+    if let Some(d) = args.dt_ps {
+        dt_ps = d;
+    }
+    if (nx, ny, nt, dt_ps)
+        != (
+            cam.intrinsics.width,
+            cam.intrinsics.height,
+            cam.axis.nt,
+            cam.axis.dt_ps,
+        )
+    {
+        scene = scene.with_resolution(nx, ny, nt, dt_ps);
+    }
+
+    let opts = SimulateOptions {
+        spp: args.spp as u32,
+        seed: args.seed as u64,
+        max_bounces: args.bounces as u32,
+        formats,
+        flaws,
+        marker_spacing_m: args.marker_spacing_m,
+        force: args.force,
+        created_by: super::command_line(),
+    };
+    if let Err(e) = opts.validate(&scene) {
+        match e {
+            SimulateError::InvalidOption { option, message } => {
+                let flag = match option {
+                    "formats" => "--format",
+                    "seed" => "--seed",
+                    "spp" => "--spp",
+                    "max_bounces" => "--bounces",
+                    _ => option,
+                };
+                bail!("{flag}: {message}");
+            }
+            SimulateError::Flaw(f) => bail!("{}: {}", flaw_flag(f.flaw), f.message),
+            other => return Err(other.into()),
+        }
+    }
+    Ok(Plan { scene, opts })
+}
+
+pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    let Plan { scene, opts } = plan(&args)?;
+    let (nx, ny) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+    );
+    let axis = scene.camera.axis;
+    eprintln!(
+        "femto simulate: scene {}, {nx} x {ny} pixels, {} bins of {} ps from {} ps, spp {}, \
+         bounces {}, seed {}",
+        scene.name, axis.nt, axis.dt_ps, axis.t0_ps, opts.spp, opts.max_bounces, opts.seed
+    );
+    let render_bar = super::progress(ny as u64, "rendering");
+    let write_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
+    let on_progress = |stage: Stage, n: usize| match stage {
+        Stage::Render => render_bar.inc(n as u64),
+        Stage::Write => {
+            let mut bar = write_bar.lock().unwrap_or_else(|e| e.into_inner());
+            bar.get_or_insert_with(|| {
+                render_bar.finish_and_clear();
+                super::progress(ny as u64, "writing")
+            })
+            .inc(n as u64);
+        }
+    };
+    let summary = simulate_capture(&scene, &opts, &args.out, &on_progress);
+    render_bar.finish_and_clear();
+    if let Some(bar) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        bar.finish_and_clear();
+    }
+    let summary = summary.map_err(|e| match e {
+        SimulateError::OutputExists { .. } => {
+            anyhow::anyhow!("--out {e} (--force replaces it)")
+        }
+        other => other.into(),
+    })?;
+    let scanline_files = summary
+        .files
+        .iter()
+        .filter(|f| f.parent().and_then(|p| p.file_name()) == Some("scanlines".as_ref()))
+        .count();
+    println!("capture written to {}", summary.out_dir.display());
+    println!(
+        "  paths: {} ({} rays) in {:.2} s: {:.0} paths/s",
+        summary.paths, summary.rays, summary.render_seconds, summary.paths_per_second
+    );
+    println!(
+        "  files: {} ({} streak images in scanlines/, {} fiducials), {:.2} s in all",
+        summary.files.len(),
+        scanline_files,
+        summary.fiducials,
+        summary.seconds
+    );
+    for f in summary
+        .files
+        .iter()
+        .filter(|f| f.parent().and_then(|p| p.file_name()) != Some("scanlines".as_ref()))
+    {
+        println!("    {}", f.display());
+    }
+    if summary.values_at_top_count > 0 {
+        println!(
+            "  note: {} streak-image values at the top count (65535)",
+            summary.values_at_top_count
+        );
+    }
+    Ok(())
+}

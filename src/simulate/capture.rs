@@ -1,0 +1,527 @@
+//! Writing a simulated capture folder: render the scene's true transient cubes, turn each
+//! scanline into a streak image with the capture's imperfections ([`super::flaws`]), and
+//! write the folder a real lab would hand over plus the ground truth (layout in
+//! [`super`]'s doc).
+//!
+//! The folder is built in a temporary folder beside the destination and renamed onto it only
+//! once every file is written, so an interrupted or failed run leaves nothing half-written.
+
+use super::fiducials::{fiducials, DEFAULT_MARKER_SPACING_M};
+use super::flaws::{CaptureModel, FlawError, Flaws, MAX_COUNT};
+use crate::atomic::write_atomically;
+use crate::calibrate::points::save_points_toml;
+use crate::calibrate::CalibrateError;
+use crate::container::{write_cube, ContainerError, Provenance};
+use crate::cube::Cube;
+use crate::formats::hamamatsu::write_img;
+use crate::formats::raster::{write_exr_f32, write_png16};
+use crate::formats::{FormatError, StreakImage};
+use crate::geometry::bvh::Bvh;
+use crate::geometry::glb::{write_glb, GlbError};
+use crate::manifest::{CaptureFiles, CaptureInfo, Manifest, ManifestError, Scanline, StreakFormat};
+use crate::scene::Scene;
+use crate::tracer::{trace, TraceOptions};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Errors of [`simulate_capture`]. Messages name the file, folder or option at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum SimulateError {
+    /// An option is out of range (`spp`, `max_bounces`, `seed`, `formats`,
+    /// `marker_spacing_m`).
+    #[error("{option}: {message}")]
+    InvalidOption {
+        option: &'static str,
+        message: String,
+    },
+    /// An imperfection parameter is out of range.
+    #[error(transparent)]
+    Flaw(#[from] FlawError),
+    /// The destination exists and is not an empty folder (and `force` was not given), or
+    /// it is not a folder at all.
+    #[error("{}: {message}", path.display())]
+    OutputExists { path: PathBuf, message: String },
+    /// A folder could not be created, renamed or removed, or a small file written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A streak image could not be written.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// A truth cube could not be written.
+    #[error(transparent)]
+    Container(#[from] ContainerError),
+    /// The manifest could not be written.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// The geometry could not be written.
+    #[error(transparent)]
+    Glb(#[from] GlbError),
+    /// The fiducials could not be written.
+    #[error(transparent)]
+    Points(#[from] CalibrateError),
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SimulateError + '_ {
+    move |source| SimulateError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Settings of a simulated capture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulateOptions {
+    /// Camera paths per pixel (>= 1).
+    pub spp: u32,
+    /// Seed of the render and of every imperfection (at most `i64::MAX`, TOML's range).
+    pub seed: u64,
+    /// Most surface interactions per path (>= 1).
+    pub max_bounces: u32,
+    /// Formats of each scanline, the first being the manifest's `file` (at least one, no
+    /// repeats, not both `img16` and `img32`).
+    pub formats: Vec<StreakFormat>,
+    /// Imperfections of the capture.
+    pub flaws: Flaws,
+    /// Spacing of the fiducial marker grid on planar surfaces, metres.
+    pub marker_spacing_m: f64,
+    /// Replace a non-empty destination folder.
+    pub force: bool,
+    /// Provenance: the command line (or tool) that asked for the capture.
+    pub created_by: String,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        SimulateOptions {
+            spp: 64,
+            seed: 0,
+            max_bounces: 4,
+            formats: vec![StreakFormat::Png16],
+            flaws: Flaws::default(),
+            marker_spacing_m: DEFAULT_MARKER_SPACING_M,
+            force: false,
+            created_by: "femto::simulate".into(),
+        }
+    }
+}
+
+impl SimulateOptions {
+    /// Check every option and imperfection; the error names the one at fault.
+    pub fn validate(&self, scene: &Scene) -> Result<(), SimulateError> {
+        let bad = |option: &'static str, message: String| {
+            Err(SimulateError::InvalidOption { option, message })
+        };
+        if self.spp == 0 {
+            return bad("spp", "must be at least 1".into());
+        }
+        if self.max_bounces == 0 {
+            return bad("max_bounces", "must be at least 1".into());
+        }
+        if self.seed > i64::MAX as u64 {
+            return bad(
+                "seed",
+                format!("{} exceeds {} (TOML's integer range)", self.seed, i64::MAX),
+            );
+        }
+        if self.formats.is_empty() {
+            return bad("formats", "at least one format is needed".into());
+        }
+        for (i, f) in self.formats.iter().enumerate() {
+            if self.formats[..i].contains(f) {
+                return bad("formats", format!("{f:?} is listed twice"));
+            }
+        }
+        let has = |f| self.formats.contains(&f);
+        if has(StreakFormat::Img16) && has(StreakFormat::Img32) {
+            return bad(
+                "formats",
+                "img16 and img32 both write scanline_NNNN.img; choose one".into(),
+            );
+        }
+        let (nx, nt) = (scene.camera.intrinsics.width, scene.camera.axis.nt);
+        let max_img = i16::MAX as usize;
+        if (has(StreakFormat::Img16) || has(StreakFormat::Img32)) && (nx > max_img || nt > max_img)
+        {
+            return bad(
+                "formats",
+                format!("HPD-TA .img holds at most {max_img} x {max_img} pixels, not {nx} x {nt}"),
+            );
+        }
+        if !(self.marker_spacing_m.is_finite() && self.marker_spacing_m > 0.0) {
+            return bad(
+                "marker_spacing_m",
+                format!("{} must be finite and > 0", self.marker_spacing_m),
+            );
+        }
+        self.flaws.validate()?;
+        Ok(())
+    }
+}
+
+/// What [`simulate_capture`] is busy with when it reports progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Rendering the true cubes: one call per finished image row (`ny` in all).
+    Render,
+    /// Writing the streak images: one call per finished scanline (`ny` in all).
+    Write,
+}
+
+/// What a finished capture cost and produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulateSummary {
+    /// The capture folder.
+    pub out_dir: PathBuf,
+    /// Camera paths traced.
+    pub paths: u64,
+    /// Rays cast (camera, bounce and shadow rays).
+    pub rays: u64,
+    /// Wall-clock time of the render, seconds.
+    pub render_seconds: f64,
+    /// Wall-clock time of the whole capture (render, imperfections, files), seconds.
+    pub seconds: f64,
+    /// Paths per second of the render.
+    pub paths_per_second: f64,
+    /// Every file of the capture folder, in its final place.
+    pub files: Vec<PathBuf>,
+    /// Fiducials written.
+    pub fiducials: usize,
+    /// Streak-image values at the top count (65535): clipped by saturation or overflow.
+    pub values_at_top_count: usize,
+}
+
+/// File names inside the capture folder.
+pub const MANIFEST_FILE: &str = "manifest.toml";
+pub const GEOMETRY_FILE: &str = "scene.glb";
+pub const CALIBRATION_FILE: &str = "calibration.toml";
+pub const FIDUCIALS_FILE: &str = "fiducials.toml";
+pub const TRUTH_CAMERA_FILE: &str = "truth_camera.h5";
+pub const TRUTH_WORLD_FILE: &str = "truth_world.h5";
+pub const TRUTH_DIRECT_FILE: &str = "truth_direct.h5";
+pub const FLAT_FILE: &str = "flat.exr";
+pub const DARK_FILE: &str = "dark.exr";
+
+/// Simulate a streak capture of `scene` and write the capture folder `out_dir` (layout in
+/// the [`super`] doc). `out_dir` must not exist or be an empty folder, unless
+/// `opts.force`, which replaces it. `progress` is told of each finished row ([`Stage`]).
+pub fn simulate_capture(
+    scene: &Scene,
+    opts: &SimulateOptions,
+    out_dir: &Path,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<SimulateSummary, SimulateError> {
+    let started = Instant::now();
+    opts.validate(scene)?;
+    check_destination(out_dir, opts.force)?;
+    let parent = match out_dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(io_err(&parent))?;
+    let name = out_dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "capture".into());
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(".tmp")
+        .tempdir_in(&parent)
+        .map_err(io_err(&parent))?;
+
+    let bvh = Bvh::new(scene.mesh.clone());
+    let trace_opts = TraceOptions {
+        spp: opts.spp,
+        max_bounces: opts.max_bounces,
+        seed: opts.seed,
+        split_bounces: true,
+        world_time: true,
+        ..TraceOptions::default()
+    };
+    let render = trace(scene, &bvh, &trace_opts, &|n| progress(Stage::Render, n));
+    let truth = &render.camera_time;
+    let model = CaptureModel::new(&opts.flaws, truth, opts.seed)?;
+
+    let (mut written, values_at_top_count) =
+        write_scanlines(tmp.path(), truth, &model, &opts.formats, progress)?;
+    let scanlines = scanline_entries(truth.ny, &opts.formats);
+
+    let dir = tmp.path();
+    let provenance = Provenance::new(opts.created_by.clone())
+        .with_note("scene", scene.name.clone())
+        .with_note("seed", opts.seed.to_string())
+        .with_note("spp", opts.spp.to_string())
+        .with_note("max_bounces", opts.max_bounces.to_string())
+        .with_note(
+            "values",
+            "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
+        );
+    let truths: [(&str, Option<&Cube>, &str); 3] = [
+        (TRUTH_CAMERA_FILE, Some(truth), "all light, camera time"),
+        (
+            TRUTH_WORLD_FILE,
+            render.world_time.as_ref(),
+            "all light, world time (when the light is at the surface seen by the pixel)",
+        ),
+        (
+            TRUTH_DIRECT_FILE,
+            render.direct.as_ref(),
+            "one-bounce light only, camera time",
+        ),
+    ];
+    for (file, cube, what) in truths {
+        let cube = cube.expect("the tracer was asked for every cube");
+        write_cube(
+            &dir.join(file),
+            cube,
+            &provenance.clone().with_note("content", what),
+        )?;
+        written.push(file.into());
+    }
+
+    write_glb(&scene.mesh, &dir.join(GEOMETRY_FILE))?;
+    written.push(GEOMETRY_FILE.into());
+
+    let calibration = scene.calibration();
+    let calib_path = dir.join(CALIBRATION_FILE);
+    write_atomically(&calib_path, |t| std::fs::write(t, calibration.to_toml()))
+        .map_err(io_err(&calib_path))?;
+    written.push(CALIBRATION_FILE.into());
+
+    let points = fiducials(scene, &bvh, opts.marker_spacing_m);
+    save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
+    written.push(FIDUCIALS_FILE.into());
+
+    let (nx, ny, axis) = (truth.nx, truth.ny, truth.axis);
+    let mut capture_files = CaptureFiles {
+        geometry: Some(GEOMETRY_FILE.into()),
+        calibration: Some(CALIBRATION_FILE.into()),
+        fiducials: Some(FIDUCIALS_FILE.into()),
+        truth_camera: Some(TRUTH_CAMERA_FILE.into()),
+        truth_world: Some(TRUTH_WORLD_FILE.into()),
+        truth_direct: Some(TRUTH_DIRECT_FILE.into()),
+        flat: None,
+        dark: None,
+    };
+    if opts.flaws.vignetting.is_some() {
+        let flat = StreakImage::new(nx, ny, model.flat_field());
+        write_exr_f32(&dir.join(FLAT_FILE), &flat)?;
+        written.push(FLAT_FILE.into());
+        capture_files.flat = Some(FLAT_FILE.into());
+    }
+    if let Some(counts) = model.dark_frame_counts() {
+        let frame = transpose_to_streak(&counts, axis.nt, nx, model.value_per_count);
+        write_exr_f32(&dir.join(DARK_FILE), &frame)?;
+        written.push(DARK_FILE.into());
+        capture_files.dark = Some(DARK_FILE.into());
+    }
+
+    let manifest = Manifest {
+        capture: CaptureInfo {
+            scene: scene.name.clone(),
+            nx,
+            ny,
+            nt: axis.nt,
+            dt_ps: axis.dt_ps,
+            t0_ps: axis.t0_ps,
+            exposure_s: None,
+            exposure_note: Some(format!(
+                "simulated: one laser pulse of energy {} per scanline, {} paths per pixel, at \
+                 most {} bounces; signal = counts x png_value_per_count (the .png and .img \
+                 files hold counts, the .exr files signal), in the units of {TRUTH_CAMERA_FILE}",
+                scene.laser.energy, opts.spp, opts.max_bounces
+            )),
+            sensor_fwhm_ps: None,
+            png_value_per_count: Some(model.value_per_count),
+            eta: scene.eta,
+            laser_wavelength_nm: scene.laser.wavelength_nm,
+            pulse_width_fs: scene.laser.pulse_width_fs,
+            formats: opts.formats.clone(),
+            seed: Some(opts.seed),
+            spp: Some(opts.spp),
+            created_by: Some(opts.created_by.clone()),
+        },
+        files: capture_files,
+        imperfections: model.imperfections(),
+        scanlines,
+    };
+    manifest.save(&dir.join(MANIFEST_FILE))?;
+    written.push(MANIFEST_FILE.into());
+
+    // Outputs are ordinary folders, not tempfile's owner-only ones.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        for d in [dir.to_path_buf(), dir.join("scanlines")] {
+            std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755))
+                .map_err(io_err(&d))?;
+        }
+    }
+    install(tmp, out_dir, &parent, &name, opts.force)?;
+
+    let stats = render.stats;
+    Ok(SimulateSummary {
+        out_dir: out_dir.to_path_buf(),
+        paths: stats.paths,
+        rays: stats.rays,
+        render_seconds: stats.seconds,
+        seconds: started.elapsed().as_secs_f64(),
+        paths_per_second: stats.paths_per_second(),
+        files: written.iter().map(|f| out_dir.join(f)).collect(),
+        fiducials: points.len(),
+        values_at_top_count,
+    })
+}
+
+/// Refuse a destination that is a file, or a non-empty folder without `force`.
+fn check_destination(out_dir: &Path, force: bool) -> Result<(), SimulateError> {
+    let exists = |message: &str| {
+        Err(SimulateError::OutputExists {
+            path: out_dir.to_path_buf(),
+            message: message.into(),
+        })
+    };
+    match std::fs::symlink_metadata(out_dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(io_err(out_dir)(e)),
+        Ok(m) if !m.is_dir() => exists("exists and is not a folder"),
+        Ok(_) => {
+            let non_empty = std::fs::read_dir(out_dir)
+                .map_err(io_err(out_dir))?
+                .next()
+                .is_some();
+            if non_empty && !force {
+                exists("folder exists and is not empty")
+            } else {
+                Ok(())
+            }
+        }
+    }
+}
+
+/// Rename the finished temporary folder onto `out_dir`, replacing an existing one (empty, or
+/// any with `force`): the old folder is first moved aside, then deleted.
+fn install(
+    tmp: tempfile::TempDir,
+    out_dir: &Path,
+    parent: &Path,
+    name: &str,
+    force: bool,
+) -> Result<(), SimulateError> {
+    check_destination(out_dir, force)?;
+    let old = if out_dir.exists() {
+        let aside = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(".old")
+            .tempdir_in(parent)
+            .map_err(io_err(parent))?
+            .keep();
+        std::fs::rename(out_dir, &aside).map_err(io_err(out_dir))?;
+        Some(aside)
+    } else {
+        None
+    };
+    let built = tmp.keep();
+    if let Err(e) = std::fs::rename(&built, out_dir) {
+        if let Some(aside) = &old {
+            let _ = std::fs::rename(aside, out_dir);
+        }
+        let _ = std::fs::remove_dir_all(&built);
+        return Err(io_err(out_dir)(e));
+    }
+    if let Some(aside) = old {
+        std::fs::remove_dir_all(&aside).map_err(io_err(&aside))?;
+    }
+    Ok(())
+}
+
+/// A `[x][t]` row of counts as a streak image `[t][x]` of `counts x scale`.
+fn transpose_to_streak(counts_xt: &[f32], nt: usize, nx: usize, scale: f64) -> StreakImage {
+    let mut data = vec![0.0f32; nx * nt];
+    for x in 0..nx {
+        for t in 0..nt {
+            data[t * nx + x] = (counts_xt[x * nt + t] as f64 * scale) as f32;
+        }
+    }
+    StreakImage::new(nx, nt, data)
+}
+
+/// Relative path of scanline `y` in format `f`.
+fn scanline_file(y: usize, f: StreakFormat) -> PathBuf {
+    Manifest::default_scanline_name(y, f.extension())
+}
+
+fn scanline_entries(ny: usize, formats: &[StreakFormat]) -> Vec<Scanline> {
+    let pick = |y: usize, wanted: &[StreakFormat]| {
+        formats
+            .iter()
+            .find(|f| wanted.contains(f))
+            .map(|&f| scanline_file(y, f))
+    };
+    (0..ny)
+        .map(|y| Scanline {
+            index: y,
+            file: scanline_file(y, formats[0]),
+            png: pick(y, &[StreakFormat::Png16]),
+            exr: pick(y, &[StreakFormat::ExrF32]),
+            img: pick(y, &[StreakFormat::Img16, StreakFormat::Img32]),
+        })
+        .collect()
+}
+
+/// Apply the imperfections to every scanline and write its streak images; returns the
+/// relative paths written and the number of values at the top count.
+fn write_scanlines(
+    dir: &Path,
+    truth: &Cube,
+    model: &CaptureModel,
+    formats: &[StreakFormat],
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<(Vec<PathBuf>, usize), SimulateError> {
+    let sub = dir.join("scanlines");
+    std::fs::create_dir(&sub).map_err(io_err(&sub))?;
+    let (nx, nt) = (truth.nx, truth.nt());
+    let axis = truth.axis;
+    let row_starts_ps: Vec<f64> = (0..nt).map(|i| axis.bin_start_ps(i)).collect();
+    let per_row: Vec<Result<usize, SimulateError>> = (0..truth.ny)
+        .into_par_iter()
+        .map(|y| {
+            let mut counts = vec![0.0f32; nx * nt];
+            model.apply_row(y, truth.row(y), &mut counts);
+            let top = counts.iter().filter(|&&c| c as f64 >= MAX_COUNT).count();
+            let as_counts = transpose_to_streak(&counts, nt, nx, 1.0);
+            for &f in formats {
+                let path = dir.join(scanline_file(y, f));
+                match f {
+                    StreakFormat::Png16 => {
+                        write_png16(&path, &as_counts, 1.0)?;
+                    }
+                    StreakFormat::ExrF32 => {
+                        let signal = transpose_to_streak(&counts, nt, nx, model.value_per_count);
+                        write_exr_f32(&path, &signal)?;
+                    }
+                    StreakFormat::Img16 => {
+                        write_img(&path, &as_counts, 16, &row_starts_ps)?;
+                    }
+                    StreakFormat::Img32 => {
+                        write_img(&path, &as_counts, 32, &row_starts_ps)?;
+                    }
+                }
+            }
+            progress(Stage::Write, 1);
+            Ok(top)
+        })
+        .collect();
+    let mut top = 0;
+    for r in per_row {
+        top += r?;
+    }
+    let files = (0..truth.ny)
+        .flat_map(|y| formats.iter().map(move |&f| scanline_file(y, f)))
+        .collect();
+    Ok((files, top))
+}

@@ -1,0 +1,376 @@
+//! The `pyramid` group: the temporal prefix sums and time-only mip levels of
+//! [`crate::pyramid::Pyramid`] (physics.md, "Time-resolved accumulation": the renderer's
+//! `P(t_e + dtau / D) - P(t_e)`), stored in the cube's file or in a side file that holds this
+//! group only.
+//!
+//! [`write_pyramid`] streams the cube by row slabs through [`prefix_rows`] and
+//! [`mip_halve_rows`], so peak memory is one slab whatever the cube's size;
+//! [`read_pyramid`] loads a stored pyramid whole, as the renderer needs it, instead of
+//! rebuilding it from the cube.
+//!
+//! Schema (docs/cube-format.md), `[y][x][t]` in C order:
+//!
+//! | dataset   | type | shape                          | meaning                                |
+//! |-----------|------|--------------------------------|----------------------------------------|
+//! | `prefix`  | f64  | `(ny, nx, nt + 1)`             | `P[i]` = sum of bins `0 .. i`, `P[0] = 0` |
+//! | `level_k` | f32  | `(ny, nx, ceil(nt / 2^k))`     | sums of `2^k` bins, `k = 1 ..= levels` |
+//! | `mask`    | u8   | `(ny, nx)`                     | the cube's mask, when it has one       |
+//!
+//! Attributes: `nx`, `ny`, `nt`, `levels` (integers), `t0_ps`, `dt_ps` (the cube's time axis),
+//! `time_frame`, `source` (the cube file the pyramid was built from).
+
+use super::{attr, GroupView, StoreError};
+use crate::container::{
+    AttrValue, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem, GroupReader,
+    GroupUpdate,
+};
+use crate::cube::{TimeAxis, TimeFrame};
+use crate::pyramid::{level_nt, mip_halve_rows, prefix_rows, top_level, Level, Pyramid};
+use std::path::Path;
+
+/// Name of the group.
+pub const GROUP: &str = "pyramid";
+
+/// Largest prefix slab computed at once, bytes.
+const SLAB_TARGET_BYTES: usize = 32 << 20;
+
+/// Name of the dataset of mip level `k >= 1`.
+pub fn level_name(k: usize) -> String {
+    format!("level_{k}")
+}
+
+/// What a stored pyramid holds, from its attributes alone.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PyramidInfo {
+    pub nx: usize,
+    pub ny: usize,
+    /// Time axis of the cube it was built from (level 0).
+    pub axis: TimeAxis,
+    pub frame: TimeFrame,
+    /// Mip levels stored above level 0.
+    pub levels: usize,
+    /// The cube file it was built from, as given on the command line.
+    pub source: String,
+}
+
+impl PyramidInfo {
+    /// Samples per pixel of each stored level `1 ..= levels`.
+    pub fn level_nts(&self) -> Vec<usize> {
+        (1..=self.levels)
+            .map(|k| level_nt(self.axis.nt, k))
+            .collect()
+    }
+
+    /// Refuse a pyramid built from a cube of another shape or time axis than `meta`.
+    pub fn check_matches(&self, path: &Path, meta: &CubeMeta) -> Result<(), StoreError> {
+        if self.nx != meta.nx || self.ny != meta.ny || self.axis != meta.axis {
+            return Err(StoreError::Mismatch {
+                path: path.to_path_buf(),
+                message: format!(
+                    "the pyramid was built from a {} x {} cube with {} bins of {} ps from {} ps, \
+                     not this {} x {} cube with {} bins of {} ps from {} ps; rebuild it with \
+                     `femto pyramid`",
+                    self.nx,
+                    self.ny,
+                    self.axis.nt,
+                    self.axis.dt_ps,
+                    self.axis.t0_ps,
+                    meta.nx,
+                    meta.ny,
+                    meta.axis.nt,
+                    meta.axis.dt_ps,
+                    meta.axis.t0_ps
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Read the attributes of a pyramid group (`attrs` as read from the file at `path`).
+pub fn info_from_attrs(
+    path: &Path,
+    attrs: Vec<(String, AttrValue)>,
+) -> Result<PyramidInfo, StoreError> {
+    let data = GroupData {
+        attrs,
+        datasets: Vec::new(),
+    };
+    let v = GroupView {
+        path,
+        group: GROUP,
+        data: &data,
+    };
+    let frame_s = v.str("time_frame")?;
+    let frame = TimeFrame::parse(frame_s)
+        .ok_or_else(|| v.schema(format!("attribute 'time_frame' is '{frame_s}'")))?;
+    let axis = TimeAxis {
+        t0_ps: v.f64("t0_ps")?,
+        dt_ps: v.f64("dt_ps")?,
+        nt: v.usize("nt")?,
+    };
+    if !(axis.t0_ps.is_finite() && axis.dt_ps.is_finite() && axis.dt_ps > 0.0 && axis.nt > 0) {
+        return Err(v.schema(format!(
+            "time axis t0 {} ps, dt {} ps, {} bins is not a valid axis",
+            axis.t0_ps, axis.dt_ps, axis.nt
+        )));
+    }
+    let info = PyramidInfo {
+        nx: v.usize("nx")?,
+        ny: v.usize("ny")?,
+        axis,
+        frame,
+        levels: v.usize("levels")?,
+        source: v.str("source")?.to_string(),
+    };
+    if info.levels > top_level(axis.nt) {
+        return Err(v.schema(format!(
+            "{} levels stored, but {} bins have at most {}",
+            info.levels,
+            axis.nt,
+            top_level(axis.nt)
+        )));
+    }
+    Ok(info)
+}
+
+/// Build the pyramid of the cube `reader` reads, keeping mip levels `1 ..= levels`, and write
+/// it as group [`GROUP`] into `out` (the cube's own file or a side file), row slab by row slab.
+/// `source` names the cube in the `source` attribute; `on_rows` is called with the number of
+/// rows done so far.
+pub fn write_pyramid(
+    reader: &CubeReader,
+    out: &mut GroupUpdate,
+    levels: usize,
+    source: &str,
+    on_rows: &dyn Fn(usize),
+) -> Result<PyramidInfo, StoreError> {
+    let meta = reader.meta();
+    let rows_per_slab = SLAB_TARGET_BYTES / (meta.nx * (meta.axis.nt + 1) * 8);
+    write_pyramid_slabs(reader, out, levels, source, rows_per_slab, on_rows)
+}
+
+/// [`write_pyramid`] with a given number of rows per slab (at least 1, at most all).
+fn write_pyramid_slabs(
+    reader: &CubeReader,
+    out: &mut GroupUpdate,
+    levels: usize,
+    source: &str,
+    rows_per_slab: usize,
+    on_rows: &dyn Fn(usize),
+) -> Result<PyramidInfo, StoreError> {
+    let meta = reader.meta();
+    let (nx, ny, nt) = (meta.nx, meta.ny, meta.axis.nt);
+    if levels > top_level(nt) {
+        return Err(StoreError::Mismatch {
+            path: Path::new(source).to_path_buf(),
+            message: format!(
+                "{levels} mip levels asked, but a cube of {nt} bins has at most {} \
+                 (level k sums 2^k bins)",
+                top_level(nt)
+            ),
+        });
+    }
+    let info = PyramidInfo {
+        nx,
+        ny,
+        axis: meta.axis,
+        frame: meta.frame,
+        levels,
+        source: source.to_string(),
+    };
+    let attrs = vec![
+        attr("nx", AttrValue::I64(nx as i64)),
+        attr("ny", AttrValue::I64(ny as i64)),
+        attr("nt", AttrValue::I64(nt as i64)),
+        attr("t0_ps", AttrValue::F64(meta.axis.t0_ps)),
+        attr("dt_ps", AttrValue::F64(meta.axis.dt_ps)),
+        attr("time_frame", AttrValue::Str(meta.frame.as_str().into())),
+        attr("levels", AttrValue::I64(levels as i64)),
+        attr("source", AttrValue::Str(source.to_string())),
+    ];
+    let mask = reader.read_mask()?;
+    let mut specs = vec![DatasetSpec::new(
+        "prefix",
+        &[ny, nx, nt + 1],
+        GroupElem::F64,
+    )];
+    for (k, &nt_k) in (1..=levels).zip(&info.level_nts()) {
+        specs.push(DatasetSpec::new(
+            level_name(k),
+            &[ny, nx, nt_k],
+            GroupElem::F32,
+        ));
+    }
+    if mask.is_some() {
+        specs.push(DatasetSpec::new("mask", &[ny, nx], GroupElem::U8));
+    }
+    out.begin_group(GROUP, &attrs, &specs)?;
+    if let Some(m) = mask {
+        out.write_group_rows(GROUP, "mask", 0, &DataBuf::U8(m))?;
+    }
+    let rows_per_slab = rows_per_slab.clamp(1, ny);
+    let mut src = vec![0.0f32; rows_per_slab * nx * nt];
+    for y0 in (0..ny).step_by(rows_per_slab) {
+        let n = rows_per_slab.min(ny - y0);
+        let src = &mut src[..n * nx * nt];
+        reader.read_rows_into(y0, src)?;
+        let mut prefix = vec![0.0f64; n * nx * (nt + 1)];
+        prefix_rows(src, nt, &mut prefix);
+        out.write_group_rows(GROUP, "prefix", y0, &DataBuf::F64(prefix))?;
+        let mut prev: Vec<f32> = Vec::new();
+        let mut prev_nt = nt;
+        for k in 1..=levels {
+            let nt_k = level_nt(nt, k);
+            let mut dst = vec![0.0f32; n * nx * nt_k];
+            mip_halve_rows(if k == 1 { src } else { &prev }, prev_nt, &mut dst);
+            let dst = DataBuf::F32(dst);
+            out.write_group_rows(GROUP, &level_name(k), y0, &dst)?;
+            prev = match dst {
+                DataBuf::F32(v) => v,
+                _ => unreachable!("written as f32"),
+            };
+            prev_nt = nt_k;
+        }
+        on_rows(y0 + n);
+    }
+    Ok(info)
+}
+
+/// Turn a pyramid group read from the file at `path` back into a [`Pyramid`].
+pub fn from_group(path: &Path, data: GroupData) -> Result<Pyramid, StoreError> {
+    let info = info_from_attrs(path, data.attrs.clone())?;
+    let v = GroupView {
+        path,
+        group: GROUP,
+        data: &data,
+    };
+    let (nx, ny, nt) = (info.nx, info.ny, info.axis.nt);
+    let prefix = match v.dataset("prefix", &[ny, nx, nt + 1])? {
+        DataBuf::F64(p) => p.clone(),
+        other => {
+            return Err(v.schema(format!(
+                "dataset 'prefix' holds {}, expected f64",
+                other.type_name()
+            )))
+        }
+    };
+    let mut levels = Vec::with_capacity(info.levels);
+    for (k, nt_k) in (1..=info.levels).zip(info.level_nts()) {
+        let name = level_name(k);
+        match v.dataset(&name, &[ny, nx, nt_k])? {
+            DataBuf::F32(d) => levels.push(Level {
+                bins_per_sample: 1 << k,
+                nt: nt_k,
+                data: d.clone(),
+            }),
+            other => {
+                return Err(v.schema(format!(
+                    "dataset '{name}' holds {}, expected f32",
+                    other.type_name()
+                )))
+            }
+        }
+    }
+    let mask = match data.dataset("mask") {
+        None => None,
+        Some(_) => match v.dataset("mask", &[ny, nx])? {
+            DataBuf::U8(m) => Some(m.clone()),
+            other => {
+                return Err(v.schema(format!(
+                    "dataset 'mask' holds {}, expected u8",
+                    other.type_name()
+                )))
+            }
+        },
+    };
+    Ok(Pyramid {
+        nx,
+        ny,
+        axis: info.axis,
+        prefix,
+        levels,
+        mask,
+    })
+}
+
+/// Load the pyramid stored in the file at `path`: a cube file with a `pyramid` group, or a
+/// side file written by `femto pyramid --side-file`.
+pub fn read_pyramid(path: &Path) -> Result<Pyramid, StoreError> {
+    let reader = GroupReader::open(path)?;
+    from_group(path, reader.read_group(GROUP)?)
+}
+
+/// Load the pyramid for the cube at `cube_path`: from `side_file` when given, else from the
+/// cube's own file; refused when it was built from a cube of another shape or time axis.
+pub fn read_pyramid_for(cube_path: &Path, side_file: Option<&Path>) -> Result<Pyramid, StoreError> {
+    let meta = crate::container::read_meta(cube_path)?;
+    let path = side_file.unwrap_or(cube_path);
+    let reader = GroupReader::open(path)?;
+    let info = info_from_attrs(path, reader.read_group_attrs(GROUP)?)?;
+    info.check_matches(path, &meta)?;
+    from_group(path, reader.read_group(GROUP)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::container::{write_cube, Provenance};
+    use crate::cube::Cube;
+
+    /// Streams of 2 rows (chunk boundaries of the datasets fall inside slabs) give the
+    /// prefix sums and box sums computed here directly from the cube's values.
+    #[test]
+    fn slabs_of_rows_give_the_brute_force_pyramid() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.h5");
+        let axis = TimeAxis {
+            t0_ps: 5.0,
+            dt_ps: 0.5,
+            nt: 11,
+        };
+        let (nx, ny) = (4, 5);
+        let mut cube = Cube::zeros(nx, ny, axis, TimeFrame::World);
+        for (i, v) in cube.data.iter_mut().enumerate() {
+            *v = ((i * 37) % 17) as f32 - 3.0;
+        }
+        cube.mask = Some((0..nx * ny).map(|i| (i % 4 != 1) as u8).collect());
+        write_cube(&path, &cube, &Provenance::new("test")).unwrap();
+        let reader = CubeReader::open(&path).unwrap();
+        let mut up = GroupUpdate::open(&path).unwrap();
+        let info = write_pyramid_slabs(&reader, &mut up, 3, "c.h5", 2, &|_| {}).unwrap();
+        drop(reader);
+        up.finish().unwrap();
+        assert_eq!(info.level_nts(), vec![6, 3, 2]);
+        let pyr = read_pyramid(&path).unwrap();
+        assert_eq!(pyr.levels.len(), 3);
+        assert_eq!(pyr.mask, cube.mask);
+        for y in 0..ny {
+            for x in 0..nx {
+                let prof = cube.profile(x, y);
+                let mut acc = 0.0f64;
+                let p = pyr.pixel_prefix(x, y);
+                assert_eq!(p[0], 0.0);
+                for i in 0..axis.nt {
+                    acc += prof[i] as f64;
+                    assert_eq!(p[i + 1], acc);
+                }
+                for (k1, level) in pyr.levels.iter().enumerate() {
+                    let w = 1 << (k1 + 1);
+                    for s in 0..level.nt {
+                        let want: f32 = prof[s * w..((s + 1) * w).min(axis.nt)].iter().sum();
+                        let got = level.data[(y * nx + x) * level.nt + s];
+                        assert!((got - want).abs() < 1e-5, "level {} sample {s}", k1 + 1);
+                    }
+                }
+            }
+        }
+        // The cube is untouched by the update.
+        assert_eq!(crate::container::read_cube(&path).unwrap(), cube);
+        // Too many levels for 11 bins (at most 4).
+        let reader = CubeReader::open(&path).unwrap();
+        let mut up = GroupUpdate::open(&path).unwrap();
+        let e = write_pyramid(&reader, &mut up, 5, "c.h5", &|_| {}).unwrap_err();
+        assert!(e.to_string().contains("at most 4"), "{e}");
+    }
+}

@@ -1,0 +1,481 @@
+//! Transient path tracer: Monte Carlo estimation of the time-resolved rendering equation
+//! (seed Eq. 1; physics.md "Transient path tracing").
+//!
+//! Light model. The laser pulse hits a diffuser spot, a point emitter that sends a spherical
+//! wave at cube time 0 with radiant intensity `I(w) = energy cos(theta) / pi` about the spot
+//! normal (zero behind it) or `energy / (4 pi)` (isotropic). Surfaces are two-sided
+//! Lambertian with the entry's albedo `rho` (BRDF `rho / pi`).
+//!
+//! Estimator. For each pixel, `spp` camera rays leave the camera centre through uniformly
+//! random points of the pixel (a box filter: the pixel value is the mean radiance over its
+//! footprint). At every path vertex `x_k` (k = 1 .. max_bounces) the spot is connected by a
+//! shadow ray (next-event estimation; the spot is a delta light, so this is the only way to
+//! reach it), contributing
+//!
+//! `beta_k * rho(x_k) / pi * I(x_k - spot) * cos(theta_k) / r_k^2`,
+//!
+//! where `beta_k` is the path throughput (cosine-weighted bounces make it the product of the
+//! albedos so far, divided by Russian-roulette survival probabilities) and `r_k` the distance
+//! to the spot. The contribution arrives at the sensor at camera time
+//! `t_camera = eta * (|x_1 - o| + |x_2 - x_1| + ... + |x_k - x_{k-1}| + r_k) / c`, the
+//! optical length from the spot back to the camera centre `o`. It is spread over the time
+//! bins with the sensor response of [`binning`] (the pulse's Gaussian and a one-bin sensor
+//! box), which conserves energy, so that summing a pixel's bins gives the steady-state
+//! radiance of the same pixel (see [`render_steady`]). Cube values are radiance integrated
+//! over each bin (`energy` units per m^2 per sr).
+//!
+//! Outputs: the total transient (camera time), optionally its split into one-bounce (`direct`)
+//! and two-or-more-bounce (`multi`) light, and optionally the same samples binned at world
+//! time `t_world = t_camera - eta |x_1 - o| / c` (physics.md, "two clocks"), `x_1` being the
+//! first surface the pixel ray hits, on the axis of [`world_axis`].
+//!
+//! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and
+//! accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
+//! output is bit-identical for any number of rayon threads.
+
+pub mod binning;
+pub mod sampling;
+
+use crate::cube::{Cube, TimeAxis, TimeFrame};
+use crate::geometry::bvh::Bvh;
+use crate::geometry::Ray;
+use crate::scene::{Emission, Scene};
+use crate::units::flight_time_ps;
+use binning::{add_weighted, TimeResponse};
+use nalgebra::{Point3, Vector3};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use sampling::{cosine_hemisphere, pixel_rng, uniform, Stream};
+use std::time::Instant;
+
+/// Offset of secondary ray origins along the surface normal, metres (0.1 mm).
+const RAY_OFFSET_M: f64 = 1e-4;
+/// Shadow rays stop this short of the laser spot, metres (a spot on a surface must not be
+/// shadowed by that surface).
+const SHADOW_END_M: f64 = 1e-4;
+
+/// Settings of a transient render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// Camera paths per pixel.
+    pub spp: u32,
+    /// Most surface interactions per path (1 = direct light only).
+    pub max_bounces: u32,
+    /// Seed of the per-pixel random streams.
+    pub seed: u64,
+    /// Emission profile of the spot; `None` keeps the scene's.
+    pub emission: Option<Emission>,
+    /// First bounce at which Russian roulette may end a path (survival probability
+    /// `min(throughput, 0.95)`).
+    pub rr_start_bounce: u32,
+    /// Also produce the one-bounce and multi-bounce cubes.
+    pub split_bounces: bool,
+    /// Also produce the world-time cube.
+    pub world_time: bool,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        TraceOptions {
+            spp: 64,
+            max_bounces: 4,
+            seed: 0,
+            emission: None,
+            rr_start_bounce: 3,
+            split_bounces: true,
+            world_time: true,
+        }
+    }
+}
+
+/// Counters of a render.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceStats {
+    /// Camera paths traced (pixels x spp).
+    pub paths: u64,
+    /// Rays cast: camera and bounce rays plus shadow rays.
+    pub rays: u64,
+    /// Contributions that reached the sensor (unoccluded connections to the spot).
+    pub samples: u64,
+    /// Contributions whose camera arrival time lies outside the cube's time window.
+    pub samples_outside_window: u64,
+    /// Energy that fell outside the camera-time window, summed over pixels in cube units
+    /// (what the cube's sum misses compared with a steady-state render).
+    pub energy_outside_window: f64,
+    /// Wall-clock time of the render, seconds.
+    pub seconds: f64,
+}
+
+impl TraceStats {
+    /// Camera paths per second of wall-clock time.
+    pub fn paths_per_second(&self) -> f64 {
+        self.paths as f64 / self.seconds.max(1e-12)
+    }
+
+    fn add(&mut self, o: &TraceStats) {
+        self.paths += o.paths;
+        self.rays += o.rays;
+        self.samples += o.samples;
+        self.samples_outside_window += o.samples_outside_window;
+        self.energy_outside_window += o.energy_outside_window;
+    }
+}
+
+/// The cubes of a transient render.
+#[derive(Clone, Debug)]
+pub struct TransientRender {
+    /// All light, camera time, on the scene's camera axis.
+    pub camera_time: Cube,
+    /// One-bounce light, camera time (when [`TraceOptions::split_bounces`]).
+    pub direct: Option<Cube>,
+    /// Light of two or more bounces, camera time (when [`TraceOptions::split_bounces`]).
+    pub multi: Option<Cube>,
+    /// All light at world time on [`world_axis`] (when [`TraceOptions::world_time`]).
+    pub world_time: Option<Cube>,
+    pub stats: TraceStats,
+}
+
+/// One contribution of a path: a connection to the laser spot from vertex `bounce`.
+#[derive(Clone, Copy, Debug)]
+struct Contribution {
+    /// Index of the vertex that connected to the spot (1 = the first surface seen).
+    bounce: u32,
+    /// Optical path length from the spot to the camera centre, metres (times eta later).
+    path_m: f64,
+    /// Distance from the camera centre to the first surface of the path, metres.
+    first_m: f64,
+    /// Radiance along the camera ray carried by this path.
+    value: f64,
+}
+
+/// The per-path kernel shared by the transient and steady renders.
+struct PathKernel<'a> {
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    emission: Emission,
+    max_bounces: u32,
+    rr_start_bounce: u32,
+}
+
+impl PathKernel<'_> {
+    /// Trace one path through continuous pixel coordinates `(u, v)`; calls `sink` for each
+    /// contribution and returns the number of rays cast.
+    fn trace_path(
+        &self,
+        rng: &mut Pcg64Mcg,
+        u: f64,
+        v: f64,
+        sink: &mut impl FnMut(Contribution),
+    ) -> u64 {
+        let cam = &self.scene.camera;
+        let laser = &self.scene.laser;
+        let mesh = self.bvh.mesh();
+        let dir0 = cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner();
+        let mut origin: Point3<f64> = cam.pose.position_m;
+        let mut dir: Vector3<f64> = dir0;
+        let mut path_m = 0.0;
+        let mut first_m = 0.0;
+        let mut beta = 1.0f64;
+        let mut rays = 0u64;
+        for bounce in 1..=self.max_bounces {
+            rays += 1;
+            let ray = Ray::new(origin.cast::<f32>(), dir.cast::<f32>());
+            let Some(hit) = self.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
+                break;
+            };
+            let t = hit.t as f64;
+            let p = origin + dir * t;
+            path_m += t;
+            if bounce == 1 {
+                first_m = t;
+            }
+            // Two-sided surfaces: shade the side the ray arrives from.
+            let mut n = hit.normal.cast::<f64>();
+            if n.dot(&dir) > 0.0 {
+                n = -n;
+            }
+            let rho = self.scene.albedo[mesh.material[hit.triangle as usize] as usize] as f64;
+            if rho <= 0.0 {
+                break;
+            }
+            let p_off = p + n * RAY_OFFSET_M;
+            // Next-event estimation towards the spot.
+            let to_spot = laser.position_m - p_off;
+            let r = to_spot.norm();
+            if r > SHADOW_END_M {
+                let w = to_spot / r;
+                let cos_p = n.dot(&w);
+                let intensity = laser.intensity(self.emission, &(-w));
+                if cos_p > 0.0 && intensity > 0.0 {
+                    rays += 1;
+                    let shadow = Ray::new(p_off.cast::<f32>(), w.cast::<f32>());
+                    if !self.bvh.occluded(&shadow, 0.0, (r - SHADOW_END_M) as f32) {
+                        sink(Contribution {
+                            bounce,
+                            path_m: path_m + r,
+                            first_m,
+                            value: beta * rho / std::f64::consts::PI * intensity * cos_p / (r * r),
+                        });
+                    }
+                }
+            }
+            if bounce == self.max_bounces {
+                break;
+            }
+            // Cosine-weighted continuation: BRDF * cos / pdf = rho.
+            beta *= rho;
+            if bounce >= self.rr_start_bounce {
+                let survive = beta.min(0.95);
+                if uniform(rng) >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            dir = cosine_hemisphere(&n, uniform(rng), uniform(rng));
+            origin = p_off;
+        }
+        rays
+    }
+}
+
+fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel<'a> {
+    let mesh = bvh.mesh();
+    assert!(
+        mesh.material
+            .iter()
+            .all(|&m| (m as usize) < scene.albedo.len()),
+        "the BVH's mesh has materials the scene has no albedo for (build it from scene.mesh)"
+    );
+    PathKernel {
+        scene,
+        bvh,
+        emission: opts.emission.unwrap_or(scene.laser.emission),
+        max_bounces: opts.max_bounces,
+        rr_start_bounce: opts.rr_start_bounce.max(1),
+    }
+}
+
+/// The world-time axis of a render: the same bin width as the camera axis, covering the
+/// world times `t_camera - eta d / c` of the camera window for every distance `d` from the
+/// camera to the first surface seen through the pixel corners and centres.
+pub fn world_axis(scene: &Scene, bvh: &Bvh) -> TimeAxis {
+    let cam = &scene.camera;
+    let k = &cam.intrinsics;
+    let (mut d_min, mut d_max) = (f64::INFINITY, 0.0f64);
+    let mut probe = |u: f64, v: f64| {
+        let dir = cam.pose.world_from_camera * k.camera_ray(u, v).into_inner();
+        let ray = Ray::new(cam.pose.position_m.cast::<f32>(), dir.cast::<f32>());
+        if let Some(h) = bvh.intersect(&ray, 0.0, f32::INFINITY) {
+            d_min = d_min.min(h.t as f64);
+            d_max = d_max.max(h.t as f64);
+        }
+    };
+    for j in 0..=k.height {
+        for i in 0..=k.width {
+            probe(i as f64, j as f64);
+            if i < k.width && j < k.height {
+                probe(i as f64 + 0.5, j as f64 + 0.5);
+            }
+        }
+    }
+    let axis = cam.axis;
+    if d_min > d_max {
+        return axis;
+    }
+    let start = axis.t0_ps - flight_time_ps(scene.eta, d_max);
+    let end = axis.end_ps() - flight_time_ps(scene.eta, d_min);
+    TimeAxis {
+        t0_ps: start,
+        dt_ps: axis.dt_ps,
+        nt: ((end - start) / axis.dt_ps).ceil().max(1.0) as usize,
+    }
+}
+
+/// Per-row output slices of the transient render.
+struct RowOut<'a> {
+    camera: &'a mut [f32],
+    direct: Option<&'a mut [f32]>,
+    multi: Option<&'a mut [f32]>,
+    world: Option<&'a mut [f32]>,
+}
+
+fn row_slices(cube: &mut Option<Cube>, ny: usize) -> Vec<Option<&mut [f32]>> {
+    match cube {
+        Some(c) => {
+            let n = c.nx * c.axis.nt;
+            c.data.chunks_mut(n.max(1)).map(Some).collect()
+        }
+        None => (0..ny).map(|_| None).collect(),
+    }
+}
+
+/// Render the transient cubes of `scene`. `bvh` must be built from `scene.mesh`.
+/// `progress` is called with 1 after each finished image row.
+pub fn trace(
+    scene: &Scene,
+    bvh: &Bvh,
+    opts: &TraceOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> TransientRender {
+    let started = Instant::now();
+    let k = kernel(scene, bvh, opts);
+    let (nx, ny) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+    );
+    let cam_axis = scene.camera.axis;
+    let sigma_ps = scene.laser.pulse_sigma_ps();
+    let cam_resp = TimeResponse::new(cam_axis, sigma_ps);
+    let mut camera = Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera);
+    let mut direct = opts
+        .split_bounces
+        .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
+    let mut multi = opts
+        .split_bounces
+        .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
+    let w_axis = if opts.world_time {
+        world_axis(scene, bvh)
+    } else {
+        TimeAxis { nt: 0, ..cam_axis }
+    };
+    let world_resp = TimeResponse::new(w_axis, sigma_ps);
+    let mut world = opts
+        .world_time
+        .then(|| Cube::zeros(nx, ny, w_axis, TimeFrame::World));
+
+    let rows: Vec<RowOut> = camera
+        .data
+        .chunks_mut((nx * cam_axis.nt).max(1))
+        .zip(row_slices(&mut direct, ny))
+        .zip(row_slices(&mut multi, ny))
+        .zip(row_slices(&mut world, ny))
+        .map(|(((camera, direct), multi), world)| RowOut {
+            camera,
+            direct,
+            multi,
+            world,
+        })
+        .collect();
+
+    let eta = scene.eta;
+    let spp = opts.spp.max(1);
+    let inv_spp = 1.0 / spp as f64;
+    let row_stats: Vec<TraceStats> = rows
+        .into_par_iter()
+        .enumerate()
+        .map(|(y, mut out)| {
+            let mut stats = TraceStats::default();
+            let nt = cam_axis.nt;
+            let ntw = w_axis.nt;
+            let mut acc = vec![0.0f64; nt];
+            let mut acc_direct = vec![0.0f64; nt];
+            let mut acc_multi = vec![0.0f64; nt];
+            let mut acc_world = vec![0.0f64; ntw];
+            let mut weights = Vec::new();
+            for x in 0..nx {
+                acc.fill(0.0);
+                acc_direct.fill(0.0);
+                acc_multi.fill(0.0);
+                acc_world.fill(0.0);
+                let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
+                let mut lost = 0.0;
+                for _ in 0..spp {
+                    let u = x as f64 + uniform(&mut rng);
+                    let v = y as f64 + uniform(&mut rng);
+                    stats.paths += 1;
+                    let rays = k.trace_path(&mut rng, u, v, &mut |c: Contribution| {
+                        let value = c.value * inv_spp;
+                        let t_camera_ps = flight_time_ps(eta, c.path_m);
+                        stats.samples += 1;
+                        let b = cam_axis.bin_coord(t_camera_ps);
+                        if !(b >= 0.0 && b < nt as f64) {
+                            stats.samples_outside_window += 1;
+                        }
+                        let first = cam_resp.weights(t_camera_ps, &mut weights);
+                        lost += add_weighted(&mut acc, first, &weights, value);
+                        if out.direct.is_some() {
+                            let split = if c.bounce == 1 {
+                                &mut acc_direct
+                            } else {
+                                &mut acc_multi
+                            };
+                            add_weighted(split, first, &weights, value);
+                        }
+                        if out.world.is_some() {
+                            let t_world_ps = t_camera_ps - flight_time_ps(eta, c.first_m);
+                            let first = world_resp.weights(t_world_ps, &mut weights);
+                            add_weighted(&mut acc_world, first, &weights, value);
+                        }
+                    });
+                    stats.rays += rays;
+                }
+                stats.energy_outside_window += lost;
+                let store = |dst: &mut [f32], src: &[f64]| {
+                    for (d, s) in dst.iter_mut().zip(src) {
+                        *d = *s as f32;
+                    }
+                };
+                store(&mut out.camera[x * nt..(x + 1) * nt], &acc);
+                if let Some(d) = out.direct.as_deref_mut() {
+                    store(&mut d[x * nt..(x + 1) * nt], &acc_direct);
+                }
+                if let Some(m) = out.multi.as_deref_mut() {
+                    store(&mut m[x * nt..(x + 1) * nt], &acc_multi);
+                }
+                if let Some(w) = out.world.as_deref_mut() {
+                    store(&mut w[x * ntw..(x + 1) * ntw], &acc_world);
+                }
+            }
+            progress(1);
+            stats
+        })
+        .collect();
+
+    let mut stats = TraceStats::default();
+    for s in &row_stats {
+        stats.add(s);
+    }
+    stats.seconds = started.elapsed().as_secs_f64();
+    TransientRender {
+        camera_time: camera,
+        direct,
+        multi,
+        world_time: world,
+        stats,
+    }
+}
+
+/// Steady-state render of `scene` with the same estimator, no time: the radiance of each
+/// pixel (`[y][x]`), from random streams independent of [`trace`]'s. For a time window that
+/// holds all the light, it equals the time integral of the transient cube within noise.
+pub fn render_steady(
+    scene: &Scene,
+    bvh: &Bvh,
+    opts: &TraceOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<f64> {
+    let k = kernel(scene, bvh, opts);
+    let (nx, ny) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+    );
+    let spp = opts.spp.max(1);
+    let mut image = vec![0.0f64; nx * ny];
+    image
+        .par_chunks_mut(nx.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, px) in row.iter_mut().enumerate() {
+                let mut rng = pixel_rng(opts.seed, Stream::Steady, (y * nx + x) as u64);
+                let mut sum = 0.0;
+                for _ in 0..spp {
+                    let u = x as f64 + uniform(&mut rng);
+                    let v = y as f64 + uniform(&mut rng);
+                    k.trace_path(&mut rng, u, v, &mut |c: Contribution| sum += c.value);
+                }
+                *px = sum / spp as f64;
+            }
+            progress(1);
+        });
+    image
+}

@@ -1,0 +1,1087 @@
+//! The relativistic renderer against physics: expectations come from an independent general
+//! Lorentz boost of photon 4-momenta written in `common`, from closed forms derived in each
+//! test, or from the calibration's own first-arrival formula; never from the renderer.
+
+mod common;
+
+use common::*;
+use femto::camera::{Calibration, Pose};
+use femto::camera_path::{
+    CameraPath, Clock, FrameSpec, FrameState, Interpolation, Keyframe, Motion, Orientation,
+};
+use femto::color;
+use femto::cube::{Cube, TimeAxis};
+use femto::geometry::bvh::Bvh;
+use femto::pyramid::Pyramid;
+use femto::relativity::{gamma, Radiometry, RotationAxis, SensorRotation};
+use femto::render::{
+    check_path_clear, probe_pixel, render_frame, render_sequence, ColourOutput, Effects,
+    Isochrones, RenderError, RenderScene, RenderSettings, View,
+};
+use femto::units::C_M_PER_PS;
+use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
+
+fn spec(width: usize, height: usize, frames: usize, dtau_ps: f64) -> FrameSpec {
+    FrameSpec {
+        width,
+        height,
+        frames,
+        dtau_ps,
+    }
+}
+
+fn render(scene: &RenderScene, settings: &RenderSettings, state: &FrameState) -> Vec<[f32; 3]> {
+    let mut out = vec![[0.0f32; 3]; settings.width * settings.height];
+    render_frame(scene, settings, state, &mut out);
+    out
+}
+
+fn lum(px: [f32; 3]) -> f64 {
+    color::luminance([px[0] as f64, px[1] as f64, px[2] as f64])
+}
+
+/// Focal length in pixels of a frame `height` pixels high with vertical field of view
+/// `vfov_deg` (pinhole, principal point at the centre).
+fn focal_px(height: usize, vfov_deg: f64) -> f64 {
+    0.5 * height as f64 / (0.5 * vfov_deg.to_radians()).tan()
+}
+
+/// World-axes camera ray through the centre of pixel (i, j).
+fn pixel_ray(
+    pose: &Pose,
+    width: usize,
+    height: usize,
+    vfov_deg: f64,
+    i: usize,
+    j: usize,
+) -> Vector3<f64> {
+    let f = focal_px(height, vfov_deg);
+    let local = Vector3::new(
+        (i as f64 + 0.5 - 0.5 * width as f64) / f,
+        (j as f64 + 0.5 - 0.5 * height as f64) / f,
+        1.0,
+    );
+    pose.world_from_camera * local.normalize()
+}
+
+/// A uniformly lit world: constant signal density `density` per ps at every point the
+/// capture camera sees, over a long axis.
+fn constant_cube(cal: &Calibration, bvh: &Bvh, density: f64) -> Cube {
+    let axis = TimeAxis {
+        t0_ps: -2.0e6,
+        dt_ps: 1.0e6,
+        nt: 4,
+    };
+    world_cube(cal, bvh, axis, |_, _, a, b| density * (b - a))
+}
+
+#[test]
+fn marker_centroid_lies_within_half_a_pixel_of_the_boosted_photon_direction() {
+    let wall = Bvh::new(wall_z0(200.0));
+    let (w, h, vfov) = (160usize, 120usize, 50.0);
+    let f = focal_px(h, vfov);
+    let start = Point3::new(0.4, 0.25, 2.5);
+    let target = Point3::origin();
+    let pose = Pose::look_at(start, target, Vector3::y()).unwrap();
+    let r = pose.world_from_camera;
+    for beta in [0.3, 0.6, 0.9] {
+        for towards in [true, false] {
+            let signed = if towards { beta } else { -beta };
+            let v = (target - start).normalize() * signed;
+            // Image of a world point: its photon's direction boosted into the camera frame.
+            let predict = |p: &Point3<f64>| {
+                let (d_cam, _) = photon_world_to_camera(&v, &(p - start).normalize());
+                let l = r.inverse_transform_vector(&d_cam);
+                (
+                    f * l.x / l.z + 0.5 * w as f64,
+                    f * l.y / l.z + 0.5 * h as f64,
+                )
+            };
+            // Put the marker where the camera-frame pixel (0.62 w, 0.41 h) looks: boost that
+            // direction into the world and intersect the wall.
+            let local = Vector3::new(
+                (0.62 * w as f64 - 0.5 * w as f64) / f,
+                (0.41 * h as f64 - 0.5 * h as f64) / f,
+                1.0,
+            )
+            .normalize();
+            let (n_world, _) = photon_camera_to_world(&v, &(r * local));
+            let m = start + n_world * (-start.z / n_world.z);
+            let (pu, pv) = predict(&m);
+            // A Gaussian blob about 1.5 px wide in the image.
+            let delta = 1e-4;
+            let (ux, vx) = predict(&(m + Vector3::x() * delta));
+            let (uy, vy) = predict(&(m + Vector3::y() * delta));
+            let px_per_m = ((ux - pu).hypot(vx - pv)).min((uy - pu).hypot(vy - pv)) / delta;
+            let sigma_m = 1.5 / px_per_m;
+            // A capture camera close to the marker, resolving the blob finely.
+            let cap_pos = m + Vector3::new(0.05, -0.04, 1.0);
+            let cap_vfov = 2.0 * (5.0 * sigma_m / (m - cap_pos).norm()).atan().to_degrees();
+            let cal = calibration(96, 96, cap_vfov, cap_pos, m);
+            let axis = TimeAxis {
+                t0_ps: -1.0e6,
+                dt_ps: 1.0e6,
+                nt: 2,
+            };
+            let cube = world_cube(&cal, &wall, axis, |p, _, a, b| {
+                let d2 = (p - m).norm_squared();
+                (-d2 / (2.0 * sigma_m * sigma_m)).exp() * (b - a)
+            });
+            let pyramid = Pyramid::build(&cube);
+            let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+            let path = CameraPath::dolly(
+                start,
+                target,
+                Vector3::y(),
+                signed,
+                vfov,
+                spec(w, h, 1, 1.0),
+            )
+            .unwrap();
+            let settings = RenderSettings::for_path(&path);
+            let img = render(&scene, &settings, &path.frame(0));
+            let (mut sum, mut su, mut sv) = (0.0, 0.0, 0.0);
+            for j in 0..h {
+                for i in 0..w {
+                    let l = lum(img[j * w + i]);
+                    sum += l;
+                    su += l * (i as f64 + 0.5);
+                    sv += l * (j as f64 + 0.5);
+                }
+            }
+            assert!(sum > 0.0, "beta {signed}: the marker is not in the frame");
+            let (cu, cv) = (su / sum, sv / sum);
+            let err = (cu - pu).hypot(cv - pv);
+            assert!(
+                err < 0.5,
+                "beta {signed}: centroid ({cu:.3}, {cv:.3}) vs boost ({pu:.3}, {pv:.3}): {err:.3} px"
+            );
+            // At rest the marker would be elsewhere: the test does see the aberration.
+            let rest = {
+                let l = r.inverse_transform_vector(&(m - start));
+                (
+                    f * l.x / l.z + 0.5 * w as f64,
+                    f * l.y / l.z + 0.5 * h as f64,
+                )
+            };
+            assert!((rest.0 - pu).hypot(rest.1 - pv) > 2.0, "beta {signed}");
+        }
+    }
+}
+
+/// Velocity over c of a straight path through `start` along `dir` at `beta`, as a
+/// world-clock keyframe path with a fixed orientation.
+fn straight_path(
+    start: Point3<f64>,
+    beta_vec: Vector3<f64>,
+    orientation: Rotation3<f64>,
+    vfov: f64,
+    s: FrameSpec,
+) -> CameraPath {
+    let t_end = (s.frames.max(2) - 1) as f64 * s.dtau_ps * gamma(beta_vec.norm()) * 1.5 + 1.0;
+    let kf = |t: f64| Keyframe {
+        time_ps: t,
+        position_m: start + beta_vec * (C_M_PER_PS * t),
+        orientation: Orientation::Fixed(orientation),
+        vfov_deg: vfov,
+        beta: None,
+    };
+    CameraPath::new(
+        s,
+        None,
+        None,
+        Motion::Keyframes {
+            clock: Clock::World,
+            interpolation: Interpolation::Linear,
+            keyframes: vec![kf(0.0), kf(t_end)],
+        },
+        "test path",
+    )
+    .unwrap()
+}
+
+#[test]
+fn constant_light_scales_as_d_to_the_minus_four_and_rays_follow_the_boost() {
+    let wall = Bvh::new(wall_z0(200.0));
+    let cal = calibration(
+        200,
+        200,
+        150.0,
+        Point3::new(0.0, 0.0, 8.0),
+        Point3::origin(),
+    );
+    let density = 2.5;
+    let cube = constant_cube(&cal, &wall, density);
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    let (w, h, vfov) = (33usize, 25usize, 16.0);
+    let start = Point3::new(0.3, -0.2, 2.0);
+    let pose = Pose::look_at(start, Point3::origin(), Vector3::y()).unwrap();
+    let rest = CameraPath::static_view(&pose, vfov, spec(w, h, 1, 5.0)).unwrap();
+    let pixels = [(16usize, 12usize), (8, 18), (26, 5)];
+    let axis_dir = (Point3::origin() - start).normalize();
+    let oblique = Vector3::new(0.3, 0.2, -1.0).normalize();
+    let mut cases: Vec<Vector3<f64>> = Vec::new();
+    for beta in [0.3, 0.6, 0.9] {
+        cases.push(axis_dir * beta);
+        cases.push(-axis_dir * beta);
+    }
+    for beta in [0.3, 0.6] {
+        cases.push(oblique * beta);
+        cases.push(Vector3::new(1.0, 0.0, 0.0) * beta);
+    }
+    let base = RenderSettings::for_path(&rest);
+    let rest_state = rest.frame(0);
+    for v in cases {
+        let path = straight_path(start, v, pose.world_from_camera, vfov, spec(w, h, 1, 5.0));
+        let state = path.frame(0);
+        assert!((state.beta - v).norm() < 1e-12);
+        for &(i, j) in &pixels {
+            let d_cam = pixel_ray(&pose, w, h, vfov, i, j);
+            let (n_world, dop) = photon_camera_to_world(&v, &d_cam);
+            // End to end: the renderer's ray and Doppler factor are the boost's.
+            let s = probe_pixel(&scene, &base, &state, i, j);
+            assert!((s.d_world - n_world).norm() < 1e-9, "v {v:?} ({i}, {j})");
+            assert!(
+                (s.doppler - dop).abs() < 1e-9 * dop,
+                "v {v:?}: D {} vs {dop}",
+                s.doppler
+            );
+            let at_rest = probe_pixel(&scene, &base, &rest_state, i, j).value;
+            assert!((at_rest - density).abs() < 1e-9 * density, "{at_rest}");
+            let ratio = s.value / at_rest;
+            let expect = dop.powi(-4);
+            assert!(
+                (ratio / expect - 1.0).abs() < 0.01,
+                "v {v:?} pixel ({i}, {j}): ratio {ratio} vs D^-4 = {expect} (D = {dop})"
+            );
+            // The seed's literal formulas: D^-6.
+            let paper = RenderSettings {
+                radiometry: Radiometry::Paper,
+                ..base
+            };
+            let ratio = probe_pixel(&scene, &paper, &state, i, j).value / at_rest;
+            assert!((ratio / dop.powi(-6) - 1.0).abs() < 0.01, "paper: {ratio}");
+            // Effects one at a time: only the searchlight changes the brightness.
+            for (name, on) in [
+                ("searchlight", true),
+                ("aberration", false),
+                ("doppler", false),
+                ("unwarp", false),
+                ("dilation", false),
+                ("rotation", false),
+            ] {
+                let one = RenderSettings {
+                    effects: Effects::parse(name).unwrap(),
+                    ..base
+                };
+                let s1 = probe_pixel(&scene, &one, &state, i, j);
+                let ratio = s1.value / at_rest;
+                if on {
+                    // Without aberration the ray is d', and D that of light from there.
+                    let (_, d_world_dir) = photon_world_to_camera(&v, &d_cam);
+                    assert!(
+                        (ratio * d_world_dir.powi(4) - 1.0).abs() < 0.01,
+                        "{name}: {ratio} vs D^-4 of the unaberrated ray"
+                    );
+                } else {
+                    assert!((ratio - 1.0).abs() < 1e-9, "{name}: {ratio}");
+                }
+                if one.effects.aberration {
+                    assert!((s1.d_world - n_world).norm() < 1e-9, "{name}");
+                } else {
+                    assert!((s1.d_world - d_cam).norm() < 1e-12, "{name}");
+                }
+            }
+            let none = RenderSettings {
+                effects: Effects::NONE,
+                ..base
+            };
+            let s0 = probe_pixel(&scene, &none, &state, i, j);
+            assert!((s0.d_world - d_cam).norm() < 1e-12);
+            assert_eq!(s0.lambda_nm, 670.0);
+            assert!((s0.value / at_rest - 1.0).abs() < 1e-9);
+        }
+    }
+}
+
+#[test]
+fn doppler_shift_gives_the_chromaticity_of_the_received_wavelength() {
+    let wall = Bvh::new(wall_z0(200.0));
+    let cal = calibration(64, 64, 60.0, Point3::new(0.0, 0.0, 5.0), Point3::origin());
+    let cube = constant_cube(&cal, &wall, 1.0);
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    // physics.md's table of the CIE 1931 matching functions.
+    let spots = [
+        (450.0, [0.3362, 0.0380, 1.77211]),
+        (555.0, [0.51205, 1.0, 0.00575]),
+        (600.0, [1.0622, 0.631, 0.0008]),
+    ];
+    let white = [0.3127, 0.3290];
+    let chroma = |xyz: [f64; 3]| {
+        let s = xyz[0] + xyz[1] + xyz[2];
+        [xyz[0] / s, xyz[1] / s]
+    };
+    // Odd frame: the centre pixel's ray is the optical axis, along the velocity.
+    let (w, h) = (9usize, 7usize);
+    let start = Point3::new(0.0, 0.0, 2.0);
+    for (target_nm, cmf) in spots {
+        // Head-on, D = sqrt((1 - beta) / (1 + beta)): beta = (1 - D^2) / (1 + D^2).
+        let d = target_nm / 670.0;
+        let beta = (1.0 - d * d) / (1.0 + d * d);
+        let path = CameraPath::dolly(
+            start,
+            Point3::origin(),
+            Vector3::y(),
+            beta,
+            30.0,
+            spec(w, h, 1, 1.0),
+        )
+        .unwrap();
+        let mut settings = RenderSettings::for_path(&path);
+        settings.colour = ColourOutput::Xyz;
+        let img = render(&scene, &settings, &path.frame(0));
+        let px = img[(h / 2) * w + w / 2];
+        let got = chroma([px[0] as f64, px[1] as f64, px[2] as f64]);
+        let expect = chroma(cmf);
+        assert!(
+            (got[0] - expect[0]).abs() < 2e-4 && (got[1] - expect[1]).abs() < 2e-4,
+            "{target_nm} nm: xy {got:?} vs {expect:?}"
+        );
+        // Display colours keep the hue: between white and the spectral colour, on its line.
+        settings.colour = ColourOutput::LinearSrgb;
+        let img = render(&scene, &settings, &path.frame(0));
+        let px = img[(h / 2) * w + w / 2];
+        let shown = chroma(color::linear_srgb_to_xyz([
+            px[0] as f64,
+            px[1] as f64,
+            px[2] as f64,
+        ]));
+        let (a, b) = (
+            [shown[0] - white[0], shown[1] - white[1]],
+            [expect[0] - white[0], expect[1] - white[1]],
+        );
+        assert!(
+            (a[0] * b[1] - a[1] * b[0]).abs() < 1e-3,
+            "{target_nm}: {shown:?}"
+        );
+        assert!(a[0] * b[0] + a[1] * b[1] > 0.0);
+        // Doppler off: the laser's own colour.
+        settings.effects.doppler = false;
+        let img = render(&scene, &settings, &path.frame(0));
+        let px = img[(h / 2) * w + w / 2];
+        let c = color::laser_colour(670.0);
+        let y = lum(px);
+        for k in 0..3 {
+            assert!((px[k] as f64 - y * c[k]).abs() < 1e-5 * y.max(1.0));
+        }
+    }
+    // Moving away fast enough to shift 670 nm past 780 nm: grey.
+    let path = CameraPath::dolly(
+        start,
+        Point3::origin(),
+        Vector3::y(),
+        -0.4,
+        30.0,
+        spec(w, h, 1, 1.0),
+    )
+    .unwrap();
+    let settings = RenderSettings::for_path(&path);
+    let img = render(&scene, &settings, &path.frame(0));
+    let px = img[(h / 2) * w + w / 2];
+    assert!(px[0] > 0.0 && px[0] == px[1] && px[1] == px[2], "{px:?}");
+}
+
+/// Period, in frames, of a sampled oscillation: the mean spacing of its upward mean
+/// crossings (linear interpolation between frames).
+fn period_frames(series: &[f64]) -> f64 {
+    let mean = series.iter().sum::<f64>() / series.len() as f64;
+    let mut crossings = Vec::new();
+    for k in 0..series.len() - 1 {
+        let (a, b) = (series[k] - mean, series[k + 1] - mean);
+        if a < 0.0 && b >= 0.0 {
+            crossings.push(k as f64 + a / (a - b));
+        }
+    }
+    assert!(crossings.len() >= 3, "too few periods: {crossings:?}");
+    (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64
+}
+
+/// A wall whose light oscillates in world time with period `period_ps`, everywhere in phase.
+fn pulsing_wall_scene(cal: &Calibration, wall: &Bvh, period_ps: f64) -> Pyramid {
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 2.0,
+        nt: 6000,
+    };
+    let w = 2.0 * std::f64::consts::PI / period_ps;
+    let cube = world_cube(cal, wall, axis, |_, _, a, b| {
+        (b - a) + 0.8 * ((w * b).sin() - (w * a).sin()) / w
+    });
+    Pyramid::build(&cube)
+}
+
+fn centre_series(scene: &RenderScene, settings: &RenderSettings, path: &CameraPath) -> Vec<f64> {
+    let (w, h) = (settings.width, settings.height);
+    let mut series = Vec::new();
+    render_sequence::<RenderError>(scene, settings, path, 0..path.spec().frames, |_, px| {
+        series.push(lum(px[(h / 2) * w + w / 2]));
+        Ok(())
+    })
+    .unwrap();
+    series
+}
+
+#[test]
+fn a_periodic_source_is_seen_with_its_period_scaled_by_d_and_frame_times_follow_gamma() {
+    let wall = Bvh::new(wall_z0(200.0));
+    let cal = calibration(32, 24, 100.0, Point3::new(0.0, 0.0, 3.0), Point3::origin());
+    let period_ps = 400.0;
+    let pyramid = pulsing_wall_scene(&cal, &wall, period_ps);
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    let (w, h) = (9usize, 7usize);
+    let beta: f64 = 0.6;
+    let g = gamma(beta);
+
+    // Head-on towards the wall: the centre pixel keeps looking at the same point, a source at
+    // rest, whose period is seen scaled by D = sqrt((1 - beta) / (1 + beta)).
+    let dtau = 4.0;
+    let path = CameraPath::dolly(
+        Point3::new(0.0, 0.0, 2.0),
+        Point3::origin(),
+        Vector3::y(),
+        beta,
+        20.0,
+        spec(w, h, 260, dtau),
+    )
+    .unwrap();
+    let mut settings = RenderSettings::for_path(&path);
+    settings.time_offset_ps = 10000.0;
+    let d = ((1.0 - beta) / (1.0 + beta)).sqrt();
+    let got = period_frames(&centre_series(&scene, &settings, &path)) * dtau;
+    assert!(
+        (got / (d * period_ps) - 1.0).abs() < 0.01,
+        "head-on: period {got} ps vs D T = {}",
+        d * period_ps
+    );
+    // Without dilation the world clock runs at tau while the camera still covers gamma beta c
+    // per unit tau: the emission time advances at 1 + gamma beta.
+    settings.effects.dilation = false;
+    let got = period_frames(&centre_series(&scene, &settings, &path)) * dtau;
+    let expect = period_ps / (1.0 + g * beta);
+    assert!(
+        (got / expect - 1.0).abs() < 0.01,
+        "no dilation: {got} vs {expect}"
+    );
+
+    // Sideways along the wall, looking straight at it: the centre pixel's world ray keeps its
+    // angle, so its distance to the wall is constant and only the clocks differ: a period
+    // T / gamma in proper time.
+    let dtau = 8.0;
+    let facing_wall = Rotation3::from_matrix_unchecked(Matrix3::new(
+        1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0,
+    ));
+    let path = straight_path(
+        Point3::new(-0.5, 0.0, 2.0),
+        Vector3::new(beta, 0.0, 0.0),
+        facing_wall,
+        20.0,
+        spec(w, h, 200, dtau),
+    );
+    let mut settings = RenderSettings::for_path(&path);
+    settings.time_offset_ps = 10000.0;
+    let got = period_frames(&centre_series(&scene, &settings, &path)) * dtau;
+    assert!(
+        (got / (period_ps / g) - 1.0).abs() < 0.01,
+        "sideways: {got} vs T / gamma = {}",
+        period_ps / g
+    );
+    // Frame times: world time of reception advances gamma dtau per frame.
+    for k in [0usize, 57, 198] {
+        let a = probe_pixel(&scene, &settings, &path.frame(k), w / 2, h / 2).t_receive_ps;
+        let b = probe_pixel(&scene, &settings, &path.frame(k + 1), w / 2, h / 2).t_receive_ps;
+        assert!(
+            ((b - a) / (g * dtau) - 1.0).abs() < 1e-6,
+            "frame {k}: {}",
+            b - a
+        );
+    }
+    settings.effects.dilation = false;
+    let got = period_frames(&centre_series(&scene, &settings, &path)) * dtau;
+    assert!(
+        (got / period_ps - 1.0).abs() < 0.01,
+        "sideways, no dilation: {got}"
+    );
+    let a = probe_pixel(&scene, &settings, &path.frame(3), w / 2, h / 2).t_receive_ps;
+    let b = probe_pixel(&scene, &settings, &path.frame(4), w / 2, h / 2).t_receive_ps;
+    assert!((b - a - dtau).abs() < 1e-9);
+}
+
+#[test]
+fn capture_view_replays_the_capture_and_other_views_follow_their_definitions() {
+    let mesh = cube_scene_mesh();
+    let bvh = Bvh::new(mesh);
+    let (w, h) = (40usize, 30usize);
+    let cal = cube_scene_calibration(w, h);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 4.0,
+        nt: 3000,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 6.0));
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let vfov = 40.0;
+    let dtau = 8.0;
+    let frames = 2600;
+    let path = CameraPath::static_view(&cal.pose, vfov, spec(w, h, frames, dtau)).unwrap();
+    let settings = RenderSettings::for_path(&path);
+    // Peak frame of some pixels against the calibration's first-arrival time.
+    let probes = [(20usize, 15usize), (5, 25), (33, 8), (12, 4)];
+    let series: Vec<Vec<f64>> = probes
+        .iter()
+        .map(|&(i, j)| {
+            (0..frames)
+                .map(|k| probe_pixel(&scene, &settings, &path.frame(k), i, j).value)
+                .collect()
+        })
+        .collect();
+    let state = path.frame(0);
+    for (s, &(i, j)) in series.iter().zip(&probes) {
+        let (p, _) = probe_pixel(&scene, &settings, &state, i, j).hit_m.unwrap();
+        // Camera time of first arrival, back to physical time (t0 is when the pulse leaves).
+        let t_first = cal.first_arrival_ps(&p) - cal.t0_ps;
+        let peak = s
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
+        // Frame k integrates [k dtau, (k + 1) dtau].
+        let expect = t_first / dtau - 0.5;
+        assert!(
+            (peak as f64 - expect).abs() <= 1.0,
+            "pixel ({i}, {j}): peak frame {peak}, first arrival at frame {expect:.2}"
+        );
+        // Isochrones at the capture pose: the same first-arrival time.
+        let iso = RenderSettings {
+            view: View::Isochrones(Isochrones {
+                t_min_ps: 0.0,
+                t_max_ps: 1.0e4,
+                contour_ps: 100.0,
+            }),
+            ..settings
+        };
+        let t = probe_pixel(&scene, &iso, &state, i, j)
+            .t_arrival_ps
+            .unwrap();
+        assert!((t - t_first).abs() < 1e-6, "isochrone {t} vs {t_first}");
+    }
+    // The naive view equals the transient one at the capture pose, and elsewhere samples the
+    // cube at the capture camera's warp.
+    let naive = RenderSettings {
+        view: View::Naive,
+        ..settings
+    };
+    let k = 400;
+    assert_eq!(
+        render(&scene, &settings, &path.frame(k)),
+        render(&scene, &naive, &path.frame(k))
+    );
+    let elsewhere = Pose::look_at(
+        Point3::new(-0.6, 0.9, 1.6),
+        Point3::new(0.0, 0.3, -0.3),
+        Vector3::y(),
+    )
+    .unwrap();
+    let moved = CameraPath::static_view(&elsewhere, vfov, spec(w, h, 1, dtau)).unwrap();
+    let mut compared = 0;
+    for j in (0..h).step_by(3) {
+        for i in (0..w).step_by(3) {
+            let a = probe_pixel(&scene, &settings, &moved.frame(0), i, j);
+            let b = probe_pixel(&scene, &naive, &moved.frame(0), i, j);
+            if let (Some(ta), Some(tb)) = (a.t_emit_ps, b.t_emit_ps) {
+                let (p, r) = a.hit_m.unwrap();
+                let expect = (r - (p - cal.pose.position_m).norm()) / C_M_PER_PS;
+                assert!((tb - ta - expect).abs() < 1e-6, "({i}, {j})");
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 20, "{compared}");
+    // The integrated view at rest is the capture's time-integrated image.
+    let integrated = RenderSettings {
+        view: View::Integrated,
+        ..settings
+    };
+    let img = render(&scene, &integrated, &state);
+    let total = cube.time_integral();
+    for j in 0..h {
+        for i in 0..w {
+            let y = lum(img[j * w + i]);
+            let expect = total[j * w + i];
+            assert!(
+                (y - expect).abs() <= 1e-5 * expect.abs().max(1e-12),
+                "({i}, {j}): {y} vs {expect}"
+            );
+        }
+    }
+}
+
+#[test]
+fn rotating_sensor_gives_each_pixel_its_own_velocity() {
+    let wall = Bvh::new(wall_z0(200.0));
+    let cal = calibration(
+        100,
+        100,
+        140.0,
+        Point3::new(0.0, 0.0, 6.0),
+        Point3::origin(),
+    );
+    let cube = constant_cube(&cal, &wall, 1.0);
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    let (w, h, vfov) = (33usize, 25usize, 30.0);
+    let pose = Pose::look_at(Point3::new(0.2, 0.1, 2.0), Point3::origin(), Vector3::y()).unwrap();
+    let beta_edge = 0.7;
+    let path = CameraPath::static_view(&pose, vfov, spec(w, h, 1, 2.0))
+        .unwrap()
+        .with_rotation(Some(SensorRotation {
+            axis: RotationAxis::Roll,
+            beta_edge,
+        }))
+        .unwrap();
+    let settings = RenderSettings::for_path(&path);
+    let state = path.frame(0);
+    let r_edge = (0.5 * w as f64).hypot(0.5 * h as f64);
+    for (i, j) in [(16usize, 12usize), (0, 0), (32, 3), (5, 20)] {
+        // Roll about the optical axis: omega = beta_edge / r_edge along +z (camera frame),
+        // velocity omega x r with r the pixel's offset from the sensor centre.
+        let (ox, oy) = (
+            i as f64 + 0.5 - 0.5 * w as f64,
+            j as f64 + 0.5 - 0.5 * h as f64,
+        );
+        let omega = beta_edge / r_edge;
+        let v = pose.world_from_camera * Vector3::new(-omega * oy, omega * ox, 0.0);
+        let s = probe_pixel(&scene, &settings, &state, i, j);
+        assert!(
+            (s.beta - v).norm() < 1e-12,
+            "({i}, {j}): {:?} vs {v:?}",
+            s.beta
+        );
+        let d_cam = pixel_ray(&pose, w, h, vfov, i, j);
+        let (n_world, dop) = photon_camera_to_world(&v, &d_cam);
+        assert!((s.d_world - n_world).norm() < 1e-9);
+        assert!((s.value - dop.powi(-4)).abs() < 0.01 * dop.powi(-4));
+        let off = RenderSettings {
+            effects: Effects {
+                rotation: false,
+                ..Effects::ALL
+            },
+            ..settings
+        };
+        let s = probe_pixel(&scene, &off, &state, i, j);
+        assert_eq!(s.beta, Vector3::zeros());
+        assert!((s.value - 1.0).abs() < 1e-9);
+    }
+    // The sensor speed reaches beta_edge at the corners, as the path promised.
+    let corner = state.pixel_beta(
+        &Vector2::new(0.5 * w as f64, 0.5 * h as f64),
+        &Vector2::new(0.5 * w as f64, 0.5 * h as f64),
+    );
+    assert!((corner.norm() - beta_edge).abs() < 1e-12);
+}
+
+#[test]
+fn a_path_through_the_geometry_is_an_error() {
+    let wall = Bvh::new(wall_z0(5.0));
+    // 10 frames of 1 ns at beta 0.5: 1.56 m of travel from 0.5 m in front of the wall.
+    let through = CameraPath::dolly(
+        Point3::new(0.0, 0.0, 0.5),
+        Point3::new(0.0, 0.0, -5.0),
+        Vector3::y(),
+        0.5,
+        30.0,
+        spec(8, 6, 10, 1000.0),
+    )
+    .unwrap();
+    let e = check_path_clear(&wall, &through).unwrap_err();
+    assert!(matches!(e, RenderError::PathThroughGeometry { .. }));
+    let msg = e.to_string();
+    assert!(msg.contains("passes through"), "{msg}");
+    // The crossing point is reported on the wall.
+    if let RenderError::PathThroughGeometry { point_m, .. } = e {
+        assert!(point_m[2].abs() < 1e-4, "{point_m:?}");
+    }
+    let short = CameraPath::dolly(
+        Point3::new(0.0, 0.0, 0.5),
+        Point3::new(0.0, 0.0, -5.0),
+        Vector3::y(),
+        0.5,
+        30.0,
+        spec(8, 6, 10, 100.0),
+    )
+    .unwrap();
+    assert!(check_path_clear(&wall, &short).is_ok());
+}
+
+#[test]
+fn effects_parse_and_print() {
+    assert_eq!(Effects::parse("none").unwrap(), Effects::NONE);
+    assert_eq!(Effects::parse("all").unwrap(), Effects::ALL);
+    let e = Effects::parse(" doppler, searchlight ").unwrap();
+    assert!(e.doppler && e.searchlight && !e.aberration && !e.unwarp);
+    assert_eq!(e.to_string(), "doppler,searchlight");
+    assert_eq!(Effects::parse(&e.to_string()).unwrap(), e);
+    let err = Effects::parse("doppler,warp").unwrap_err().to_string();
+    assert!(err.contains("'warp'"), "{err}");
+    assert_eq!(Effects::default(), Effects::ALL);
+}
+
+// ---------------------------------------------------------------------------------------
+// The command line, run as a user would in a temporary folder.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The cube scene on disk: mesh (OBJ), calibration (TOML) and a single-bounce world-time
+/// cube (HDF5) of 32 x 24 pixels.
+fn write_cube_scene(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let mesh = cube_scene_mesh();
+    let mut obj = String::new();
+    for p in &mesh.positions {
+        obj.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
+    }
+    for t in &mesh.triangles {
+        obj.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
+    }
+    let mesh_path = dir.join("scene.obj");
+    std::fs::write(&mesh_path, obj).unwrap();
+    let cal = cube_scene_calibration(32, 24);
+    let cal_path = dir.join("capture.toml");
+    std::fs::write(&cal_path, cal.to_toml()).unwrap();
+    let bvh = Bvh::new(mesh);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    let cube_path = dir.join("world.h5");
+    femto::container::write_cube(
+        &cube_path,
+        &cube,
+        &femto::container::Provenance::new("tests/render.rs").with_note("laser_nm", "670"),
+    )
+    .unwrap();
+    (cube_path, cal_path, mesh_path)
+}
+
+fn femto_render(
+    dir: &Path,
+    inputs: &(PathBuf, PathBuf, PathBuf),
+    extra: &[&str],
+) -> std::process::Output {
+    let (cube, cal, mesh) = inputs;
+    Command::new(env!("CARGO_BIN_EXE_femto"))
+        .current_dir(dir)
+        .arg("render")
+        .arg("--cube")
+        .arg(cube)
+        .arg("--calibration")
+        .arg(cal)
+        .arg("--mesh")
+        .arg(mesh)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn assert_ok(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "femto render failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn cli_frame_ranges_reproduce_the_full_render_bit_for_bit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let inputs = write_cube_scene(dir);
+    let common = ["--dolly", "0.5", "--size", "32x24", "--frame-count", "6"];
+    for format in ["exr", "png"] {
+        let full = format!("full_{format}");
+        let part = format!("part_{format}");
+        let run = |out: &str, frames: Option<&str>| {
+            let mut args: Vec<&str> = common.to_vec();
+            args.extend(["--format", format, "--out", out]);
+            if let Some(f) = frames {
+                args.extend(["--frames", f]);
+            }
+            assert_ok(&femto_render(dir, &inputs, &args));
+        };
+        run(&full, None);
+        run(&part, Some("0..2"));
+        run(&part, Some("2..6"));
+        let mut lit = 0;
+        for k in 0..6 {
+            let name = format!("frame_{k:05}.{format}");
+            let a = std::fs::read(dir.join(&full).join(&name)).unwrap();
+            let b = std::fs::read(dir.join(&part).join(&name)).unwrap();
+            assert!(
+                a == b,
+                "{format} frame {k} differs between the full and the split render"
+            );
+            if format == "png" {
+                let img = image::load_from_memory(&a).unwrap().to_rgb8();
+                lit += img.pixels().filter(|p| p.0 != [0, 0, 0]).count();
+            }
+        }
+        assert_eq!(std::fs::read_dir(dir.join(&full)).unwrap().count(), 6);
+        if format == "png" {
+            assert!(lit > 0, "every frame is black");
+        }
+    }
+}
+
+#[test]
+fn cli_writes_videos_and_every_view() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let inputs = write_cube_scene(dir);
+    let base = ["--capture-view", "--size", "16x12", "--frame-count", "3"];
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&str> = base.to_vec();
+        args.extend_from_slice(extra);
+        assert_ok(&femto_render(dir, &inputs, &args));
+    };
+    // (OpenH264 rejects frames under 16 pixels high.)
+    assert_ok(&femto_render(
+        dir,
+        &inputs,
+        &[
+            "--capture-view",
+            "--size",
+            "32x24",
+            "--frame-count",
+            "3",
+            "--out",
+            "v.mp4",
+        ],
+    ));
+    let mp4 = std::fs::read(dir.join("v.mp4")).unwrap();
+    assert_eq!(&mp4[4..8], b"ftyp");
+    run(&["--out", "v.gif"]);
+    let gif = std::fs::read(dir.join("v.gif")).unwrap();
+    assert_eq!(&gif[..6], b"GIF89a");
+    for view in ["naive", "isochrones", "integrated"] {
+        let out = format!("view_{view}");
+        run(&["--view", view, "--out", &out, "--frames", "1..2"]);
+        let png = std::fs::read(dir.join(&out).join("frame_00001.png")).unwrap();
+        let img = image::load_from_memory(&png).unwrap().to_rgb8();
+        let lit = img.pixels().filter(|p| p.0 != [0, 0, 0]).count();
+        assert!(lit > 16 * 12 / 4, "{view}: {lit} lit pixels");
+        assert!(!dir.join(&out).join("frame_00000.png").exists());
+    }
+    // An orbit renders too.
+    let orbit = femto_render(
+        dir,
+        &inputs,
+        &[
+            "--orbit",
+            "0.3",
+            "--size",
+            "16x12",
+            "--frame-count",
+            "2",
+            "--out",
+            "orbit",
+        ],
+    );
+    assert_ok(&orbit);
+    assert!(dir.join("orbit/frame_00001.png").exists());
+}
+
+#[test]
+fn cli_errors_name_the_flag_and_leave_no_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let inputs = write_cube_scene(dir);
+    // A camera-time cube.
+    let (cube, cal, mesh) = &inputs;
+    let mut camera_cube = femto::container::read_cube(cube).unwrap();
+    camera_cube.frame = femto::cube::TimeFrame::Camera;
+    let camera_path = dir.join("camera.h5");
+    femto::container::write_cube(
+        &camera_path,
+        &camera_cube,
+        &femto::container::Provenance::new("t"),
+    )
+    .unwrap();
+    // A path through the back wall: 20 frames of 1 ns at beta 0.5 from just in front of it.
+    let through = CameraPath::dolly(
+        Point3::new(0.0, 0.5, -0.8),
+        Point3::new(0.0, 0.5, -8.0),
+        Vector3::y(),
+        0.5,
+        30.0,
+        spec(16, 12, 20, 1000.0),
+    )
+    .unwrap();
+    std::fs::write(dir.join("through.toml"), through.to_toml()).unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["--dolly", "1.0", "--out", "o1"], "--dolly"),
+        (vec!["--orbit", "-1.2", "--out", "o2"], "--orbit"),
+        (
+            vec!["--capture-view", "--size", "31x24", "--out", "o3.mp4"],
+            "--size",
+        ),
+        (
+            vec!["--capture-view", "--effects", "doppler,warp", "--out", "o4"],
+            "--effects",
+        ),
+        (
+            vec!["--capture-view", "--view", "sideways", "--out", "o5"],
+            "--view",
+        ),
+        (
+            vec![
+                "--capture-view",
+                "--frame-count",
+                "6",
+                "--frames",
+                "4..9",
+                "--out",
+                "o6",
+            ],
+            "--frames",
+        ),
+        (vec!["--path", "through.toml", "--out", "o7"], "--path"),
+        (
+            vec!["--capture-view", "--size", "16by12", "--out", "o8"],
+            "--size",
+        ),
+        (
+            vec!["--capture-view", "--radiometry", "classic", "--out", "o9"],
+            "--radiometry",
+        ),
+        (vec!["--capture-view", "--out", "o10.avi"], "--out"),
+    ];
+    for (args, flag) in cases {
+        let out = femto_render(dir, &inputs, &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(flag), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        let target = args.iter().skip_while(|a| **a != "--out").nth(1).unwrap();
+        assert!(!dir.join(target).exists(), "{args:?} left {target}");
+    }
+    let out = femto_render(dir, &inputs, &["--path", "through.toml", "--out", "o7"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("passes through"));
+    // Files: a camera-time cube, a missing mesh.
+    let run = |cube: &Path, mesh: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_femto"))
+            .current_dir(dir)
+            .args(["render", "--capture-view", "--out", "o11"])
+            .arg("--cube")
+            .arg(cube)
+            .arg("--calibration")
+            .arg(cal)
+            .arg("--mesh")
+            .arg(mesh)
+            .output()
+            .unwrap()
+    };
+    let out = run(&camera_path, mesh);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        err.contains("--cube") && err.contains("camera time"),
+        "{err}"
+    );
+    let out = run(cube, &dir.join("missing.obj"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        err.contains("--mesh") && err.contains("missing.obj"),
+        "{err}"
+    );
+    assert!(!dir.join("o11").exists());
+}
+
+#[test]
+fn shortcut_paths_keep_the_target_in_the_centre_of_the_image() {
+    use femto::render::paths::{scene_target, shortcut_path, Shortcut};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let target = scene_target(&scene);
+    // The capture camera's optical axis meets the mesh there.
+    let d = cal.pose.forward();
+    let along = (target - cal.pose.position_m).dot(&d);
+    assert!(((target - cal.pose.position_m) - d * along).norm() < 1e-5);
+    let (w, h, frames) = (21usize, 15usize, 30usize);
+    let span = scene.world_span_ps();
+    for (shortcut, beta) in [
+        (Shortcut::Dolly { beta: 0.7 }, 0.7),
+        (Shortcut::Dolly { beta: -0.5 }, -0.5),
+        (Shortcut::Orbit { beta: 0.8 }, 0.8),
+        (Shortcut::Orbit { beta: -0.6 }, -0.6),
+        (Shortcut::CaptureView, 0.0),
+    ] {
+        let s = shortcut_path(&scene, shortcut, w, h, frames, None).unwrap();
+        let settings = RenderSettings::for_path(&s.path);
+        let g = gamma(beta);
+        let d_expect = match shortcut {
+            Shortcut::Dolly { .. } => g * (1.0 - beta),
+            Shortcut::Orbit { .. } => 1.0 / g,
+            Shortcut::CaptureView => 1.0,
+        };
+        // The frames sweep the cube's span at the target: dtau = D span / (frames - 1).
+        let dtau = s.path.spec().dtau_ps;
+        assert!((dtau / (d_expect * (span.1 - span.0) / (frames - 1) as f64) - 1.0).abs() < 1e-9);
+        let r0 = (target - cal.pose.position_m).norm();
+        assert!((s.time_offset_ps - (span.0 + r0 / C_M_PER_PS)).abs() < 1e-6);
+        for k in [0, frames / 2, frames - 1] {
+            let state = s.path.frame(k);
+            assert!(
+                (state.beta.norm() - beta.abs()).abs() < 1e-6,
+                "{shortcut:?} frame {k}"
+            );
+            let c = probe_pixel(&scene, &settings, &state, w / 2, h / 2);
+            let (p, _) = c.hit_m.unwrap();
+            assert!(
+                (p - target).norm() < 2e-3,
+                "{shortcut:?} frame {k}: sees {p:?}, target {target:?}"
+            );
+            assert!(
+                (c.doppler / d_expect - 1.0).abs() < 1e-3,
+                "{shortcut:?}: D {}",
+                c.doppler
+            );
+            if let Shortcut::Orbit { .. } = shortcut {
+                // On the circle: constant distance to the target, velocity perpendicular.
+                let rel = state.position_m - target;
+                assert!((rel.norm() - r0).abs() < 1e-6);
+                assert!(state.beta.dot(&rel).abs() < 1e-6);
+                assert!(
+                    ((state.t_world_ps - g * state.tau_ps) / (1.0 + state.t_world_ps)).abs() < 1e-6
+                );
+            }
+        }
+        if shortcut == Shortcut::CaptureView {
+            let f = s.path.frame(0);
+            assert_eq!(f.position_m, cal.pose.position_m);
+        }
+    }
+}

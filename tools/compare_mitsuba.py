@@ -1,0 +1,158 @@
+#!/usr/bin/env python3
+"""Compare femto's transient path tracer with Mitsuba 3 + mitransient on the same scene.
+
+Usage:
+    FEMTO_BENCH_DUMP=/tmp/femto_cmp cargo bench --bench tracer
+    pip install mitsuba mitransient          # LLVM variant, CPU only
+    # drjit 1.x needs LLVM >= 16 (Debian 12: apt-get install libllvm19, then
+    # export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so)
+    python3 tools/compare_mitsuba.py /tmp/femto_cmp [threads]
+
+The bench writes the built-in `cornell` scene (64 x 64 pixels, 300 bins of 4 ps) as one OBJ
+per material plus `scene.json`, and femto renders with isotropic emission (Mitsuba's point
+light is isotropic; the spot is lowered to 3 cm under the ceiling) at 4, 16 and 256 spp, each
+from its own seed. This script renders the same scene with
+`transient_path` (llvm_ad_mono, box pixel filter, flat-shaded OBJ triangles, a point light of
+intensity energy / 4 pi, the same time window given as optical path length) and reports:
+
+* agreement: femto 256 spp vs Mitsuba 256 spp, image sums and per-pixel differences of the
+  steady (time-integrated) image against their combined noise, and the scene's time
+  histogram (all pixels summed, rebinned by 4 to even out the different splatting);
+* noise: RMSE of the 4 and 16 spp renders against the renderer's own 256 spp render, per
+  bin of the transient and per pixel of the steady image, and the efficiency
+  1 / (MSE * seconds), so the two can be compared at equal noise.
+
+Numbers depend on the machine and on how busy it is; record them with the date.
+"""
+
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+C_M_PER_PS = 2.99792458e-4
+
+
+def load_femto(folder, meta):
+    out = {}
+    for r in meta["renders"]:
+        a = np.fromfile(os.path.join(folder, f"cube_spp{r['spp']}.f32"), dtype="<f4")
+        out[r["spp"]] = (a.reshape(meta["ny"], meta["nx"], meta["nt"]).astype(np.float64), r["seconds"])
+    return out
+
+
+def mitsuba_scene(folder, meta, mi):
+    t = mi.ScalarTransform4f
+    d = {
+        "type": "scene",
+        "integrator": {
+            "type": "transient_path",
+            "max_depth": meta["max_bounces"] + 1,
+            "rr_depth": 3,
+        },
+        "sensor": {
+            "type": "perspective",
+            "fov": meta["vfov_deg"],
+            "fov_axis": "y",
+            # Mitsuba starts camera rays on the near plane; mitransient counts optical path
+            # from there, so a default 1 cm near clip would make all light ~33 ps early.
+            "near_clip": 1e-6,
+            "to_world": t().look_at(origin=meta["camera_m"], target=meta["target_m"], up=meta["up"]),
+            "film": {
+                "type": "transient_hdr_film",
+                "width": meta["nx"],
+                "height": meta["ny"],
+                "temporal_bins": meta["nt"],
+                "start_opl": meta["t0_ps"] * C_M_PER_PS / meta["eta"],
+                "bin_width_opl": meta["dt_ps"] * C_M_PER_PS / meta["eta"],
+                "rfilter": {"type": "box"},
+            },
+            "sampler": {"type": "independent", "sample_count": 4},
+        },
+        "laser": {
+            "type": "point",
+            "position": meta["laser_m"],
+            "intensity": {"type": "uniform", "value": meta["energy"] / (4.0 * math.pi)},
+        },
+    }
+    for m, albedo in enumerate(meta["albedo"]):
+        d[f"mesh_{m}"] = {
+            "type": "obj",
+            "filename": os.path.join(folder, f"mesh_{m}.obj"),
+            "face_normals": True,
+            "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "uniform", "value": albedo}}},
+        }
+    return mi.load_dict(d)
+
+
+def render_mitsuba(scene, meta, spp, mi, dr, seed):
+    t0 = time.perf_counter()
+    steady, transient = mi.render(scene, spp=spp, seed=seed)
+    tr = np.array(transient, dtype=np.float64)
+    dr.sync_thread()
+    seconds = time.perf_counter() - t0
+    tr = tr[..., 0] if tr.ndim == 4 else tr
+    # mitransient stores (height, width, time) for a width x height film.
+    assert tr.shape == (meta["ny"], meta["nx"], meta["nt"]), tr.shape
+    return tr, seconds, np.array(steady, dtype=np.float64)[..., 0]
+
+
+def main():
+    folder = sys.argv[1]
+    threads = int(sys.argv[2]) if len(sys.argv) > 2 else 2
+    meta = json.load(open(os.path.join(folder, "scene.json")))
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_mono")
+    import mitransient  # noqa: F401  (registers the transient plugins)
+
+    dr.set_thread_count(threads)
+    femto = load_femto(folder, meta)
+    scene = mitsuba_scene(folder, meta, mi)
+    render_mitsuba(scene, meta, 1, mi, dr, 1)  # JIT warm-up: kernels compiled and cached
+    mits = {}
+    for spp, seed in ((4, 11), (16, 12), (256, 13)):
+        cube, seconds, _ = render_mitsuba(scene, meta, spp, mi, dr, seed)
+        mits[spp] = (cube, seconds)
+
+    print(f"scene cornell {meta['nx']}x{meta['ny']} px, {meta['nt']} bins of {meta['dt_ps']} ps, "
+          f"max bounces {meta['max_bounces']}, isotropic point light; Mitsuba {mi.__version__} llvm_ad_mono, "
+          f"{threads} threads")
+    # Agreement at 256 spp.
+    f_ref, m_ref = femto[256][0], mits[256][0]
+    fs, ms = f_ref.sum(axis=2), m_ref.sum(axis=2)
+    # Noise of one 256-spp steady pixel, from the 16-spp renders (variance scales as 1/spp).
+    var16 = 0.5 * (((femto[16][0].sum(axis=2) - fs) ** 2) + ((mits[16][0].sum(axis=2) - ms) ** 2))
+    var256 = var16 * 16.0 / 256.0
+    z = (fs - ms) / np.sqrt(2.0 * var256 + 1e-30)
+    lit = fs > 0
+    print(f"steady image sum: femto {fs.sum():.6g}, mitsuba {ms.sum():.6g}, ratio {fs.sum() / ms.sum():.4f}")
+    # The variance comes from two squared 16-spp deviations per pixel, so z follows a Student
+    # t with 2 degrees of freedom if the renderers agree: median |z| = 0.816 (rms undefined).
+    print(f"steady per-pixel difference / combined noise: median |z| {np.median(np.abs(z[lit])):.3f} "
+          f"(0.816 = agreement within noise), rms {np.sqrt(np.mean(z[lit] ** 2)):.2f}, lit pixels {lit.sum()}")
+    hf = f_ref.sum(axis=(0, 1)).reshape(-1, 4).sum(axis=1)
+    hm = m_ref.sum(axis=(0, 1)).reshape(-1, 4).sum(axis=1)
+    top = hf.argmax()
+    print(f"time histogram (16 ps bins): peak bin femto {hf.argmax()} mitsuba {hm.argmax()}, "
+          f"max |difference| / peak {np.abs(hf - hm).max() / hf[top]:.3f}, "
+          f"total in window femto/mitsuba {hf.sum() / hm.sum():.4f}")
+    # Noise at equal spp and efficiency.
+    print("renderer  spp  seconds  RMSE(transient bin)  RMSE(steady px)  eff_transient  eff_steady")
+    for name, runs in (("femto", femto), ("mitsuba", mits)):
+        ref = runs[256][0]
+        for spp in (4, 16):
+            cube, seconds = runs[spp][0], runs[spp][1]
+            rt = np.sqrt(np.mean((cube - ref) ** 2))
+            rs = np.sqrt(np.mean((cube.sum(axis=2) - ref.sum(axis=2)) ** 2))
+            print(f"{name:8s} {spp:4d} {seconds:8.3f} {rt:20.4e} {rs:16.4e} {1 / (rt * rt * seconds):14.4e} "
+                  f"{1 / (rs * rs * seconds):11.4e}")
+    print(f"256 spp seconds: femto {femto[256][1]:.2f}, mitsuba {mits[256][1]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

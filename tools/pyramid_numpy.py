@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Plain numpy temporal prefix sums and mip levels, the performance baseline for
+`femto::pyramid` (not used by femto).
+
+Same semantics as `femto::pyramid`: per pixel, P[0] = 0 and P[i + 1] = P[i] + v[i] accumulated
+in float64 (nt + 1 values); mip level k + 1 sums pairs of level k (the last sample alone when the
+length is odd), float32. The integral over [ta, tb] is P(tb) - P(ta) with linear interpolation.
+
+Usage: python3 tools/pyramid_numpy.py [--nx 672 --ny 600 --nt 512 --reps 1] [--selftest]
+Prints the prefix and mip times and GB/s (bytes read + written / time).
+"""
+import argparse
+import time
+
+import numpy as np
+
+
+def prefix(cube, out=None):
+    """P[..., 0] = 0, P[..., i + 1] = P[..., i] + cube[..., i] in float64. `out` (ny, nx, nt + 1)
+    float64 may be given (the benchmark passes a pre-allocated, pre-faulted one)."""
+    ny, nx, nt = cube.shape
+    p = np.empty((ny, nx, nt + 1), np.float64) if out is None else out
+    p[..., 0] = 0
+    v = p[..., 1:]
+    v[...] = cube  # widen to float64 (the fastest of the variants tried), then sum in place
+    np.cumsum(v, axis=2, out=v)
+    return p
+
+
+def mips(cube):
+    levels = []
+    cur = cube
+    while cur.shape[2] > 1:
+        n = cur.shape[2]
+        if n % 2:
+            cur = np.concatenate([cur, np.zeros(cur.shape[:2] + (1,), np.float32)], axis=2)
+        cur = cur[..., 0::2] + cur[..., 1::2]
+        levels.append(cur)
+    return levels
+
+
+def integral(p, t0, dt, ta, tb):
+    nt = p.shape[-1] - 1
+
+    def at(t):
+        c = np.clip((t - t0) / dt, 0, nt)
+        i = np.minimum(np.floor(c).astype(np.int64), nt - 1)
+        return p[..., i] + (c - i) * (p[..., i + 1] - p[..., i])
+
+    return at(tb) - at(ta)
+
+
+def selftest():
+    rng = np.random.default_rng(2)
+    v = rng.random((1, 1, 37)).astype(np.float32)
+    p = prefix(v)
+    assert abs(integral(p, 0.0, 1.0, 2.5, 3.25)[0, 0] - (0.5 * v[0, 0, 2] + 0.25 * v[0, 0, 3])) < 1e-6
+    lv = mips(v)
+    assert len(lv) == 6 and lv[-1].shape[2] == 1
+    assert abs(lv[-1][0, 0, 0] - v.sum()) < 1e-4
+    assert abs(lv[1][0, 0, 9] - v[0, 0, 36]) < 1e-7
+    print("selftest ok")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--nx", type=int, default=672)
+    ap.add_argument("--ny", type=int, default=600)
+    ap.add_argument("--nt", type=int, default=512)
+    ap.add_argument("--reps", type=int, default=1)
+    ap.add_argument("--selftest", action="store_true")
+    a = ap.parse_args()
+    if a.selftest:
+        selftest()
+        return
+    cube = np.random.default_rng(0).random((a.ny, a.nx, a.nt), dtype=np.float32)
+    # Output written once before timing, as the Rust benchmark does, so page faults are not
+    # counted.
+    p = np.ones((a.ny, a.nx, a.nt + 1), np.float64)
+    pbytes = cube.nbytes + p.nbytes
+    tp, tm = None, None
+    for _ in range(a.reps):
+        t = time.perf_counter()
+        prefix(cube, out=p)
+        d = time.perf_counter() - t
+        tp = d if tp is None else min(tp, d)
+        t = time.perf_counter()
+        lv = mips(cube)
+        d = time.perf_counter() - t
+        tm = d if tm is None else min(tm, d)
+        mbytes = sum(l.nbytes for l in lv) * 3  # each level: read 2x its size, write 1x
+        del lv
+    del p
+    print(f"numpy prefix: {tp:.3f} s, {pbytes / tp / 1e9:.2f} GB/s")
+    print(f"numpy mips:   {tm:.3f} s, {mbytes / tm / 1e9:.2f} GB/s")
+
+
+if __name__ == "__main__":
+    main()
