@@ -478,6 +478,16 @@ fn hdf5_stack_input_in_both_layouts() {
         assert_eq!(got.data, want.data, "transpose {transpose}");
         assert_eq!(got.axis, AXIS);
     }
+    // A NaN in the stack: refused, naming the file, the dataset and the image.
+    ytx.data[(5 * AXIS.nt + 9) * NX + 4] = f32::NAN;
+    let bad = dir.path().join("bad.h5");
+    container::write_cube(&bad, &ytx, &container::Provenance::new("test")).unwrap();
+    let out = dir.path().join("never.h5");
+    assert_refused(
+        dir.path(),
+        &[s(&bad), "--dataset", "cube", "-o", s(&out), "--dt-ps", &dt, "--t0-ps", "0"],
+        "bad.h5:/cube image 5: non-finite value NaN at x 4, t 9",
+    );
 }
 
 // ---------------------------------------------------------------------------------------------

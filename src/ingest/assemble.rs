@@ -116,8 +116,8 @@ const ROWS_IN_FLIGHT_PER_THREAD: usize = 2;
 ///
 /// `provenance` gives the command line and any notes of the caller; the plan's inputs and
 /// corrections, and the jitter and power estimates, are added as `ingest.*` notes.
-/// `compression` is the storage of `/cube` (shuffle + deflate level 4 by default, see
-/// `docs/cube-format.md`). `progress` is called on the calling thread with the pass and the
+/// `compression` is the storage of `/cube` (`docs/cube-format.md`; the command line's
+/// default is deflate level 1, see `docs/ingest.md`). `progress` is called on the calling thread with the pass and the
 /// rows done in it.
 pub fn ingest(
     plan: &IngestPlan,

@@ -809,7 +809,10 @@ pub fn read_sweep_table(path: &Path) -> Result<Vec<f64>, IngestError> {
 }
 
 /// Convert a streak image `[t][x]` into the cube's row layout `[x][t]`, multiplying by
-/// `scale`; the first non-finite sample is an error `(x, t, value)`.
+/// `scale`; the first non-finite sample (in file order) is an error `(x, t, value)`.
+///
+/// The transpose goes by 32 x 32 tiles, so that reads and writes both stay within a few cache
+/// lines (a plain loop writes with a stride of `nt` values and was a fifth of ingest's time).
 pub fn to_row_layout(
     image_tx: &[f32],
     nx: usize,
@@ -819,12 +822,20 @@ pub fn to_row_layout(
 ) -> Result<(), (usize, usize, f32)> {
     debug_assert_eq!(image_tx.len(), nx * nt);
     debug_assert_eq!(out_xt.len(), nx * nt);
-    for (t, line) in image_tx.chunks_exact(nx).enumerate() {
-        for (x, &v) in line.iter().enumerate() {
-            if !v.is_finite() {
-                return Err((x, t, v));
+    if let Some(i) = image_tx.iter().position(|v| !v.is_finite()) {
+        return Err((i % nx, i / nx, image_tx[i]));
+    }
+    const TILE: usize = 32;
+    for t0 in (0..nt).step_by(TILE) {
+        let t1 = (t0 + TILE).min(nt);
+        for x0 in (0..nx).step_by(TILE) {
+            let x1 = (x0 + TILE).min(nx);
+            for t in t0..t1 {
+                let line = &image_tx[t * nx..t * nx + nx];
+                for x in x0..x1 {
+                    out_xt[x * nt + t] = line[x] * scale;
+                }
             }
-            out_xt[x * nt + t] = v * scale;
         }
     }
     Ok(())
