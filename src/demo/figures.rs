@@ -121,6 +121,26 @@ fn render_rgb8(scene: &RenderScene, s: &RenderSettings, path: &CameraPath, k: us
     rgb8
 }
 
+/// Write `frames` (label, `w` x `h` 8-bit RGB) side by side as one labelled contact sheet.
+fn write_sheet(
+    path: &Path,
+    w: usize,
+    h: usize,
+    frames: &[(String, Vec<u8>)],
+) -> Result<(), DemoError> {
+    let tiles: Vec<Tile> = frames
+        .iter()
+        .map(|(label, rgb8)| Tile {
+            width: w,
+            height: h,
+            rgb8,
+            label,
+        })
+        .collect();
+    let sheet = contact_sheet(&tiles, &SheetStyle::default());
+    write_png(path, sheet.width, sheet.height, &sheet.rgb8)
+}
+
 /// Times of reception (world time at which light reaches the camera, ps) by which a camera
 /// at rest at `camera_m` has received each fraction in `fractions` (increasing, in `[0, 1]`)
 /// of the captured light: every bin of the world cube, at the surface point its capture
@@ -414,20 +434,13 @@ pub fn fig5(
             s.time_offset_ps = t_receive_ps;
             frames.push(render_rgb8(scene, &s, &path, 0));
         }
-        let labels: Vec<String> = betas.iter().map(|b| format!("beta={b}")).collect();
-        let tiles: Vec<Tile> = frames
+        let labelled: Vec<(String, Vec<u8>)> = betas
             .iter()
-            .zip(&labels)
-            .map(|(rgb8, label)| Tile {
-                width: w,
-                height: h,
-                rgb8,
-                label,
-            })
+            .map(|b| format!("beta={b}"))
+            .zip(frames)
             .collect();
-        let sheet = contact_sheet(&tiles, &SheetStyle::default());
         let file = format!("{stem}.png");
-        write_png(&out.join(&file), sheet.width, sheet.height, &sheet.rgb8)?;
+        write_sheet(&out.join(&file), w, h, &labelled)?;
         outputs.push(OutputFile {
             figure: "fig5".into(),
             path: file,
@@ -608,23 +621,8 @@ pub fn approach_video(
         ),
         params: params(&pairs),
     }];
-    let tiles: Vec<Tile> = poster
-        .iter()
-        .map(|(label, rgb8)| Tile {
-            width: w,
-            height: h,
-            rgb8,
-            label,
-        })
-        .collect();
-    let sheet = contact_sheet(&tiles, &SheetStyle::default());
     let sheet_file = format!("{stem}_frames.png");
-    write_png(
-        &out.join(&sheet_file),
-        sheet.width,
-        sheet.height,
-        &sheet.rgb8,
-    )?;
+    write_sheet(&out.join(&sheet_file), w, h, &poster)?;
     outputs.push(OutputFile {
         figure: figure.into(),
         path: sheet_file,
@@ -719,18 +717,8 @@ pub fn fig8(
         ));
         frames.push((format!("edge={beta_edge}"), rgb));
     }
-    let tiles: Vec<Tile> = frames
-        .iter()
-        .map(|(label, rgb8)| Tile {
-            width: w,
-            height: h,
-            rgb8,
-            label,
-        })
-        .collect();
-    let sheet = contact_sheet(&tiles, &SheetStyle::default());
     let file = "fig8_rotation.png";
-    write_png(&out.join(file), sheet.width, sheet.height, &sheet.rgb8)?;
+    write_sheet(&out.join(file), w, h, &frames)?;
     outputs.push(OutputFile {
         figure: "fig8".into(),
         path: file.into(),
