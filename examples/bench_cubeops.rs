@@ -5,7 +5,8 @@
 //! Usage: bench_cubeops [--nx 672] [--ny 600] [--nt 512] [--threads 2] [--reps 3]
 //!
 //! GB/s counts bytes read plus bytes written (1 GB = 1e9 bytes), from the best of `reps`
-//! runs; the median is printed beside it. Output buffers are written once before timing so
+//! runs; the median and the mean CPU seconds per run (time on a CPU of all threads, which a
+//! shared machine's load disturbs less than wall time) are printed beside it. Output buffers are written once before timing so
 //! that page faults are not counted.
 
 use femto::cube::TimeAxis;
@@ -24,8 +25,23 @@ fn arg(args: &[String], name: &str, default: usize) -> usize {
     }
 }
 
-/// Runs `f` `reps` times; returns (best, median) seconds.
-fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+/// CPU seconds spent so far by all threads of this process: the sum over
+/// `/proc/self/task/*/schedstat` of the time on a CPU (Linux, nanoseconds; the time a
+/// thread waits for a core on a shared machine is not counted); 0 where it is missing.
+fn cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    let ns: u64 = tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    ns as f64 * 1e-9
+}
+
+/// Runs `f` `reps` times; returns (best, median, mean CPU) seconds.
+fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64, f64) {
+    let cpu0 = cpu_seconds();
     let mut t: Vec<f64> = (0..reps)
         .map(|_| {
             let s = Instant::now();
@@ -33,13 +49,14 @@ fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
             s.elapsed().as_secs_f64()
         })
         .collect();
+    let cpu = (cpu_seconds() - cpu0) / reps as f64;
     t.sort_by(f64::total_cmp);
-    (t[0], t[t.len() / 2])
+    (t[0], t[t.len() / 2], cpu)
 }
 
-fn report(name: &str, (best, median): (f64, f64), bytes: usize) {
+fn report(name: &str, (best, median, cpu): (f64, f64, f64), bytes: usize) {
     println!(
-        "{name:<22} {best:>8.3} s (median {median:.3} s)  {:>6.2} GB/s  ({:.0} MB moved)",
+        "{name:<22} {best:>8.3} s (median {median:.3} s, CPU {cpu:.3} s)  {:>6.2} GB/s  ({:.0} MB moved)",
         bytes as f64 / best / 1e9,
         bytes as f64 / 1e6
     );
@@ -48,6 +65,50 @@ fn report(name: &str, (best, median): (f64, f64), bytes: usize) {
 /// Fill in parallel (also pre-faults the pages).
 fn touch<T: Copy + Send + Sync>(v: &mut [T], x: T) {
     v.par_chunks_mut(1 << 16).for_each(|c| c.fill(x));
+}
+
+/// The pyramid kernels as they were before non-temporal stores (femto commit 193b77e):
+/// the same arithmetic, ordinary stores. The baseline of the "before" figures.
+mod plain {
+    use rayon::prelude::*;
+
+    pub fn prefix_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64]) {
+        prefix
+            .par_chunks_mut(nt + 1)
+            .zip(src_rows.par_chunks(nt))
+            .with_min_len(64)
+            .for_each(|(prefix, src)| {
+                prefix[0] = 0.0;
+                let mut acc = 0.0f64;
+                let pairs = src.chunks_exact(2);
+                let tail = pairs.remainder();
+                for (pair, out) in pairs.zip(prefix[1..].chunks_exact_mut(2)) {
+                    let (a, b) = (pair[0] as f64, pair[1] as f64);
+                    out[0] = acc + a;
+                    acc += a + b;
+                    out[1] = acc;
+                }
+                if let Some(&v) = tail.first() {
+                    prefix[src.len()] = acc + v as f64;
+                }
+            });
+    }
+
+    pub fn mip_halve_rows(src: &[f32], nt_src: usize, dst: &mut [f32]) {
+        let nt_dst = nt_src.div_ceil(2);
+        dst.par_chunks_mut(nt_dst)
+            .zip(src.par_chunks(nt_src))
+            .with_min_len(64)
+            .for_each(|(d, s)| {
+                let pairs = s.chunks_exact(2);
+                if let Some(&v) = pairs.remainder().first() {
+                    d[nt_dst - 1] = v;
+                }
+                for (o, p) in d.iter_mut().zip(pairs) {
+                    *o = p[0] + p[1];
+                }
+            });
+    }
 }
 
 fn main() {
@@ -141,12 +202,17 @@ fn main() {
         println!("  check: total {a:.6e} -> {b:.6e}");
     }
 
-    // Prefix sums (f64).
+    // Prefix sums (f64): the library's kernel, and the same arithmetic with ordinary stores
+    // (the kernel before it wrote with non-temporal stores), in the same process.
     {
         let mut prefix = vec![0.0f64; n_pix * (nt + 1)];
         touch(&mut prefix, 1.0);
+        let t = time(reps, || plain::prefix_rows(&src, nt, &mut prefix));
+        report("prefix (plain stores)", t, src.len() * 4 + prefix.len() * 8);
+        let before = prefix[n_pix / 2 * (nt + 1) + nt];
         let t = time(reps, || prefix_rows(&src, nt, &mut prefix));
         report("prefix (f64)", t, src.len() * 4 + prefix.len() * 8);
+        assert_eq!(prefix[n_pix / 2 * (nt + 1) + nt], before);
         println!("  check: P_end(0) {:.6e}", prefix[nt]);
     }
 
@@ -163,9 +229,19 @@ fn main() {
             for k in 0..levels.len() {
                 let (lower, upper) = levels.split_at_mut(k);
                 let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
+                plain::mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
+            }
+        });
+        report("mips (plain stores)", t, bytes);
+        let before = levels[0][levels[0].len() / 2];
+        let t = time(reps, || {
+            for k in 0..levels.len() {
+                let (lower, upper) = levels.split_at_mut(k);
+                let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
                 mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
             }
         });
         report(&format!("mips ({} levels)", levels.len()), t, bytes);
+        assert_eq!(levels[0][levels[0].len() / 2], before);
     }
 }
