@@ -6,6 +6,9 @@
 //!   accumulation, time dilation, per-view unwarp, capture visibility lookup);
 //! - `effects_none`: the same frame with every effect off (ray cast, capture lookup, prefix
 //!   sums, colour);
+//! - (summary only) `all effects, rays reused`: the full pipeline through
+//!   `render_frame_reusing_rays`, as `render_sequence` renders the frames of a dolly after the
+//!   first (the camera rays, aberration and Doppler factors of the frame before are reused);
 //! - `ray_cast_all` / `ray_cast_none`: only the world rays of the same two frames (the
 //!   aberrated rays of the full pipeline; the plain pinhole rays with every effect off), made
 //!   beforehand and cast against the BVH (`Bvh::intersect`), hit distances written to a
@@ -33,7 +36,10 @@ use femto::geometry::bvh::Bvh;
 use femto::geometry::Ray;
 use femto::pyramid::Pyramid;
 use femto::render::paths::{shortcut_path, Shortcut};
-use femto::render::{probe_pixel, render_frame, Effects, RenderScene, RenderSettings};
+use femto::render::{
+    probe_pixel, render_frame, render_frame_reusing_rays, Effects, FrameRays, RenderScene,
+    RenderSettings,
+};
 use femto::scene::Scene;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -148,7 +154,8 @@ fn main() {
         .expect("thread pool");
     let mut pixels = vec![[0.0f32; 3]; WIDTH * HEIGHT];
     let mut depth = vec![0.0f32; WIDTH * HEIGHT];
-    let (mut pixels2, mut depth2) = (pixels.clone(), depth.clone());
+    let (mut pixels2, mut pixels3, mut depth2) = (pixels.clone(), pixels.clone(), depth.clone());
+    let mut reused = FrameRays::default();
     let rays_all = frame_rays(&scene, &all, &state);
     let rays_none = frame_rays(&scene, &none, &state);
 
@@ -188,9 +195,11 @@ fn main() {
             &mut || render_frame(&scene, &none, &state, &mut pixels2),
             &mut || ray_cast(&bvh, &rays_all, &mut depth),
             &mut || ray_cast(&bvh, &rays_none, &mut depth2),
+            &mut || render_frame_reusing_rays(&scene, &all, &state, &mut reused, &mut pixels3),
         ],
     );
     let (t_all, t_none, t_cast_all, t_cast_none) = (times[0], times[1], times[2], times[3]);
+    let t_reused = times[4];
     println!(
         "render {WIDTH}x{HEIGHT}, {THREADS} threads, built-in cube scene, {} triangles; \
          frame 50 of a 100-frame dolly at beta 0.5: {lit} pixels lit, rays hitting the mesh: \
@@ -204,6 +213,7 @@ fn main() {
     );
     for (name, (wall, cpu)) in [
         ("all effects", t_all),
+        ("all effects, rays reused", t_reused),
         ("--effects none", t_none),
         ("ray cast (all-effects rays)", t_cast_all),
         ("ray cast (effects-none rays)", t_cast_none),
@@ -224,6 +234,13 @@ fn main() {
     if let (Some(a), Some(c)) = (t_all.1, t_cast_all.1) {
         println!(
             "  physics and lookups, all effects: {:.2} CPU ms = {:.2} x the ray cast",
+            (a - c) * 1e3,
+            (a - c) / c
+        );
+    }
+    if let (Some(a), Some(c)) = (t_reused.1, t_cast_all.1) {
+        println!(
+            "  physics and lookups, all effects, rays reused (a dolly's frames): {:.2} CPU ms = {:.2} x the ray cast",
             (a - c) * 1e3,
             (a - c) / c
         );

@@ -50,16 +50,13 @@ pub fn top_level(nt: usize) -> usize {
     k
 }
 
-/// Pixels per parallel task of [`prefix_rows`].
-const PIXELS_PER_TASK: usize = 64;
-
 /// Prefix sums of whole pixels: `src_rows` holds profiles of `nt` bins back to back
 /// (`[y][x][t]` for any number of rows), `prefix` receives `nt + 1` values per profile,
 /// `P[0] = 0` and `P[i + 1] = P[i] + src[i]`, accumulated in f64. Parallel over pixels.
 ///
-/// The kernel is memory-bound (it writes twice the bytes it reads). On x86-64 the prefix is
-/// written with non-temporal stores, which skip reading each output cache
-/// line before overwriting it: that read would be a third of the memory traffic.
+/// The kernel is memory-bound: it runs at the bandwidth of a plain copy
+/// (tools/bench_cubeops_results.md). Blocks of four bins computed with SSE2 and written with
+/// non-temporal stores were measured as well and were no faster, so it stays plain.
 ///
 /// Panics if the slice lengths disagree.
 pub fn prefix_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64]) {
@@ -71,152 +68,38 @@ pub fn prefix_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64]) {
     let n_pix = src_rows.len() / nt;
     assert_eq!(prefix.len(), n_pix * (nt + 1), "prefix size");
     prefix
-        .par_chunks_mut(PIXELS_PER_TASK * (nt + 1))
-        .zip(src_rows.par_chunks(PIXELS_PER_TASK * nt))
-        .for_each(|(p, s)| {
-            for (p, s) in p.chunks_exact_mut(nt + 1).zip(s.chunks_exact(nt)) {
-                prefix_one(s, p);
-            }
-            stream::fence();
-        });
+        .par_chunks_mut(nt + 1)
+        .zip(src_rows.par_chunks(nt))
+        .with_min_len(64)
+        .for_each(|(p, s)| prefix_one(s, p));
 }
 
-/// The prefix values of one block of up to four bins `a` after the running total `acc`, and
-/// the running total after the block. Every value is `acc` plus a partial sum of the block
-/// formed without `acc` (`s01 = a0 + a1`; `a2 + s01`; `(a2 + a3) + s01`), so the chain of
-/// dependent additions from block to block is one addition per four bins. (Partial sums of up
-/// to four f32 values are exact in f64 unless their exponents differ by more than 29, so each
-/// prefix value is then rounded once.)
-#[inline(always)]
-fn block_values(acc: f64, a: &[f64]) -> ([f64; 4], f64) {
-    let get = |i: usize| a.get(i).copied().unwrap_or(0.0);
-    let (a0, a1, a2, a3) = (get(0), get(1), get(2), get(3));
-    let s01 = a0 + a1;
-    let s0123 = (a2 + a3) + s01;
-    (
-        [acc + a0, acc + s01, acc + (a2 + s01), acc + s0123],
-        acc + s0123,
-    )
-}
-
-/// One profile's prefix sum, `prefix.len() == src.len() + 1`: `P[0] = 0`, then the values of
-/// [`block_values`] for each block of four bins. Written with non-temporal stores two values
-/// at a time at 16-byte aligned positions ([`stream`]), so the grouping of the stores depends
-/// on the alignment of `prefix`; the values do not. On x86-64 the blocks are computed two
-/// values per SSE2 instruction (the same additions in the same order, so the same values).
+/// One profile's prefix sum. Bins are taken in pairs so that the dependent chain of
+/// additions is half as long (the pair sum is independent of the running total). Measured
+/// against a plain running sum and against four pixels summed in lock-step: this one was
+/// the fastest of the three and runs at copy bandwidth (see tools/bench_cubeops.sh).
 #[inline]
 fn prefix_one(src: &[f32], prefix: &mut [f64]) {
-    assert_eq!(prefix.len(), src.len() + 1, "prefix length");
-    let n = src.len();
-    let blocks = src.chunks_exact(4);
-    let tail = blocks.remainder();
-    let n_full = n - tail.len();
-    // P[0 ..= n_full] from whole blocks; `acc` = P[n_full].
-    #[cfg(target_arch = "x86_64")]
-    let acc = prefix_blocks_sse2(blocks, &mut prefix[..n_full + 1]);
-    #[cfg(not(target_arch = "x86_64"))]
-    let acc = {
-        prefix[0] = 0.0;
-        let mut acc = 0.0;
-        for (k, b) in blocks.enumerate() {
-            let a = [b[0] as f64, b[1] as f64, b[2] as f64, b[3] as f64];
-            let (v, next) = block_values(acc, &a);
-            prefix[4 * k + 1..4 * k + 5].copy_from_slice(&v);
-            acc = next;
-        }
-        acc
-    };
-    if !tail.is_empty() {
-        let mut a = [0.0f64; 4];
-        for (x, &v) in a.iter_mut().zip(tail) {
-            *x = v as f64;
-        }
-        let (v, _) = block_values(acc, &a[..tail.len()]);
-        for (out, &v) in prefix[n_full + 1..].iter_mut().zip(&v) {
-            stream::single(out, v);
-        }
+    prefix[0] = 0.0;
+    let mut acc = 0.0f64;
+    let pairs = src.chunks_exact(2);
+    let tail = pairs.remainder();
+    for (pair, out) in pairs.zip(prefix[1..].chunks_exact_mut(2)) {
+        let (a, b) = (pair[0] as f64, pair[1] as f64);
+        out[0] = acc + a;
+        acc += a + b;
+        out[1] = acc;
+    }
+    if let Some(&v) = tail.first() {
+        prefix[src.len()] = acc + v as f64;
     }
 }
 
-/// Whole blocks of four bins with SSE2: writes `prefix[0 ..= 4 * blocks]` (`P[0] = 0`) with
-/// non-temporal stores and returns the last value written.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-fn prefix_blocks_sse2(blocks: std::slice::ChunksExact<'_, f32>, prefix: &mut [f64]) -> f64 {
-    use std::arch::x86_64::*;
-    let n_blocks = blocks.len();
-    assert_eq!(prefix.len(), 4 * n_blocks + 1, "prefix_blocks_sse2: sizes");
-    let first_aligned = stream::aligned(prefix);
-    let out = prefix.as_mut_ptr();
-    // SAFETY: SSE2 is part of the x86-64 baseline. Each block reads four f32 from a chunk of
-    // exactly four (ChunksExact). Block k stores at indices 4k + 1 ..= 4k + 4 (or 4k ..= 4k + 3
-    // when P[0] is aligned), all below prefix.len() = 4 n_blocks + 1; `_mm_stream_pd` targets
-    // are 16-byte aligned: `out + 1` (or `out`) is aligned by the branch taken and the offsets
-    // advance by 4 f64 = 32 bytes.
-    unsafe {
-        let zero = _mm_setzero_pd();
-        let mut acc = zero;
-        // The value waiting for its partner in the aligned-P[0] layout (P[4k]).
-        let mut carry = zero;
-        let single =
-            |i: usize, v: f64| _mm_stream_si64(out.add(i).cast::<i64>(), v.to_bits() as i64);
-        if !first_aligned {
-            single(0, 0.0);
-        }
-        for (k, b) in blocks.enumerate() {
-            let lo = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(b.as_ptr().cast())));
-            let hi = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(b.as_ptr().add(2).cast())));
-            // (a0, a0 + a1) and (a2, a2 + a3).
-            let lo = _mm_add_pd(lo, _mm_unpacklo_pd(zero, lo));
-            let hi = _mm_add_pd(hi, _mm_unpacklo_pd(zero, hi));
-            // (a2 + s01, (a2 + a3) + s01).
-            let hi = _mm_add_pd(hi, _mm_unpackhi_pd(lo, lo));
-            let out_lo = _mm_add_pd(acc, lo);
-            let out_hi = _mm_add_pd(acc, hi);
-            acc = _mm_add_pd(acc, _mm_unpackhi_pd(hi, hi));
-            if first_aligned {
-                _mm_stream_pd(out.add(4 * k), _mm_shuffle_pd::<0b00>(carry, out_lo));
-                _mm_stream_pd(out.add(4 * k + 2), _mm_shuffle_pd::<0b01>(out_lo, out_hi));
-                carry = _mm_unpackhi_pd(out_hi, out_hi);
-            } else {
-                _mm_stream_pd(out.add(4 * k + 1), out_lo);
-                _mm_stream_pd(out.add(4 * k + 3), out_hi);
-            }
-        }
-        let last = _mm_cvtsd_f64(acc);
-        if first_aligned {
-            single(4 * n_blocks, last);
-        }
-        last
-    }
-}
-
-/// Stores that bypass the cache (SSE2 `movntpd` / `movnti`, part of every x86-64 CPU) for
-/// outputs far larger than the cache, with plain stores on other targets. Non-temporal stores
+/// Stores that bypass the cache (SSE `movntps` / SSE2 `movnti`, part of every x86-64 CPU) for
+/// the mip levels, outputs far larger than the cache, with plain stores on other targets. Non-temporal stores
 /// are weakly ordered: [`fence`] must follow them before another thread reads the data (each
 /// parallel task of this module ends with it).
 mod stream {
-    /// Whether `out` starts on a 16-byte boundary (where 16-byte non-temporal stores may go).
-    #[inline(always)]
-    pub fn aligned(out: &[f64]) -> bool {
-        (out.as_ptr() as usize).is_multiple_of(16)
-    }
-
-    /// `*out = a`.
-    #[inline(always)]
-    pub fn single(out: &mut f64, a: f64) {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `out` is a valid, aligned, exclusive f64 location; an i64 store of its bits
-        // writes the same 8 bytes. SSE2 is part of the x86-64 baseline.
-        unsafe {
-            std::arch::x86_64::_mm_stream_si64((out as *mut f64).cast::<i64>(), a.to_bits() as i64);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            *out = a;
-        }
-    }
-
     /// `*out = a` for an f32.
     #[inline(always)]
     fn single_f32(out: &mut f32, a: f32) {
@@ -280,6 +163,11 @@ mod stream {
 /// back, `dst` receives `ceil(nt_src / 2)` per profile, each the sum of two neighbours (the
 /// last one alone when `nt_src` is odd: the signal is zero past the axis). Parallel over
 /// pixels.
+///
+/// For profiles of even length (every level of a power-of-two axis but the last) the output
+/// is computed four sums at a time and, on x86-64, written with non-temporal stores, which
+/// skip reading each output cache line before overwriting it: 10 to 25 % less time than
+/// ordinary stores (tools/bench_cubeops_results.md).
 ///
 /// Panics if the slice lengths disagree.
 pub fn mip_halve_rows(src: &[f32], nt_src: usize, dst: &mut [f32]) {
@@ -573,9 +461,9 @@ mod tests {
         }
     }
 
-    /// Integer-valued bins have exact prefix sums: every length of profile (whole blocks of
-    /// four and the tails), both 16-byte alignments of the output (a buffer offset by one
-    /// value) and several pixels per call give exactly the running sums in integers.
+    /// Integer-valued bins have exact prefix sums: every length of profile, either 16-byte
+    /// alignment of the output (a buffer offset by one value) and several pixels per call give
+    /// exactly the running sums in integers, and nothing is written outside the output.
     #[test]
     fn prefix_rows_is_exact_for_integer_bins_at_either_alignment() {
         let mut rng = Pcg64::seed_from_u64(5);

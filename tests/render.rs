@@ -1353,3 +1353,74 @@ fn cli_reads_the_stored_pyramid() {
     );
     assert!(!dir.join("refused").exists());
 }
+
+/// Frames rendered with the rays of the frame before (a dolly keeps its orientation and
+/// velocity; an orbit and a rotating sensor do not) are the frames `render_frame` makes, bit
+/// for bit, whatever the order in which frames and settings come.
+#[test]
+fn reused_rays_give_the_same_frames_bit_for_bit() {
+    use femto::render::paths::{shortcut_path, Shortcut};
+    use femto::render::{render_frame_reusing_rays, FrameRays};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let (w, h, frames) = (24usize, 18usize, 8usize);
+    let mut rays = FrameRays::default();
+    let mut lit = 0;
+    for shortcut in [
+        Shortcut::Dolly { beta: 0.6 },
+        Shortcut::Orbit { beta: 0.5 },
+        Shortcut::Dolly { beta: -0.4 },
+    ] {
+        let s = shortcut_path(&scene, shortcut, w, h, frames, None).unwrap();
+        let mut all = RenderSettings::for_path(&s.path);
+        all.time_offset_ps = s.time_offset_ps;
+        let no_aberration = RenderSettings {
+            effects: Effects::parse("unwarp,doppler,searchlight,dilation").unwrap(),
+            ..all
+        };
+        for k in [0, 1, 2, 5, 5, 7, 3] {
+            let state = s.path.frame(k);
+            for settings in [&all, &no_aberration] {
+                let want = render(&scene, settings, &state);
+                let mut got = vec![[f32::NAN; 3]; w * h];
+                render_frame_reusing_rays(&scene, settings, &state, &mut rays, &mut got);
+                assert!(got == want, "{shortcut:?} frame {k}");
+                lit += want.iter().filter(|p| p[0] > 0.0).count();
+            }
+        }
+    }
+    assert!(lit > 0, "every frame is black");
+    // A rotating sensor: a boost per pixel, rendered as render_frame does.
+    let mut path = shortcut_path(&scene, Shortcut::Dolly { beta: 0.3 }, w, h, frames, None)
+        .unwrap()
+        .path;
+    path = CameraPath::new(
+        path.spec(),
+        Some(path.tau0_ps()),
+        Some(SensorRotation {
+            axis: RotationAxis::Roll,
+            beta_edge: 0.5,
+        }),
+        path.motion().clone(),
+        "rotating",
+    )
+    .unwrap();
+    let settings = RenderSettings::for_path(&path);
+    for k in [0, 1] {
+        let state = path.frame(k);
+        let mut got = vec![[f32::NAN; 3]; w * h];
+        render_frame_reusing_rays(&scene, &settings, &state, &mut rays, &mut got);
+        assert!(
+            got == render(&scene, &settings, &state),
+            "rotating frame {k}"
+        );
+    }
+}

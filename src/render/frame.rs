@@ -1,7 +1,9 @@
 //! The per-pixel pipeline of the renderer (steps 1-7 of the [`crate::render`] module doc):
 //! camera ray, aberration, hit, emission time, capture lookup, searchlight accumulation,
 //! Doppler colour. [`render_frame`] runs it over a frame in parallel (rayon, one task per
-//! row); [`probe_pixel`] returns every intermediate quantity of one pixel.
+//! row, each stage over the whole row before the next); [`render_frame_reusing_rays`] keeps
+//! the rays of steps 1-2 from frame to frame while they stay the same (a dolly);
+//! [`probe_pixel`] returns every intermediate quantity of one pixel.
 
 use super::views;
 use super::{ColourOutput, RenderScene, RenderSettings, View};
@@ -309,6 +311,38 @@ impl<'s> FrameCtx<'s> {
         }
     }
 
+    /// Steps 3-7 for one row whose world rays and Doppler factors are given, one stage at a
+    /// time (all casts, then all lookups, then all colours): the same arithmetic as
+    /// [`FrameCtx::trace`], with each stage's loop kept tight.
+    #[inline(always)]
+    fn render_row(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        d_world: &[Vector3<f64>],
+        doppler: &[f64],
+        scratch: &mut RowScratch,
+        row: &mut [[f32; 3]],
+    ) {
+        scratch.hit_t.clear();
+        scratch.lambda_nm.clear();
+        scratch.colour.clear();
+        scratch
+            .hit_t
+            .extend(d_world.iter().map(|d| self.cast(scene, d)));
+        for ((d, &doppler), &hit_t) in d_world.iter().zip(doppler).zip(&scratch.hit_t) {
+            let s = self.shade(scene, settings, d, doppler, hit_t);
+            scratch.lambda_nm.push(s.lambda_nm);
+            scratch.colour.push(s.colour);
+        }
+        for ((px, &lambda_nm), &colour) in
+            row.iter_mut().zip(&scratch.lambda_nm).zip(&scratch.colour)
+        {
+            let rgb = self.rgb(settings, lambda_nm, colour);
+            *px = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32];
+        }
+    }
+
     /// The whole pipeline for one pixel.
     fn trace(
         &self,
@@ -368,11 +402,9 @@ enum Colour {
     Radiance(f64),
 }
 
-/// One row's world rays, Doppler factors and hit distances, filled one stage at a time.
+/// One row's hit distances, wavelengths and colours, filled one stage at a time.
 #[derive(Default)]
 struct RowScratch {
-    d_world: Vec<Vector3<f64>>,
-    doppler: Vec<f64>,
     hit_t: Vec<Option<f32>>,
     lambda_nm: Vec<f64>,
     colour: Vec<Colour>,
@@ -397,41 +429,100 @@ pub fn render_frame(
         "render_frame: output buffer size"
     );
     let ctx = FrameCtx::new(scene, settings, state);
-    // Each row goes through the pipeline one stage at a time (all rays, then all casts, then
-    // all lookups, then all colours): the same arithmetic as `probe_pixel`, with each stage's
-    // loop kept tight, so that the long division chains of neighbouring pixels overlap.
     out.par_chunks_mut(settings.width)
         .enumerate()
-        .for_each_init(RowScratch::default, |scratch, (j, row)| {
-            scratch.d_world.clear();
-            scratch.doppler.clear();
-            scratch.hit_t.clear();
-            scratch.lambda_nm.clear();
-            scratch.colour.clear();
-            for i in 0..row.len() {
-                let r = ctx.ray(settings, i, j);
-                scratch.d_world.push(r.d_world);
-                scratch.doppler.push(r.doppler);
-            }
-            scratch
-                .hit_t
-                .extend(scratch.d_world.iter().map(|d| ctx.cast(scene, d)));
-            for ((d, &doppler), &hit_t) in scratch
-                .d_world
-                .iter()
-                .zip(&scratch.doppler)
-                .zip(&scratch.hit_t)
-            {
-                let s = ctx.shade(scene, settings, d, doppler, hit_t);
-                scratch.lambda_nm.push(s.lambda_nm);
-                scratch.colour.push(s.colour);
-            }
-            for ((px, &lambda_nm), &colour) in
-                row.iter_mut().zip(&scratch.lambda_nm).zip(&scratch.colour)
-            {
-                let rgb = ctx.rgb(settings, lambda_nm, colour);
-                *px = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32];
-            }
+        .for_each_init(
+            || (Vec::new(), Vec::new(), RowScratch::default()),
+            |(d_world, doppler, scratch), (j, row)| {
+                d_world.clear();
+                doppler.clear();
+                for i in 0..row.len() {
+                    let r = ctx.ray(settings, i, j);
+                    d_world.push(r.d_world);
+                    doppler.push(r.doppler);
+                }
+                ctx.render_row(scene, settings, d_world, doppler, scratch, row);
+            },
+        );
+}
+
+/// The world rays and Doppler factors of every pixel of a frame, kept from one frame to the
+/// next by [`render_frame_reusing_rays`]: they depend only on the camera's orientation,
+/// velocity and field of view, which stay the same over a straight path at constant speed
+/// (a dolly), so such frames skip steps 1-2 of the pipeline.
+#[derive(Default)]
+pub struct FrameRays {
+    key: Option<RayKey>,
+    d_world: Vec<Vector3<f64>>,
+    doppler: Vec<f64>,
+}
+
+/// Everything [`FrameCtx::ray`] depends on for a frame with one boost.
+#[derive(Clone, Copy, PartialEq)]
+struct RayKey {
+    world_from_camera: Matrix3<f64>,
+    beta: Vector3<f64>,
+    gamma: f64,
+    inv_focal_px: f64,
+    half: Vector2<f64>,
+    aberration: bool,
+    width: usize,
+    height: usize,
+}
+
+/// [`render_frame`], with steps 1-2 (camera rays, aberration, Doppler factors) taken from
+/// `rays` when they were made for the same ray geometry (see [`FrameRays`]), and left in
+/// `rays` for the next frame otherwise. The pixels are the same, bit for bit. A rotating
+/// sensor (a boost per pixel) is rendered as by [`render_frame`].
+pub fn render_frame_reusing_rays(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    state: &FrameState,
+    rays: &mut FrameRays,
+    out: &mut [[f32; 3]],
+) {
+    let ctx = FrameCtx::new(scene, settings, state);
+    let Some(boost) = ctx.boost else {
+        rays.key = None;
+        return render_frame(scene, settings, state, out);
+    };
+    assert_eq!(
+        out.len(),
+        settings.width * settings.height,
+        "render_frame_reusing_rays: output buffer size"
+    );
+    let key = RayKey {
+        world_from_camera: ctx.world_from_camera,
+        beta: boost.beta,
+        gamma: boost.gamma,
+        inv_focal_px: ctx.inv_focal_px,
+        half: ctx.half,
+        aberration: settings.effects.aberration,
+        width: settings.width,
+        height: settings.height,
+    };
+    let w = settings.width;
+    if rays.key != Some(key) {
+        rays.key = None;
+        rays.d_world.resize(out.len(), Vector3::zeros());
+        rays.doppler.resize(out.len(), 0.0);
+        rays.d_world
+            .par_chunks_mut(w)
+            .zip(rays.doppler.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(j, (d_row, dop_row))| {
+                for (i, (d, dop)) in d_row.iter_mut().zip(dop_row).enumerate() {
+                    let r = ctx.ray(settings, i, j);
+                    (*d, *dop) = (r.d_world, r.doppler);
+                }
+            });
+        rays.key = Some(key);
+    }
+    out.par_chunks_mut(w)
+        .zip(rays.d_world.par_chunks(w))
+        .zip(rays.doppler.par_chunks(w))
+        .for_each_init(RowScratch::default, |scratch, ((row, d_world), doppler)| {
+            ctx.render_row(scene, settings, d_world, doppler, scratch, row);
         });
 }
 

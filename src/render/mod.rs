@@ -120,7 +120,7 @@ pub mod frame;
 pub mod paths;
 pub mod views;
 
-pub use frame::{probe_pixel, render_frame, PixelSample};
+pub use frame::{probe_pixel, render_frame, render_frame_reusing_rays, FrameRays, PixelSample};
 pub use views::Isochrones;
 
 use crate::camera::Calibration;
@@ -644,7 +644,9 @@ pub fn check_frames(path: &CameraPath, frames: &Range<usize>) -> Result<(), Rend
 /// Render frames `frames` of `path`, calling `sink(k, pixels)` with each frame's scene-linear
 /// pixels (row-major from the top row) in order. Validates the settings, the frame range and
 /// that the path does not pass through the geometry first. Frame `k` depends only on `k`, so
-/// any split of a sequence into ranges gives the same frames, bit for bit.
+/// any split of a sequence into ranges gives the same frames, bit for bit. Frames whose rays
+/// are those of the frame before (a dolly) reuse them ([`render_frame_reusing_rays`]: the same
+/// pixels).
 pub fn render_sequence<E: From<RenderError>>(
     scene: &RenderScene,
     settings: &RenderSettings,
@@ -656,8 +658,9 @@ pub fn render_sequence<E: From<RenderError>>(
     check_frames(path, &frames)?;
     check_path_clear(scene.bvh, path)?;
     let mut pixels = vec![[0.0f32; 3]; settings.width * settings.height];
+    let mut rays = FrameRays::default();
     for k in frames {
-        render_frame(scene, settings, &path.frame(k), &mut pixels);
+        render_frame_reusing_rays(scene, settings, &path.frame(k), &mut rays, &mut pixels);
         sink(k, &pixels)?;
     }
     Ok(())
