@@ -166,7 +166,7 @@ mod stream {
 ///
 /// For profiles of even length (every level of a power-of-two axis but the last) the output
 /// is computed four sums at a time and, on x86-64, written with non-temporal stores, which
-/// skip reading each output cache line before overwriting it: 10 to 25 % less time than
+/// skip reading each output cache line before overwriting it: 11 to 27 % less time than
 /// ordinary stores (tools/bench_cubeops_results.md).
 ///
 /// Panics if the slice lengths disagree.
