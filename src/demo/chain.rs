@@ -278,7 +278,7 @@ pub(crate) fn run_chain(
     let sim = stages.run(
         &format!("{label}simulate"),
         &format!(
-            "{} scene, {}x{} pixels x {} bins of {} ps, {} spp, realistic flaws",
+            "{} scene, {}x{} pixels x {} bins of {} ps, {} spp, realistic flaws (low noise)",
             scene.name, sizes.capture_nx, sizes.capture_ny, sizes.nt, sizes.dt_ps, sizes.spp
         ),
         || {
@@ -286,7 +286,12 @@ pub(crate) fn run_chain(
                 spp: sizes.spp,
                 seed: DEMO_SEED,
                 max_bounces: sizes.max_bounces,
-                flaws: Flaws::realistic(),
+                // The lab's averaged sweeps (module doc of `demo`).
+                flaws: Flaws {
+                    photon_noise: Some(30000.0),
+                    dark: Some((0.01, 0.001)),
+                    ..Flaws::realistic()
+                },
                 force: true,
                 created_by: "femto demo".into(),
                 ..SimulateOptions::default()

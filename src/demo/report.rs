@@ -220,6 +220,7 @@ mod tests {
                 t0_true_ps: 0.0,
                 dt_ps: 4.0,
                 t0_error_bins: 0.025,
+                t0_true_camera_error_bins: 0.02,
                 arrival_samples: 3000,
                 arrival_inliers: 2900,
                 t0_rms_ps: 1.0,
