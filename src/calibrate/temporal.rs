@@ -305,7 +305,7 @@ pub fn footprints(registration: &Registration, laser_m: &Point3<f64>) -> Footpri
             let d = d0 + gx * u + gy * v;
             let nd = n.dot(&d);
             // The normal faces the camera: a ray that meets the plane has n . d < 0.
-            if !(nd < -1e-6 * d.norm()) {
+            if nd.is_nan() || nd >= -1e-6 * d.norm() {
                 return None;
             }
             let q = o + d * (plane / nd);
@@ -380,7 +380,7 @@ pub fn window_centroid_bin(
         sum += v as f64;
         moment += v as f64 * (b as f64 + 0.5);
     }
-    if !(sum > 0.0) || max < min_peak {
+    if sum.is_nan() || sum <= 0.0 || max < min_peak {
         return None;
     }
     let c = moment / sum;
