@@ -13,8 +13,8 @@
 //!    frame, flat field, sweep table, trigger jitter, laser power, saturation mask);
 //! 3. **calibrate** ([`crate::calibrate`]): the camera fitted to the fiducial markers (pixel
 //!    positions with 0.5 px of seeded Gaussian noise, the noise the calibrate issue's
-//!    tolerances are stated for), then the time origin `t0` fitted to the first arrivals of
-//!    the direct light; both compared with the simulator's true calibration
+//!    tolerances are stated for), then the time origin `t0` fitted to the direct light
+//!    (first arrivals, then centroids over each pixel's footprint); both compared with the simulator's true calibration
 //!    ([`chain::CalibrationErrors`]);
 //! 4. **unwarp** ([`crate::unwarp`], seed Eq. 2): camera time to world time,
 //!    `t_world = t_camera - eta |p - o| / c` per pixel;
