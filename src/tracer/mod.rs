@@ -41,7 +41,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
-use binning::{add_weighted, TimeResponse};
+use binning::{add_weighted, ResponseTable, TimeResponse};
 use nalgebra::{Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -325,7 +325,7 @@ pub fn trace(
     );
     let cam_axis = scene.camera.axis;
     let sigma_ps = scene.laser.pulse_sigma_ps();
-    let cam_resp = TimeResponse::new(cam_axis, sigma_ps);
+    let cam_resp = ResponseTable::new(&TimeResponse::new(cam_axis, sigma_ps));
     let mut camera = Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera);
     let mut direct = opts
         .split_bounces
@@ -338,7 +338,7 @@ pub fn trace(
     } else {
         TimeAxis { nt: 0, ..cam_axis }
     };
-    let world_resp = TimeResponse::new(w_axis, sigma_ps);
+    let world_resp = ResponseTable::new(&TimeResponse::new(w_axis, sigma_ps));
     let mut world = opts
         .world_time
         .then(|| Cube::zeros(nx, ny, w_axis, TimeFrame::World));
@@ -371,7 +371,8 @@ pub fn trace(
             let mut acc_direct = vec![0.0f64; nt];
             let mut acc_multi = vec![0.0f64; nt];
             let mut acc_world = vec![0.0f64; ntw];
-            let mut weights = Vec::new();
+            let mut weights = vec![0.0f64; cam_resp.len()];
+            let mut weights_world = vec![0.0f64; world_resp.len()];
             for x in 0..nx {
                 acc.fill(0.0);
                 acc_direct.fill(0.0);
@@ -391,7 +392,10 @@ pub fn trace(
                         if !(b >= 0.0 && b < nt as f64) {
                             stats.samples_outside_window += 1;
                         }
-                        let first = cam_resp.weights(t_camera_ps, &mut weights);
+                        let Some(first) = cam_resp.weights(t_camera_ps, &mut weights) else {
+                            lost += value;
+                            return;
+                        };
                         lost += add_weighted(&mut acc, first, &weights, value);
                         if out.direct.is_some() {
                             let split = if c.bounce == 1 {
@@ -403,8 +407,10 @@ pub fn trace(
                         }
                         if out.world.is_some() {
                             let t_world_ps = t_camera_ps - flight_time_ps(eta, c.first_m);
-                            let first = world_resp.weights(t_world_ps, &mut weights);
-                            add_weighted(&mut acc_world, first, &weights, value);
+                            if let Some(first) = world_resp.weights(t_world_ps, &mut weights_world)
+                            {
+                                add_weighted(&mut acc_world, first, &weights_world, value);
+                            }
                         }
                     });
                     stats.rays += rays;
