@@ -11,8 +11,8 @@ use super::flaws::{CaptureModel, FlawError, Flaws, MAX_COUNT};
 use crate::atomic::write_atomically;
 use crate::calibrate::points::save_points_toml;
 use crate::calibrate::CalibrateError;
-use crate::container::{write_cube, ContainerError, Provenance};
-use crate::cube::Cube;
+use crate::container::{ContainerError, CubeWriter, Provenance, DEFAULT_UNITS};
+use crate::cube::{Cube, TimeFrame};
 use crate::formats::hamamatsu::write_img;
 use crate::formats::raster::{write_exr_f32, write_png16};
 use crate::formats::{FormatError, StreakImage};
@@ -20,7 +20,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::glb::{write_glb, GlbError};
 use crate::manifest::{CaptureFiles, CaptureInfo, Manifest, ManifestError, Scanline, StreakFormat};
 use crate::scene::Scene;
-use crate::tracer::{trace, TraceOptions};
+use crate::tracer::{TraceOptions, TraceStats, Tracer};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -242,14 +242,6 @@ pub fn simulate_capture(
         world_time: true,
         ..TraceOptions::default()
     };
-    let render = trace(scene, &bvh, &trace_opts, &|n| progress(Stage::Render, n));
-    let truth = &render.camera_time;
-    let model = CaptureModel::new(&opts.flaws, truth, opts.seed)?;
-
-    let (mut written, values_at_top_count) =
-        write_scanlines(tmp.path(), truth, &model, &opts.formats, progress)?;
-    let scanlines = scanline_entries(truth.ny, &opts.formats);
-
     let dir = tmp.path();
     let provenance = Provenance::new(opts.created_by.clone())
         .with_note("scene", scene.name.clone())
@@ -260,28 +252,18 @@ pub fn simulate_capture(
             "values",
             "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
         );
-    let truths: [(&str, Option<&Cube>, &str); 3] = [
-        (TRUTH_CAMERA_FILE, Some(truth), "all light, camera time"),
-        (
-            TRUTH_WORLD_FILE,
-            render.world_time.as_ref(),
-            "all light, world time (when the light is at the surface seen by the pixel)",
-        ),
-        (
-            TRUTH_DIRECT_FILE,
-            render.direct.as_ref(),
-            "one-bounce light only, camera time",
-        ),
-    ];
-    for (file, cube, what) in truths {
-        let cube = cube.expect("the tracer was asked for every cube");
-        write_cube(
-            &dir.join(file),
-            cube,
-            &provenance.clone().with_note("content", what),
-        )?;
-        written.push(file.into());
-    }
+    let (truth, stats) = render_truths(scene, &bvh, &trace_opts, dir, &provenance, progress)?;
+    let truth = &truth;
+    let model = CaptureModel::new(&opts.flaws, truth, opts.seed)?;
+
+    let (mut written, values_at_top_count) =
+        write_scanlines(tmp.path(), truth, &model, &opts.formats, progress)?;
+    written.extend(
+        [TRUTH_CAMERA_FILE, TRUTH_WORLD_FILE, TRUTH_DIRECT_FILE]
+            .into_iter()
+            .map(PathBuf::from),
+    );
+    let scanlines = scanline_entries(truth.ny, &opts.formats);
 
     write_glb(&scene.mesh, &dir.join(GEOMETRY_FILE))?;
     written.push(GEOMETRY_FILE.into());
@@ -363,7 +345,6 @@ pub fn simulate_capture(
     }
     install(tmp, out_dir, &parent, &name, opts.force)?;
 
-    let stats = render.stats;
     Ok(SimulateSummary {
         out_dir: out_dir.to_path_buf(),
         paths: stats.paths,
@@ -375,6 +356,84 @@ pub fn simulate_capture(
         fiducials: points.len(),
         values_at_top_count,
     })
+}
+
+/// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
+const BAND_TARGET_BYTES: usize = 64 << 20;
+
+/// Render the true cubes band by band, writing the three truth files into `dir` as the bands
+/// come (so only one band of the world-time and one-bounce cubes is ever held), and return
+/// the camera-time cube (which the capture model needs whole: its scale is the cube's peak)
+/// with the render's counters (`seconds`: the whole render).
+fn render_truths(
+    scene: &Scene,
+    bvh: &Bvh,
+    trace_opts: &TraceOptions,
+    dir: &Path,
+    provenance: &Provenance,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<(Cube, TraceStats), SimulateError> {
+    let started = Instant::now();
+    let tracer = Tracer::new(scene, bvh, trace_opts);
+    let world_axis = tracer
+        .world_axis()
+        .expect("the tracer was asked for world time");
+    let (nx, ny, axis) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+        scene.camera.axis,
+    );
+    let writer = |file: &str, axis, frame, what: &str| {
+        CubeWriter::create(
+            &dir.join(file),
+            nx,
+            ny,
+            axis,
+            frame,
+            DEFAULT_UNITS,
+            &provenance.clone().with_note("content", what),
+        )
+    };
+    let mut camera_file = writer(
+        TRUTH_CAMERA_FILE,
+        axis,
+        TimeFrame::Camera,
+        "all light, camera time",
+    )?;
+    let mut world_file = writer(
+        TRUTH_WORLD_FILE,
+        world_axis,
+        TimeFrame::World,
+        "all light, world time (when the light is at the surface seen by the pixel)",
+    )?;
+    let mut direct_file = writer(
+        TRUTH_DIRECT_FILE,
+        axis,
+        TimeFrame::Camera,
+        "one-bounce light only, camera time",
+    )?;
+    let mut camera = Cube::zeros(nx, ny, axis, TimeFrame::Camera);
+    // Camera, one-bounce, multi-bounce and world-time values of one row, as f32.
+    let row_bytes = 4 * nx * (3 * axis.nt + world_axis.nt);
+    let band = (BAND_TARGET_BYTES / row_bytes.max(1)).max(4 * rayon::current_num_threads());
+    let row_len = nx * axis.nt;
+    let mut stats = TraceStats::default();
+    for y0 in (0..ny).step_by(band.max(1)) {
+        let r = tracer.render_rows(y0..y0 + band, &|n| progress(Stage::Render, n));
+        stats.add(&r.stats);
+        let rows = r.camera_time.ny;
+        camera.data[y0 * row_len..(y0 + rows) * row_len].copy_from_slice(&r.camera_time.data);
+        camera_file.write_rows(y0, &r.camera_time.data)?;
+        let world = r.world_time.expect("the tracer was asked for world time");
+        world_file.write_rows(y0, &world.data)?;
+        let direct = r.direct.expect("the tracer was asked for the bounce split");
+        direct_file.write_rows(y0, &direct.data)?;
+    }
+    camera_file.finish()?;
+    world_file.finish()?;
+    direct_file.finish()?;
+    stats.seconds = started.elapsed().as_secs_f64();
+    Ok((camera, stats))
 }
 
 /// Refuse a destination that is a file, or a non-empty folder without `force`.
