@@ -364,7 +364,7 @@ const BAND_TARGET_BYTES: usize = 64 << 20;
 /// Render the true cubes band by band, writing the three truth files into `dir` as the bands
 /// come (so only one band of the world-time and one-bounce cubes is ever held), and return
 /// the camera-time cube (which the capture model needs whole: its scale is the cube's peak)
-/// with the render's counters (`seconds`: the whole render).
+/// with the render's counters (`seconds`: the tracer's time, without the file writes).
 fn render_truths(
     scene: &Scene,
     bvh: &Bvh,
@@ -375,6 +375,7 @@ fn render_truths(
 ) -> Result<(Cube, TraceStats), SimulateError> {
     let started = Instant::now();
     let tracer = Tracer::new(scene, bvh, trace_opts);
+    let mut render_seconds = started.elapsed().as_secs_f64();
     let world_axis = tracer
         .world_axis()
         .expect("the tracer was asked for world time");
@@ -421,6 +422,7 @@ fn render_truths(
     for y0 in (0..ny).step_by(band.max(1)) {
         let r = tracer.render_rows(y0..y0 + band, &|n| progress(Stage::Render, n));
         stats.add(&r.stats);
+        render_seconds += r.stats.seconds;
         let rows = r.camera_time.ny;
         camera.data[y0 * row_len..(y0 + rows) * row_len].copy_from_slice(&r.camera_time.data);
         camera_file.write_rows(y0, &r.camera_time.data)?;
@@ -432,7 +434,7 @@ fn render_truths(
     camera_file.finish()?;
     world_file.finish()?;
     direct_file.finish()?;
-    stats.seconds = started.elapsed().as_secs_f64();
+    stats.seconds = render_seconds;
     Ok((camera, stats))
 }
 
