@@ -122,6 +122,12 @@ pub struct ResponseTable {
     rows: usize,
     /// Row-major weights, `(rows + 1) * len`.
     table: Vec<f64>,
+    /// Half-width of the sub-bin positions near a bin centre where the pulse matters: a
+    /// sample whose position `f` within the bin has `tent_from <= f <= 1 - tent_from` keeps
+    /// its whole (truncated, symmetric) pulse between two bin centres, where the tent is
+    /// linear, so its exact weights are the tent's and the table is not read (keeping the
+    /// table's hot part small enough for the cache). 0.5 or more: always the table.
+    tent_from: f64,
 }
 
 impl ResponseTable {
@@ -159,12 +165,21 @@ impl ResponseTable {
         let table = (0..=rows)
             .flat_map(|j| table[j * width + c0..j * width + c1].to_vec())
             .collect();
+        let lo = lo + c0 as isize;
+        // The tent's two bins must be columns of the table (they always are: every row's
+        // centre bins have weight).
+        let tent_from = if s > 0.0 && lo <= 0 && 1 - lo < len as isize {
+            TRUNCATE_SIGMAS * s
+        } else {
+            1.0
+        };
         ResponseTable {
             axis: response.axis,
-            lo: lo + c0 as isize,
+            lo,
             len,
             rows,
             table,
+            tent_from,
         }
     }
 
@@ -192,7 +207,15 @@ impl ResponseTable {
             return None;
         }
         let floor = tc.floor();
-        let x = (tc - floor) * self.rows as f64;
+        let f = tc - floor;
+        if f >= self.tent_from && f <= 1.0 - self.tent_from {
+            let w = &mut weights[..self.len];
+            w.fill(0.0);
+            w[(-self.lo) as usize] = 1.0 - f;
+            w[(1 - self.lo) as usize] = f;
+            return Some(floor as isize + self.lo);
+        }
+        let x = f * self.rows as f64;
         let j = (x as usize).min(self.rows - 1);
         let a = x - j as f64;
         let len = self.len;

@@ -422,13 +422,18 @@ impl<'a> Tracer<'a> {
                 let mut weights = vec![0.0f64; cam_resp.len()];
                 let mut weights_world =
                     vec![0.0f64; self.world_resp.as_ref().map_or(0, |r| r.len())];
-                for x in 0..nx {
-                    acc.fill(0.0);
-                    if out.direct.is_some() {
-                        acc_direct.fill(0.0);
-                        acc_multi.fill(0.0);
+                // The accumulators are all zero between pixels; only the bins a pixel touched
+                // (`touched`, `touched_world`) are stored and cleared again.
+                let mut touched = (nt, 0usize);
+                let mut touched_world = (ntw, 0usize);
+                let grow = |t: &mut (usize, usize), first: isize, len: usize, n: usize| {
+                    let lo = first.clamp(0, n as isize) as usize;
+                    let hi = (first + len as isize).clamp(0, n as isize) as usize;
+                    if lo < hi {
+                        *t = (t.0.min(lo), t.1.max(hi));
                     }
-                    acc_world.fill(0.0);
+                };
+                for x in 0..nx {
                     let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
                     let mut lost = 0.0;
                     for _ in 0..spp {
@@ -448,6 +453,7 @@ impl<'a> Tracer<'a> {
                                 return;
                             };
                             lost += add_weighted(&mut acc, first, &weights, value);
+                            grow(&mut touched, first, weights.len(), nt);
                             if out.direct.is_some() {
                                 let split = if c.bounce == 1 {
                                     &mut acc_direct
@@ -462,27 +468,37 @@ impl<'a> Tracer<'a> {
                                     world_resp.weights(t_world_ps, &mut weights_world)
                                 {
                                     add_weighted(&mut acc_world, first, &weights_world, value);
+                                    grow(&mut touched_world, first, weights_world.len(), ntw);
                                 }
                             }
                         });
                         stats.rays += rays;
                     }
                     stats.energy_outside_window += lost;
-                    let store = |dst: &mut [f32], src: &[f64]| {
-                        for (d, s) in dst.iter_mut().zip(src) {
-                            *d = *s as f32;
+                    let store = |dst: &mut [f32], src: &mut [f64], (lo, hi): (usize, usize)| {
+                        if lo < hi {
+                            for (d, s) in dst[lo..hi].iter_mut().zip(&mut src[lo..hi]) {
+                                *d = *s as f32;
+                                *s = 0.0;
+                            }
                         }
                     };
-                    store(&mut out.camera[x * nt..(x + 1) * nt], &acc);
+                    store(&mut out.camera[x * nt..(x + 1) * nt], &mut acc, touched);
                     if let Some(d) = out.direct.as_deref_mut() {
-                        store(&mut d[x * nt..(x + 1) * nt], &acc_direct);
+                        store(&mut d[x * nt..(x + 1) * nt], &mut acc_direct, touched);
                     }
                     if let Some(m) = out.multi.as_deref_mut() {
-                        store(&mut m[x * nt..(x + 1) * nt], &acc_multi);
+                        store(&mut m[x * nt..(x + 1) * nt], &mut acc_multi, touched);
                     }
                     if let Some(w) = out.world.as_deref_mut() {
-                        store(&mut w[x * ntw..(x + 1) * ntw], &acc_world);
+                        store(
+                            &mut w[x * ntw..(x + 1) * ntw],
+                            &mut acc_world,
+                            touched_world,
+                        );
                     }
+                    touched = (nt, 0);
+                    touched_world = (ntw, 0);
                 }
                 progress(1);
                 stats
