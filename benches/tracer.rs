@@ -23,6 +23,17 @@ fn env_or(name: &str, default: u32) -> u32 {
         .unwrap_or(default)
 }
 
+/// CPU seconds (user + system, all threads) this process has used so far, from
+/// `/proc/self/stat` (clock ticks of 1/100 s); `None` where that file is missing. On a shared
+/// machine this is steadier than wall time.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
+}
+
 fn main() {
     let scene = Scene::builtin("cornell", None)
         .expect("built-in scene")
@@ -54,13 +65,20 @@ fn main() {
             .expect("thread pool");
         // One warm-up render, then the measured one.
         pool.install(|| trace(&scene, &bvh, &TraceOptions { spp: 1, ..opts }, &|_| {}));
+        let cpu0 = cpu_seconds();
         let r = pool.install(|| trace(&scene, &bvh, &opts, &|_| {}));
+        let cpu = cpu_seconds()
+            .zip(cpu0)
+            .map(|(b, a)| b - a)
+            .unwrap_or(f64::NAN);
         let s = r.stats;
         println!(
-            "threads {threads}: {:.3} s, {} paths, {:.0} paths/s, {} rays, {:.0} rays/s, {} samples ({} outside the window)",
+            "threads {threads}: {:.3} s, {:.2} CPU s, {} paths, {:.0} paths/s, {:.0} paths per CPU s, {} rays, {:.0} rays/s, {} samples ({} outside the window)",
             s.seconds,
+            cpu,
             s.paths,
             s.paths_per_second(),
+            s.paths as f64 / cpu,
             s.rays,
             s.rays as f64 / s.seconds,
             s.samples,
@@ -108,7 +126,12 @@ fn dump_for_comparison(scene: &Scene, bvh: &Bvh, dir: &Path) {
             world_time: false,
             ..TraceOptions::default()
         };
+        let cpu0 = cpu_seconds();
         let r = pool.install(|| trace(scene, bvh, &opts, &|_| {}));
+        let cpu = cpu_seconds()
+            .zip(cpu0)
+            .map(|(b, a)| b - a)
+            .unwrap_or(f64::NAN);
         let bytes: Vec<u8> = r
             .camera_time
             .data
@@ -116,10 +139,13 @@ fn dump_for_comparison(scene: &Scene, bvh: &Bvh, dir: &Path) {
             .flat_map(|v| v.to_le_bytes())
             .collect();
         std::fs::write(dir.join(format!("cube_spp{spp}.f32")), bytes).expect("write cube");
-        println!("dumped spp {spp}: {:.3} s", r.stats.seconds);
+        println!(
+            "dumped spp {spp}: {:.3} s, {:.2} CPU s",
+            r.stats.seconds, cpu
+        );
         renders.push(format!(
-            "{{\"spp\": {spp}, \"seconds\": {}}}",
-            r.stats.seconds
+            "{{\"spp\": {spp}, \"seconds\": {}, \"cpu_seconds\": {}}}",
+            r.stats.seconds, cpu
         ));
     }
     let c = &scene.camera;

@@ -607,6 +607,14 @@ fn fiducials_project_to_their_pixels_and_are_seen_there() {
     assert!(points
         .iter()
         .any(|p| p.name.as_deref().unwrap().starts_with("cube.corner")));
+    // No repeated physical points (calibration refuses them): every pair at least 1 mm
+    // apart, checked by brute force.
+    for (i, a) in points.iter().enumerate() {
+        for b in &points[i + 1..] {
+            let d = (a.point_m - b.point_m).norm();
+            assert!(d >= 1e-3, "{:?} and {:?} are {d} m apart", a.name, b.name);
+        }
+    }
 }
 
 #[test]

@@ -40,7 +40,8 @@ def load_femto(folder, meta):
     out = {}
     for r in meta["renders"]:
         a = np.fromfile(os.path.join(folder, f"cube_spp{r['spp']}.f32"), dtype="<f4")
-        out[r["spp"]] = (a.reshape(meta["ny"], meta["nx"], meta["nt"]).astype(np.float64), r["seconds"])
+        cube = a.reshape(meta["ny"], meta["nx"], meta["nt"]).astype(np.float64)
+        out[r["spp"]] = (cube, r["seconds"], r.get("cpu_seconds", float("nan")))
     return out
 
 
@@ -90,14 +91,16 @@ def mitsuba_scene(folder, meta, mi):
 
 def render_mitsuba(scene, meta, spp, mi, dr, seed):
     t0 = time.perf_counter()
+    c0 = time.process_time()
     steady, transient = mi.render(scene, spp=spp, seed=seed)
     tr = np.array(transient, dtype=np.float64)
     dr.sync_thread()
     seconds = time.perf_counter() - t0
+    cpu_seconds = time.process_time() - c0
     tr = tr[..., 0] if tr.ndim == 4 else tr
     # mitransient stores (height, width, time) for a width x height film.
     assert tr.shape == (meta["ny"], meta["nx"], meta["nt"]), tr.shape
-    return tr, seconds, np.array(steady, dtype=np.float64)[..., 0]
+    return tr, seconds, cpu_seconds
 
 
 def main():
@@ -116,8 +119,7 @@ def main():
     render_mitsuba(scene, meta, 1, mi, dr, 1)  # JIT warm-up: kernels compiled and cached
     mits = {}
     for spp, seed in ((4, 11), (16, 12), (256, 13)):
-        cube, seconds, _ = render_mitsuba(scene, meta, spp, mi, dr, seed)
-        mits[spp] = (cube, seconds)
+        mits[spp] = render_mitsuba(scene, meta, spp, mi, dr, seed)
 
     print(f"scene cornell {meta['nx']}x{meta['ny']} px, {meta['nt']} bins of {meta['dt_ps']} ps, "
           f"max bounces {meta['max_bounces']}, isotropic point light; Mitsuba {mi.__version__} llvm_ad_mono, "
@@ -141,18 +143,29 @@ def main():
     print(f"time histogram (16 ps bins): peak bin femto {hf.argmax()} mitsuba {hm.argmax()}, "
           f"max |difference| / peak {np.abs(hf - hm).max() / hf[top]:.3f}, "
           f"total in window femto/mitsuba {hf.sum() / hm.sum():.4f}")
-    # Noise at equal spp and efficiency.
-    print("renderer  spp  seconds  RMSE(transient bin)  RMSE(steady px)  eff_transient  eff_steady")
+    # Noise at equal spp and efficiency (1 / (MSE * seconds), wall and CPU).
+    print("renderer  spp   wall s    CPU s  RMSE(transient bin)  RMSE(steady px)  eff_transient(wall, CPU)  eff_steady(wall, CPU)")
+    mse16 = {}
     for name, runs in (("femto", femto), ("mitsuba", mits)):
         ref = runs[256][0]
         for spp in (4, 16):
-            cube, seconds = runs[spp][0], runs[spp][1]
-            rt = np.sqrt(np.mean((cube - ref) ** 2))
-            rs = np.sqrt(np.mean((cube.sum(axis=2) - ref.sum(axis=2)) ** 2))
-            print(f"{name:8s} {spp:4d} {seconds:8.3f} {rt:20.4e} {rs:16.4e} {1 / (rt * rt * seconds):14.4e} "
-                  f"{1 / (rs * rs * seconds):11.4e}")
-    print(f"256 spp seconds: femto {femto[256][1]:.2f}, mitsuba {mits[256][1]:.2f}")
-
+            cube, seconds, cpu = runs[spp]
+            mt = np.mean((cube - ref) ** 2)
+            ms_ = np.mean((cube.sum(axis=2) - ref.sum(axis=2)) ** 2)
+            if spp == 16:
+                mse16[name] = (mt, ms_)
+            print(f"{name:8s} {spp:4d} {seconds:8.3f} {cpu:8.2f} {math.sqrt(mt):20.4e} {math.sqrt(ms_):16.4e} "
+                  f"{1 / (mt * seconds):12.4e} {1 / (mt * cpu):11.4e} {1 / (ms_ * seconds):10.4e} {1 / (ms_ * cpu):10.4e}")
+    f256, m256 = femto[256], mits[256]
+    print(f"256 spp: femto {f256[1]:.2f} s wall, {f256[2]:.2f} CPU s; mitsuba {m256[1]:.2f} s wall, {m256[2]:.2f} CPU s")
+    # Equal noise: the time to reach a given MSE is proportional to (MSE at 16 spp) x (time per
+    # spp), taken from the 256-spp renders where fixed costs matter least. The reference noise
+    # inflates both renderers' 16-spp MSE by the same factor 1 + 16/256, so it cancels here.
+    for k, what in ((0, "transient bin"), (1, "steady pixel")):
+        for j, clock in ((1, "wall"), (2, "CPU")):
+            cost_f = mse16["femto"][k] * f256[j]
+            cost_m = mse16["mitsuba"][k] * m256[j]
+            print(f"equal {what} noise, {clock} time: femto is {cost_m / cost_f:.2f}x as fast as mitsuba")
 
 if __name__ == "__main__":
     main()

@@ -7,12 +7,12 @@
 //! once every file is written, so an interrupted or failed run leaves nothing half-written.
 
 use super::fiducials::{fiducials, DEFAULT_MARKER_SPACING_M};
-use super::flaws::{CaptureModel, FlawError, Flaws, MAX_COUNT};
+use super::flaws::{CaptureModel, FlawError, Flaws, Peaks, MAX_COUNT};
 use crate::atomic::write_atomically;
 use crate::calibrate::points::save_points_toml;
 use crate::calibrate::CalibrateError;
-use crate::container::{write_cube, ContainerError, Provenance};
-use crate::cube::Cube;
+use crate::container::{ContainerError, CubeReader, CubeWriter, Provenance, DEFAULT_UNITS};
+use crate::cube::TimeFrame;
 use crate::formats::hamamatsu::write_img;
 use crate::formats::raster::{write_exr_f32, write_png16};
 use crate::formats::{FormatError, StreakImage};
@@ -20,7 +20,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::glb::{write_glb, GlbError};
 use crate::manifest::{CaptureFiles, CaptureInfo, Manifest, ManifestError, Scanline, StreakFormat};
 use crate::scene::Scene;
-use crate::tracer::{trace, TraceOptions};
+use crate::tracer::{TraceOptions, TraceStats, Tracer};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -242,14 +242,6 @@ pub fn simulate_capture(
         world_time: true,
         ..TraceOptions::default()
     };
-    let render = trace(scene, &bvh, &trace_opts, &|n| progress(Stage::Render, n));
-    let truth = &render.camera_time;
-    let model = CaptureModel::new(&opts.flaws, truth, opts.seed)?;
-
-    let (mut written, values_at_top_count) =
-        write_scanlines(tmp.path(), truth, &model, &opts.formats, progress)?;
-    let scanlines = scanline_entries(truth.ny, &opts.formats);
-
     let dir = tmp.path();
     let provenance = Provenance::new(opts.created_by.clone())
         .with_note("scene", scene.name.clone())
@@ -260,28 +252,29 @@ pub fn simulate_capture(
             "values",
             "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
         );
-    let truths: [(&str, Option<&Cube>, &str); 3] = [
-        (TRUTH_CAMERA_FILE, Some(truth), "all light, camera time"),
-        (
-            TRUTH_WORLD_FILE,
-            render.world_time.as_ref(),
-            "all light, world time (when the light is at the surface seen by the pixel)",
-        ),
-        (
-            TRUTH_DIRECT_FILE,
-            render.direct.as_ref(),
-            "one-bounce light only, camera time",
-        ),
-    ];
-    for (file, cube, what) in truths {
-        let cube = cube.expect("the tracer was asked for every cube");
-        write_cube(
-            &dir.join(file),
-            cube,
-            &provenance.clone().with_note("content", what),
-        )?;
-        written.push(file.into());
-    }
+    let (nx, ny, axis) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+        scene.camera.axis,
+    );
+    let shape = CaptureModel::unscaled(&opts.flaws, nx, ny, axis, opts.seed)?;
+    let (peaks, stats) =
+        render_truths(scene, &bvh, &trace_opts, &shape, dir, &provenance, progress)?;
+    let model = shape.scaled(&peaks);
+
+    let (mut written, values_at_top_count) = write_scanlines(
+        tmp.path(),
+        &dir.join(TRUTH_CAMERA_FILE),
+        &model,
+        &opts.formats,
+        progress,
+    )?;
+    written.extend(
+        [TRUTH_CAMERA_FILE, TRUTH_WORLD_FILE, TRUTH_DIRECT_FILE]
+            .into_iter()
+            .map(PathBuf::from),
+    );
+    let scanlines = scanline_entries(ny, &opts.formats);
 
     write_glb(&scene.mesh, &dir.join(GEOMETRY_FILE))?;
     written.push(GEOMETRY_FILE.into());
@@ -296,7 +289,6 @@ pub fn simulate_capture(
     save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
     written.push(FIDUCIALS_FILE.into());
 
-    let (nx, ny, axis) = (truth.nx, truth.ny, truth.axis);
     let mut capture_files = CaptureFiles {
         geometry: Some(GEOMETRY_FILE.into()),
         calibration: Some(CALIBRATION_FILE.into()),
@@ -363,7 +355,6 @@ pub fn simulate_capture(
     }
     install(tmp, out_dir, &parent, &name, opts.force)?;
 
-    let stats = render.stats;
     Ok(SimulateSummary {
         out_dir: out_dir.to_path_buf(),
         paths: stats.paths,
@@ -375,6 +366,92 @@ pub fn simulate_capture(
         fiducials: points.len(),
         values_at_top_count,
     })
+}
+
+/// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
+const BAND_TARGET_BYTES: usize = 64 << 20;
+
+/// Render the true cubes band by band, writing the three truth files into `dir` as the bands
+/// come (so only one band of rows is ever held), and return the camera-time cube's peaks
+/// that scale the capture (`shape`: the capture model before scaling) with the render's
+/// counters (`seconds`: the tracer's time, without the file writes).
+fn render_truths(
+    scene: &Scene,
+    bvh: &Bvh,
+    trace_opts: &TraceOptions,
+    shape: &CaptureModel,
+    dir: &Path,
+    provenance: &Provenance,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<(Peaks, TraceStats), SimulateError> {
+    let started = Instant::now();
+    let tracer = Tracer::new(scene, bvh, trace_opts);
+    let mut render_seconds = started.elapsed().as_secs_f64();
+    let world_axis = tracer
+        .world_axis()
+        .expect("the tracer was asked for world time");
+    let (nx, ny, axis) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+        scene.camera.axis,
+    );
+    let writer = |file: &str, axis, frame, what: &str| {
+        CubeWriter::create(
+            &dir.join(file),
+            nx,
+            ny,
+            axis,
+            frame,
+            DEFAULT_UNITS,
+            &provenance.clone().with_note("content", what),
+        )
+    };
+    let mut camera_file = writer(
+        TRUTH_CAMERA_FILE,
+        axis,
+        TimeFrame::Camera,
+        "all light, camera time",
+    )?;
+    let mut world_file = writer(
+        TRUTH_WORLD_FILE,
+        world_axis,
+        TimeFrame::World,
+        "all light, world time (when the light is at the surface seen by the pixel)",
+    )?;
+    let mut direct_file = writer(
+        TRUTH_DIRECT_FILE,
+        axis,
+        TimeFrame::Camera,
+        "one-bounce light only, camera time",
+    )?;
+    let mut peaks = Peaks::default();
+    // Camera, one-bounce, multi-bounce and world-time values of one row, as f32.
+    let row_bytes = 4 * nx * (3 * axis.nt + world_axis.nt);
+    let band = (BAND_TARGET_BYTES / row_bytes.max(1)).max(4 * rayon::current_num_threads());
+    let row_len = nx * axis.nt;
+    let mut stats = TraceStats::default();
+    for y0 in (0..ny).step_by(band.max(1)) {
+        let r = tracer.render_rows(y0..y0 + band, &|n| progress(Stage::Render, n));
+        stats.add(&r.stats);
+        render_seconds += r.stats.seconds;
+        peaks = r
+            .camera_time
+            .data
+            .par_chunks(row_len.max(1))
+            .enumerate()
+            .map(|(dy, row)| shape.row_peaks(y0 + dy, row))
+            .reduce(|| peaks, Peaks::max);
+        camera_file.write_rows(y0, &r.camera_time.data)?;
+        let world = r.world_time.expect("the tracer was asked for world time");
+        world_file.write_rows(y0, &world.data)?;
+        let direct = r.direct.expect("the tracer was asked for the bounce split");
+        direct_file.write_rows(y0, &direct.data)?;
+    }
+    camera_file.finish()?;
+    world_file.finish()?;
+    direct_file.finish()?;
+    stats.seconds = render_seconds;
+    Ok((peaks, stats))
 }
 
 /// Refuse a destination that is a file, or a non-empty folder without `force`.
@@ -473,54 +550,65 @@ fn scanline_entries(ny: usize, formats: &[StreakFormat]) -> Vec<Scanline> {
         .collect()
 }
 
-/// Apply the imperfections to every scanline and write its streak images; returns the
+/// Apply the imperfections to every scanline of the clean camera-time cube in `truth_file`
+/// (read back in bands, so it is never held whole) and write its streak images; returns the
 /// relative paths written and the number of values at the top count.
 fn write_scanlines(
     dir: &Path,
-    truth: &Cube,
+    truth_file: &Path,
     model: &CaptureModel,
     formats: &[StreakFormat],
     progress: &(dyn Fn(Stage, usize) + Sync),
 ) -> Result<(Vec<PathBuf>, usize), SimulateError> {
     let sub = dir.join("scanlines");
     std::fs::create_dir(&sub).map_err(io_err(&sub))?;
-    let (nx, nt) = (truth.nx, truth.nt());
-    let axis = truth.axis;
+    let (nx, ny, nt) = (model.nx, model.ny, model.axis.nt);
+    let axis = model.axis;
     let row_starts_ps: Vec<f64> = (0..nt).map(|i| axis.bin_start_ps(i)).collect();
-    let per_row: Vec<Result<usize, SimulateError>> = (0..truth.ny)
-        .into_par_iter()
-        .map(|y| {
-            let mut counts = vec![0.0f32; nx * nt];
-            model.apply_row(y, truth.row(y), &mut counts);
-            let top = counts.iter().filter(|&&c| c as f64 >= MAX_COUNT).count();
-            let as_counts = transpose_to_streak(&counts, nt, nx, 1.0);
-            for &f in formats {
-                let path = dir.join(scanline_file(y, f));
-                match f {
-                    StreakFormat::Png16 => {
-                        write_png16(&path, &as_counts, 1.0)?;
-                    }
-                    StreakFormat::ExrF32 => {
-                        let signal = transpose_to_streak(&counts, nt, nx, model.value_per_count);
-                        write_exr_f32(&path, &signal)?;
-                    }
-                    StreakFormat::Img16 => {
-                        write_img(&path, &as_counts, 16, &row_starts_ps)?;
-                    }
-                    StreakFormat::Img32 => {
-                        write_img(&path, &as_counts, 32, &row_starts_ps)?;
+    let reader = CubeReader::open(truth_file)?;
+    let row_len = nx * nt;
+    let band = (BAND_TARGET_BYTES / (4 * row_len).max(1)).max(4 * rayon::current_num_threads());
+    let mut top = 0;
+    for y0 in (0..ny).step_by(band.max(1)) {
+        let rows = band.min(ny - y0);
+        let truth = reader.read_rows(y0, rows)?;
+        let per_row: Vec<Result<usize, SimulateError>> = truth
+            .par_chunks(row_len.max(1))
+            .enumerate()
+            .map(|(dy, truth_row)| {
+                let y = y0 + dy;
+                let mut counts = vec![0.0f32; nx * nt];
+                model.apply_row(y, truth_row, &mut counts);
+                let top = counts.iter().filter(|&&c| c as f64 >= MAX_COUNT).count();
+                let as_counts = transpose_to_streak(&counts, nt, nx, 1.0);
+                for &f in formats {
+                    let path = dir.join(scanline_file(y, f));
+                    match f {
+                        StreakFormat::Png16 => {
+                            write_png16(&path, &as_counts, 1.0)?;
+                        }
+                        StreakFormat::ExrF32 => {
+                            let signal =
+                                transpose_to_streak(&counts, nt, nx, model.value_per_count);
+                            write_exr_f32(&path, &signal)?;
+                        }
+                        StreakFormat::Img16 => {
+                            write_img(&path, &as_counts, 16, &row_starts_ps)?;
+                        }
+                        StreakFormat::Img32 => {
+                            write_img(&path, &as_counts, 32, &row_starts_ps)?;
+                        }
                     }
                 }
-            }
-            progress(Stage::Write, 1);
-            Ok(top)
-        })
-        .collect();
-    let mut top = 0;
-    for r in per_row {
-        top += r?;
+                progress(Stage::Write, 1);
+                Ok(top)
+            })
+            .collect();
+        for r in per_row {
+            top += r?;
+        }
     }
-    let files = (0..truth.ny)
+    let files = (0..ny)
         .flat_map(|y| formats.iter().map(move |&f| scanline_file(y, f)))
         .collect();
     Ok((files, top))

@@ -8,9 +8,11 @@
 //! 1 mm/m, rotation 0.05 degrees, focal length 0.2 % at 0.5 px noise): about 2000 points are,
 //! which an 8 mm grid gives on the built-in scenes.
 //!
-//! A point is kept when it projects inside the image (half a pixel from the border) and
-//! nothing lies between it and the camera centre. Its pixel is the continuous projection
-//! through the true calibration ([`crate::camera::Calibration::project`]).
+//! A point is kept when it projects inside the image (half a pixel from the border), nothing
+//! lies between it and the camera centre, and no point kept before it lies within
+//! [`MIN_SEPARATION_M`] (a grid marker that falls on one of the scene's corners is the same
+//! physical point, and calibration refuses repeated points). Its pixel is the continuous
+//! projection through the true calibration ([`crate::camera::Calibration::project`]).
 
 use crate::calibrate::points::Correspondence;
 use crate::geometry::bvh::Bvh;
@@ -20,6 +22,10 @@ use nalgebra::{Point3, Vector3};
 
 /// Grid spacing of the markers that gives about 2000 points on the built-in scenes, metres.
 pub const DEFAULT_MARKER_SPACING_M: f64 = 0.008;
+
+/// Visible points closer than this to a point listed before them are dropped, metres: a marker
+/// sheet does not put two marks within a millimetre.
+pub const MIN_SEPARATION_M: f64 = 1e-3;
 
 /// A point counts as hidden when something lies on its line of sight closer than this to it,
 /// metres: far above the precision of single-precision intersections at a metre (about a
@@ -49,7 +55,7 @@ pub fn fiducials(scene: &Scene, bvh: &Bvh, spacing_m: f64) -> Vec<Correspondence
         scene.camera.intrinsics.height as f64,
     );
     let o = scene.camera.pose.position_m;
-    points
+    let visible: Vec<Correspondence> = points
         .into_iter()
         .filter_map(|(name, p)| {
             let (u, v) = calib.project(&p)?;
@@ -68,6 +74,41 @@ pub fn fiducials(scene: &Scene, bvh: &Bvh, spacing_m: f64) -> Vec<Correspondence
                 point_m: p,
             })
         })
+        .collect();
+    well_separated(visible, MIN_SEPARATION_M)
+}
+
+/// `points` without those closer than `min_m` to an earlier point (kept in order; a sweep over
+/// the points sorted by x, so near-linear for evenly spread points).
+fn well_separated(points: Vec<Correspondence>, min_m: f64) -> Vec<Correspondence> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].point_m.x.total_cmp(&points[b].point_m.x));
+    let mut keep = vec![true; points.len()];
+    // Visit points in list order; each is dropped if a kept earlier point lies within min_m.
+    let mut rank = vec![0usize; points.len()];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i] = r;
+    }
+    for i in 0..points.len() {
+        let x = points[i].point_m.x;
+        let near =
+            |&j: &usize| j < i && keep[j] && (points[j].point_m - points[i].point_m).norm() < min_m;
+        let r = rank[i];
+        let before = order[..r]
+            .iter()
+            .rev()
+            .take_while(|&&j| x - points[j].point_m.x < min_m);
+        let after = order[r + 1..]
+            .iter()
+            .take_while(|&&j| points[j].point_m.x - x < min_m);
+        if before.chain(after).any(near) {
+            keep[i] = false;
+        }
+    }
+    points
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(p, k)| k.then_some(p))
         .collect()
 }
 
@@ -192,5 +233,27 @@ mod tests {
         }
         let box_entry = scene.labels.iter().position(|l| l == "cube").unwrap();
         assert!(planar_grid(&scene, box_entry as u32, 0.01).is_empty());
+    }
+
+    #[test]
+    fn points_closer_than_the_separation_to_an_earlier_one_are_dropped() {
+        let c = |name: &str, x: f64, y: f64| Correspondence {
+            name: Some(name.to_string()),
+            pixel: (0.0, 0.0),
+            point_m: Point3::new(x, y, 0.0),
+        };
+        let pts = vec![
+            c("corner", 0.0, 0.0),
+            c("far", 0.5, 0.0),
+            c("marker_on_corner", 3e-9, 0.0),
+            c("close_in_y", 0.0, 9e-4),
+            c("just_apart", -1.1e-3, 0.0),
+            c("near_far", 0.5, 5e-4),
+        ];
+        let kept: Vec<String> = well_separated(pts, 1e-3)
+            .into_iter()
+            .map(|p| p.name.unwrap())
+            .collect();
+        assert_eq!(kept, ["corner", "far", "just_apart"]);
     }
 }

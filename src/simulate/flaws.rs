@@ -207,6 +207,26 @@ pub struct CaptureModel {
     seed: u64,
 }
 
+/// Peaks of a clean camera-time cube that set a capture's levels ([`CaptureModel::scaled`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Peaks {
+    /// Largest finite clean value (`full_scale` when positive).
+    pub clean_max: f32,
+    /// Largest value after the deterministic steps 1 to 4 (sweep, jitter, laser power,
+    /// vignetting).
+    pub noiseless: f64,
+}
+
+impl Peaks {
+    /// The peaks of two parts of a cube together.
+    pub fn max(self, o: Peaks) -> Peaks {
+        Peaks {
+            clean_max: self.clean_max.max(o.clean_max),
+            noiseless: self.noiseless.max(o.noiseless),
+        }
+    }
+}
+
 /// Text of the vignetting model recorded in the manifest.
 pub const VIGNETTING_MODEL: &str = "gain = 1 - strength * r^2, r = distance of the pixel centre \
      (x + 0.5, y + 0.5) from the sensor centre (nx / 2, ny / 2) divided by the half diagonal; \
@@ -216,15 +236,28 @@ impl CaptureModel {
     /// Resolve `flaws` for the clean camera-time cube `clean` and draw the per-scanline random
     /// values from `seed`.
     pub fn new(flaws: &Flaws, clean: &Cube, seed: u64) -> Result<CaptureModel, FlawError> {
+        let shape = CaptureModel::unscaled(flaws, clean.nx, clean.ny, clean.axis, seed)?;
+        let peaks = (0..clean.ny)
+            .into_par_iter()
+            .map(|y| shape.row_peaks(y, clean.row(y)))
+            .reduce(Peaks::default, Peaks::max);
+        Ok(shape.scaled(&peaks))
+    }
+
+    /// The model of an `nx` x `ny` capture on `axis` before the clean cube's scale is known:
+    /// the deterministic steps 1 to 4 and the per-scanline random values resolved, the levels
+    /// (photon count, dark, saturation, count scale) not yet. Feed each clean row to
+    /// [`CaptureModel::row_peaks`], combine with [`Peaks::max`] and finish with
+    /// [`CaptureModel::scaled`]; this gives [`CaptureModel::new`]'s model without holding the
+    /// cube whole.
+    pub fn unscaled(
+        flaws: &Flaws,
+        nx: usize,
+        ny: usize,
+        axis: TimeAxis,
+        seed: u64,
+    ) -> Result<CaptureModel, FlawError> {
         flaws.validate()?;
-        let (nx, ny, axis) = (clean.nx, clean.ny, clean.axis);
-        let max = clean
-            .data
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f32, |m, &v| m.max(v)) as f64;
-        let full_scale = if max > 0.0 { max } else { 1.0 };
-        let saturation_level = flaws.saturation.map(|f| f * full_scale);
         let sweep_edges_ps = flaws.sweep.map(|s| sweep_edges_ps(&axis, s));
         let per_row = |purpose: Purpose, f: &dyn Fn(f64) -> f64| -> Vec<f64> {
             (0..ny)
@@ -237,25 +270,59 @@ impl CaptureModel {
         let power_factors = flaws
             .power_sigma
             .map(|sigma| per_row(Purpose::Power, &|n| (1.0 + sigma * n).max(0.0)));
-        let mut model = CaptureModel {
+        Ok(CaptureModel {
             axis,
             nx,
             ny,
-            full_scale,
+            full_scale: 1.0,
             value_per_count: 1.0,
             flaws: *flaws,
             sweep_edges_ps,
             jitter_shifts_ps,
             power_factors,
-            photons_per_unit: flaws.photon_noise.map(|n| n / full_scale),
-            dark: flaws.dark.map(|(o, s)| (o * full_scale, s * full_scale)),
-            saturation_level,
+            photons_per_unit: None,
+            dark: None,
+            saturation_level: None,
             seed,
-        };
-        model.value_per_count = match saturation_level {
+        })
+    }
+
+    /// The peaks of clean row `y` (`nx * nt` values, `[x][t]`) that scale the capture.
+    pub fn row_peaks(&self, y: usize, row: &[f32]) -> Peaks {
+        let nt = self.axis.nt;
+        let clean_max = row
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f32, |m, &v| m.max(v));
+        let mut s = Scratch::new(nt);
+        let noiseless = (0..self.nx)
+            .map(|x| {
+                let gain = self.shape_pixel(y, x, &row[x * nt..(x + 1) * nt], &mut s);
+                s.a.iter()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f64, |m, &v| m.max(v as f64 * gain))
+            })
+            .fold(0.0f64, f64::max);
+        Peaks {
+            clean_max,
+            noiseless,
+        }
+    }
+
+    /// Finish an [`CaptureModel::unscaled`] model with the peaks of every clean row.
+    pub fn scaled(mut self, peaks: &Peaks) -> CaptureModel {
+        let flaws = self.flaws;
+        let max = peaks.clean_max as f64;
+        let full_scale = if max > 0.0 { max } else { 1.0 };
+        let saturation_level = flaws.saturation.map(|f| f * full_scale);
+        self.full_scale = full_scale;
+        self.photons_per_unit = flaws.photon_noise.map(|n| n / full_scale);
+        self.dark = flaws.dark.map(|(o, s)| (o * full_scale, s * full_scale));
+        self.saturation_level = saturation_level;
+        self.value_per_count = match saturation_level {
             Some(level) => level / MAX_COUNT,
             None => {
-                let peak = model.noiseless_peak(clean) + model.dark.map_or(0.0, |d| d.0);
+                let peak = peaks.noiseless + self.dark.map_or(0.0, |d| d.0);
                 if peak > 0.0 && peak.is_finite() {
                     peak / FULL_SCALE_COUNTS
                 } else {
@@ -263,27 +330,7 @@ impl CaptureModel {
                 }
             }
         };
-        Ok(model)
-    }
-
-    /// Largest value of the cube after the deterministic steps 1 to 4.
-    fn noiseless_peak(&self, clean: &Cube) -> f64 {
-        let nt = self.axis.nt;
-        (0..self.ny)
-            .into_par_iter()
-            .map(|y| {
-                let mut s = Scratch::new(nt);
-                let row = clean.row(y);
-                (0..self.nx)
-                    .map(|x| {
-                        let gain = self.shape_pixel(y, x, &row[x * nt..(x + 1) * nt], &mut s);
-                        s.a.iter()
-                            .filter(|v| v.is_finite())
-                            .fold(0.0f64, |m, &v| m.max(v as f64 * gain))
-                    })
-                    .fold(0.0f64, f64::max)
-            })
-            .reduce(|| 0.0, f64::max)
+        self
     }
 
     /// Steps 1 and 2 (sweep, jitter) of pixel `(x, y)` into `s.a`; returns the gain of steps

@@ -31,7 +31,13 @@
 //!
 //! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and
 //! accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
-//! output is bit-identical for any number of rayon threads.
+//! output is bit-identical for any number of rayon threads, and a cube assembled from bands
+//! of rows ([`Tracer::render_rows`], for writing large cubes without holding them whole) is
+//! bit-identical to the whole render.
+//!
+//! Speed: the sensor response is read from a table ([`binning::ResponseTable`]) rather than
+//! evaluated per sample, and each pixel stores and clears only the bins it touched; the
+//! rest of the time is ray casting (figures in `benches/tracer_results.md`).
 
 pub mod binning;
 pub mod sampling;
@@ -41,11 +47,12 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
-use binning::{add_weighted, TimeResponse};
+use binning::{add_weighted, ResponseTable, TimeResponse};
 use nalgebra::{Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use sampling::{cosine_hemisphere, pixel_rng, uniform, Stream};
+use std::ops::Range;
 use std::time::Instant;
 
 /// Offset of secondary ray origins along the surface normal, metres (0.1 mm).
@@ -112,7 +119,8 @@ impl TraceStats {
         self.paths as f64 / self.seconds.max(1e-12)
     }
 
-    fn add(&mut self, o: &TraceStats) {
+    /// Add the counters of `o` (not its time).
+    pub fn add(&mut self, o: &TraceStats) {
         self.paths += o.paths;
         self.rays += o.rays;
         self.samples += o.samples;
@@ -318,130 +326,203 @@ pub fn trace(
     progress: &(dyn Fn(usize) + Sync),
 ) -> TransientRender {
     let started = Instant::now();
-    let k = kernel(scene, bvh, opts);
-    let (nx, ny) = (
-        scene.camera.intrinsics.width,
-        scene.camera.intrinsics.height,
-    );
-    let cam_axis = scene.camera.axis;
-    let sigma_ps = scene.laser.pulse_sigma_ps();
-    let cam_resp = TimeResponse::new(cam_axis, sigma_ps);
-    let mut camera = Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera);
-    let mut direct = opts
-        .split_bounces
-        .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
-    let mut multi = opts
-        .split_bounces
-        .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
-    let w_axis = if opts.world_time {
-        world_axis(scene, bvh)
-    } else {
-        TimeAxis { nt: 0, ..cam_axis }
-    };
-    let world_resp = TimeResponse::new(w_axis, sigma_ps);
-    let mut world = opts
-        .world_time
-        .then(|| Cube::zeros(nx, ny, w_axis, TimeFrame::World));
+    let tracer = Tracer::new(scene, bvh, opts);
+    let mut r = tracer.render_rows(0..scene.camera.intrinsics.height, progress);
+    r.stats.seconds = started.elapsed().as_secs_f64();
+    r
+}
 
-    let rows: Vec<RowOut> = camera
-        .data
-        .chunks_mut((nx * cam_axis.nt).max(1))
-        .zip(row_slices(&mut direct, ny))
-        .zip(row_slices(&mut multi, ny))
-        .zip(row_slices(&mut world, ny))
-        .map(|(((camera, direct), multi), world)| RowOut {
-            camera,
-            direct,
-            multi,
-            world,
-        })
-        .collect();
+/// A transient render prepared once (kernel, time responses, world-time axis) that renders
+/// any band of image rows, so that a caller can write a large cube band by band without
+/// holding it whole. Each pixel's samples depend only on its own random stream, so a cube
+/// assembled from bands is bit-identical to [`trace`]'s.
+pub struct Tracer<'a> {
+    kernel: PathKernel<'a>,
+    opts: TraceOptions,
+    cam_resp: ResponseTable,
+    /// `None` unless [`TraceOptions::world_time`].
+    world_resp: Option<ResponseTable>,
+}
 
-    let eta = scene.eta;
-    let spp = opts.spp.max(1);
-    let inv_spp = 1.0 / spp as f64;
-    let row_stats: Vec<TraceStats> = rows
-        .into_par_iter()
-        .enumerate()
-        .map(|(y, mut out)| {
-            let mut stats = TraceStats::default();
-            let nt = cam_axis.nt;
-            let ntw = w_axis.nt;
-            let mut acc = vec![0.0f64; nt];
-            let mut acc_direct = vec![0.0f64; nt];
-            let mut acc_multi = vec![0.0f64; nt];
-            let mut acc_world = vec![0.0f64; ntw];
-            let mut weights = Vec::new();
-            for x in 0..nx {
-                acc.fill(0.0);
-                acc_direct.fill(0.0);
-                acc_multi.fill(0.0);
-                acc_world.fill(0.0);
-                let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
-                let mut lost = 0.0;
-                for _ in 0..spp {
-                    let u = x as f64 + uniform(&mut rng);
-                    let v = y as f64 + uniform(&mut rng);
-                    stats.paths += 1;
-                    let rays = k.trace_path(&mut rng, u, v, &mut |c: Contribution| {
-                        let value = c.value * inv_spp;
-                        let t_camera_ps = flight_time_ps(eta, c.path_m);
-                        stats.samples += 1;
-                        let b = cam_axis.bin_coord(t_camera_ps);
-                        if !(b >= 0.0 && b < nt as f64) {
-                            stats.samples_outside_window += 1;
-                        }
-                        let first = cam_resp.weights(t_camera_ps, &mut weights);
-                        lost += add_weighted(&mut acc, first, &weights, value);
-                        if out.direct.is_some() {
-                            let split = if c.bounce == 1 {
-                                &mut acc_direct
-                            } else {
-                                &mut acc_multi
-                            };
-                            add_weighted(split, first, &weights, value);
-                        }
-                        if out.world.is_some() {
-                            let t_world_ps = t_camera_ps - flight_time_ps(eta, c.first_m);
-                            let first = world_resp.weights(t_world_ps, &mut weights);
-                            add_weighted(&mut acc_world, first, &weights, value);
-                        }
-                    });
-                    stats.rays += rays;
-                }
-                stats.energy_outside_window += lost;
-                let store = |dst: &mut [f32], src: &[f64]| {
-                    for (d, s) in dst.iter_mut().zip(src) {
-                        *d = *s as f32;
+impl<'a> Tracer<'a> {
+    /// Prepare a render of `scene`; `bvh` must be built from `scene.mesh`. With
+    /// [`TraceOptions::world_time`] this probes the whole image for [`world_axis`].
+    pub fn new(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> Tracer<'a> {
+        let sigma_ps = scene.laser.pulse_sigma_ps();
+        Tracer {
+            kernel: kernel(scene, bvh, opts),
+            opts: *opts,
+            cam_resp: ResponseTable::new(&TimeResponse::new(scene.camera.axis, sigma_ps)),
+            world_resp: opts
+                .world_time
+                .then(|| ResponseTable::new(&TimeResponse::new(world_axis(scene, bvh), sigma_ps))),
+        }
+    }
+
+    /// The world-time axis of the render (when [`TraceOptions::world_time`]).
+    pub fn world_axis(&self) -> Option<TimeAxis> {
+        self.world_resp.as_ref().map(|r| *r.axis())
+    }
+
+    /// Render image rows `rows` (clamped to the image): cubes of `rows.len()` rows holding
+    /// rows `rows.start ..` of the full image. `progress` is called with 1 after each row.
+    pub fn render_rows(
+        &self,
+        rows: Range<usize>,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> TransientRender {
+        let started = Instant::now();
+        let scene = self.kernel.scene;
+        let opts = &self.opts;
+        let k = &self.kernel;
+        let (nx, ny_image) = (
+            scene.camera.intrinsics.width,
+            scene.camera.intrinsics.height,
+        );
+        let rows = rows.start.min(ny_image)..rows.end.min(ny_image);
+        let y0 = rows.start;
+        let ny = rows.len();
+        let cam_axis = scene.camera.axis;
+        let cam_resp = &self.cam_resp;
+        let mut camera = Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera);
+        let mut direct = opts
+            .split_bounces
+            .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
+        let mut multi = opts
+            .split_bounces
+            .then(|| Cube::zeros(nx, ny, cam_axis, TimeFrame::Camera));
+        let mut world = self
+            .world_resp
+            .as_ref()
+            .map(|r| Cube::zeros(nx, ny, *r.axis(), TimeFrame::World));
+        let ntw = self.world_resp.as_ref().map_or(0, |r| r.axis().nt);
+
+        let row_outs: Vec<RowOut> = camera
+            .data
+            .chunks_mut((nx * cam_axis.nt).max(1))
+            .zip(row_slices(&mut direct, ny))
+            .zip(row_slices(&mut multi, ny))
+            .zip(row_slices(&mut world, ny))
+            .map(|(((camera, direct), multi), world)| RowOut {
+                camera,
+                direct,
+                multi,
+                world,
+            })
+            .collect();
+
+        let eta = scene.eta;
+        let spp = opts.spp.max(1);
+        let inv_spp = 1.0 / spp as f64;
+        let row_stats: Vec<TraceStats> = row_outs
+            .into_par_iter()
+            .enumerate()
+            .map(|(dy, mut out)| {
+                let y = y0 + dy;
+                let mut stats = TraceStats::default();
+                let nt = cam_axis.nt;
+                let mut acc = vec![0.0f64; nt];
+                let mut acc_direct = vec![0.0f64; nt];
+                let mut acc_multi = vec![0.0f64; nt];
+                let mut acc_world = vec![0.0f64; ntw];
+                let mut weights = vec![0.0f64; cam_resp.len()];
+                let mut weights_world =
+                    vec![0.0f64; self.world_resp.as_ref().map_or(0, |r| r.len())];
+                // The accumulators are all zero between pixels; only the bins a pixel touched
+                // (`touched`, `touched_world`) are stored and cleared again.
+                let mut touched = (nt, 0usize);
+                let mut touched_world = (ntw, 0usize);
+                let grow = |t: &mut (usize, usize), first: isize, len: usize, n: usize| {
+                    let lo = first.clamp(0, n as isize) as usize;
+                    let hi = (first + len as isize).clamp(0, n as isize) as usize;
+                    if lo < hi {
+                        *t = (t.0.min(lo), t.1.max(hi));
                     }
                 };
-                store(&mut out.camera[x * nt..(x + 1) * nt], &acc);
-                if let Some(d) = out.direct.as_deref_mut() {
-                    store(&mut d[x * nt..(x + 1) * nt], &acc_direct);
+                for x in 0..nx {
+                    let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
+                    let mut lost = 0.0;
+                    for _ in 0..spp {
+                        let u = x as f64 + uniform(&mut rng);
+                        let v = y as f64 + uniform(&mut rng);
+                        stats.paths += 1;
+                        let rays = k.trace_path(&mut rng, u, v, &mut |c: Contribution| {
+                            let value = c.value * inv_spp;
+                            let t_camera_ps = flight_time_ps(eta, c.path_m);
+                            stats.samples += 1;
+                            let b = cam_axis.bin_coord(t_camera_ps);
+                            if !(b >= 0.0 && b < nt as f64) {
+                                stats.samples_outside_window += 1;
+                            }
+                            let Some(first) = cam_resp.weights(t_camera_ps, &mut weights) else {
+                                lost += value;
+                                return;
+                            };
+                            lost += add_weighted(&mut acc, first, &weights, value);
+                            grow(&mut touched, first, weights.len(), nt);
+                            if out.direct.is_some() {
+                                let split = if c.bounce == 1 {
+                                    &mut acc_direct
+                                } else {
+                                    &mut acc_multi
+                                };
+                                add_weighted(split, first, &weights, value);
+                            }
+                            if let Some(world_resp) = &self.world_resp {
+                                let t_world_ps = t_camera_ps - flight_time_ps(eta, c.first_m);
+                                if let Some(first) =
+                                    world_resp.weights(t_world_ps, &mut weights_world)
+                                {
+                                    add_weighted(&mut acc_world, first, &weights_world, value);
+                                    grow(&mut touched_world, first, weights_world.len(), ntw);
+                                }
+                            }
+                        });
+                        stats.rays += rays;
+                    }
+                    stats.energy_outside_window += lost;
+                    let store = |dst: &mut [f32], src: &mut [f64], (lo, hi): (usize, usize)| {
+                        if lo < hi {
+                            for (d, s) in dst[lo..hi].iter_mut().zip(&mut src[lo..hi]) {
+                                *d = *s as f32;
+                                *s = 0.0;
+                            }
+                        }
+                    };
+                    store(&mut out.camera[x * nt..(x + 1) * nt], &mut acc, touched);
+                    if let Some(d) = out.direct.as_deref_mut() {
+                        store(&mut d[x * nt..(x + 1) * nt], &mut acc_direct, touched);
+                    }
+                    if let Some(m) = out.multi.as_deref_mut() {
+                        store(&mut m[x * nt..(x + 1) * nt], &mut acc_multi, touched);
+                    }
+                    if let Some(w) = out.world.as_deref_mut() {
+                        store(
+                            &mut w[x * ntw..(x + 1) * ntw],
+                            &mut acc_world,
+                            touched_world,
+                        );
+                    }
+                    touched = (nt, 0);
+                    touched_world = (ntw, 0);
                 }
-                if let Some(m) = out.multi.as_deref_mut() {
-                    store(&mut m[x * nt..(x + 1) * nt], &acc_multi);
-                }
-                if let Some(w) = out.world.as_deref_mut() {
-                    store(&mut w[x * ntw..(x + 1) * ntw], &acc_world);
-                }
-            }
-            progress(1);
-            stats
-        })
-        .collect();
+                progress(1);
+                stats
+            })
+            .collect();
 
-    let mut stats = TraceStats::default();
-    for s in &row_stats {
-        stats.add(s);
-    }
-    stats.seconds = started.elapsed().as_secs_f64();
-    TransientRender {
-        camera_time: camera,
-        direct,
-        multi,
-        world_time: world,
-        stats,
+        let mut stats = TraceStats::default();
+        for s in &row_stats {
+            stats.add(s);
+        }
+        stats.seconds = started.elapsed().as_secs_f64();
+        TransientRender {
+            camera_time: camera,
+            direct,
+            multi,
+            world_time: world,
+            stats,
+        }
     }
 }
 
