@@ -485,7 +485,17 @@ fn hdf5_stack_input_in_both_layouts() {
     let out = dir.path().join("never.h5");
     assert_refused(
         dir.path(),
-        &[s(&bad), "--dataset", "cube", "-o", s(&out), "--dt-ps", &dt, "--t0-ps", "0"],
+        &[
+            s(&bad),
+            "--dataset",
+            "cube",
+            "-o",
+            s(&out),
+            "--dt-ps",
+            &dt,
+            "--t0-ps",
+            "0",
+        ],
         "bad.h5:/cube image 5: non-finite value NaN at x 4, t 9",
     );
 }

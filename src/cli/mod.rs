@@ -6,11 +6,11 @@
 
 pub mod calibrate;
 pub mod info;
-pub mod pyramid;
-pub mod unwarp;
-pub mod simulate;
-pub mod render;
 pub mod ingest;
+pub mod pyramid;
+pub mod render;
+pub mod simulate;
+pub mod unwarp;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
