@@ -6,13 +6,18 @@
 //!   accumulation, time dilation, per-view unwarp, capture visibility lookup);
 //! - `effects_none`: the same frame with every effect off (ray cast, capture lookup, prefix
 //!   sums, colour);
-//! - `bare_ray_cast`: only the camera rays of the same frame cast against the BVH
-//!   (`Bvh::intersect`), hit distances written to a buffer.
+//! - `ray_cast_all` / `ray_cast_none`: only the world rays of the same two frames (the
+//!   aberrated rays of the full pipeline; the plain pinhole rays with every effect off), made
+//!   beforehand and cast against the BVH (`Bvh::intersect`), hit distances written to a
+//!   buffer. The difference to the full frames is the cost of the physics and the lookups.
 //!
 //! The world-time cube is synthetic (single-bounce light in flight from the scene's laser
 //! spot, `tests/common`), on the scene's own 64 x 48 capture camera, 256 bins of 6 ps. The
 //! camera dollies towards the box at beta 0.5 (`--dolly 0.5` of the command line); the frame
-//! benchmarked is frame 50 of 100. A summary in frames per second is printed at the end.
+//! benchmarked is frame 50 of 100. A summary is printed at the end: wall time per frame, CPU
+//! time per frame (user + system of the whole process, `/proc/self/stat`; the steadier
+//! figure on a machine shared with other jobs), and the frame rate two dedicated cores would
+//! give, `2 / CPU seconds per frame` (rows are independent, so the two threads stay busy).
 //!
 //! Run: `cargo bench --bench render`.
 
@@ -26,7 +31,7 @@ use femto::geometry::bvh::Bvh;
 use femto::geometry::Ray;
 use femto::pyramid::Pyramid;
 use femto::render::paths::{shortcut_path, Shortcut};
-use femto::render::{render_frame, Effects, RenderScene, RenderSettings};
+use femto::render::{probe_pixel, render_frame, Effects, RenderScene, RenderSettings};
 use femto::scene::Scene;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -36,38 +41,60 @@ const WIDTH: usize = 640;
 const HEIGHT: usize = 480;
 const THREADS: usize = 2;
 
-/// Camera rays of the frame (pinhole, no aberration) cast against the mesh.
-fn bare_ray_cast(bvh: &Bvh, state: &FrameState, out: &mut [f32]) {
-    let f = 0.5 * HEIGHT as f64 / (0.5 * state.vfov_deg.to_radians()).tan();
-    let r = *state.world_from_camera.matrix();
+/// The world ray of every pixel of a frame, as the renderer casts it.
+fn frame_rays(scene: &RenderScene, settings: &RenderSettings, state: &FrameState) -> Vec<Ray> {
     let o = state.position_m;
     let origin = Point3::new(o.x as f32, o.y as f32, o.z as f32);
-    out.par_chunks_mut(WIDTH).enumerate().for_each(|(j, row)| {
-        for (i, t) in row.iter_mut().enumerate() {
-            let local = Vector3::new(
-                (i as f64 + 0.5 - 0.5 * WIDTH as f64) / f,
-                (j as f64 + 0.5 - 0.5 * HEIGHT as f64) / f,
-                1.0,
-            );
-            let d = (r * local).normalize();
-            let ray = Ray::new(origin, Vector3::new(d.x as f32, d.y as f32, d.z as f32));
-            *t = bvh
-                .intersect(&ray, 0.0, f32::INFINITY)
-                .map_or(f32::INFINITY, |h| h.t);
-        }
-    });
+    (0..HEIGHT)
+        .flat_map(|j| (0..WIDTH).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let d = probe_pixel(scene, settings, state, i, j).d_world;
+            Ray::new(origin, Vector3::new(d.x as f32, d.y as f32, d.z as f32))
+        })
+        .collect()
 }
 
-fn seconds_per_frame(pool: &rayon::ThreadPool, mut f: impl FnMut() + Send) -> f64 {
+/// Cast `rays` against the mesh, one rayon task per image row.
+fn ray_cast(bvh: &Bvh, rays: &[Ray], out: &mut [f32]) {
+    out.par_chunks_mut(WIDTH)
+        .zip(rays.par_chunks(WIDTH))
+        .for_each(|(row, rays)| {
+            for (t, ray) in row.iter_mut().zip(rays) {
+                *t = bvh
+                    .intersect(ray, 0.0, f32::INFINITY)
+                    .map_or(f32::INFINITY, |h| h.t);
+            }
+        });
+}
+
+/// User plus system CPU time of this process so far, in seconds (Linux `/proc/self/stat`,
+/// 100 ticks per second), or `None` where that file is missing.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are the 12th and 13th.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
+}
+
+/// Wall and CPU seconds per call of `f` on `pool`, over at least 3 s of wall time and 10
+/// calls.
+fn seconds_per_frame(pool: &rayon::ThreadPool, mut f: impl FnMut() + Send) -> (f64, Option<f64>) {
     pool.install(|| {
         f();
+        let cpu_start = cpu_seconds();
         let start = Instant::now();
         let mut n = 0;
         while start.elapsed() < Duration::from_secs(3) || n < 10 {
             f();
             n += 1;
         }
-        start.elapsed().as_secs_f64() / n as f64
+        let wall = start.elapsed().as_secs_f64() / n as f64;
+        let cpu = cpu_start
+            .zip(cpu_seconds())
+            .map(|(a, b)| (b - a) / n as f64);
+        (wall, cpu)
     })
 }
 
@@ -107,11 +134,19 @@ fn main() {
         .expect("thread pool");
     let mut pixels = vec![[0.0f32; 3]; WIDTH * HEIGHT];
     let mut depth = vec![0.0f32; WIDTH * HEIGHT];
+    let rays_all = frame_rays(&scene, &all, &state);
+    let rays_none = frame_rays(&scene, &none, &state);
 
     // The frame is not black (a benchmark of an empty frame would flatter the renderer).
     pool.install(|| render_frame(&scene, &all, &state, &mut pixels));
     let lit = pixels.iter().filter(|p| p[0] + p[1] + p[2] > 0.0).count();
     assert!(lit > WIDTH * HEIGHT / 20, "only {lit} lit pixels");
+    let hits = |rays: &[Ray], depth: &mut [f32]| {
+        pool.install(|| ray_cast(&bvh, rays, depth));
+        depth.iter().filter(|t| t.is_finite()).count()
+    };
+    let hits_all = hits(&rays_all, &mut depth);
+    let hits_none = hits(&rays_none, &mut depth);
 
     let mut c = Criterion::default().configure_from_args();
     let mut group = c.benchmark_group(format!("render_{WIDTH}x{HEIGHT}_{THREADS}_threads"));
@@ -122,33 +157,61 @@ fn main() {
     group.bench_function("effects_none", |b| {
         b.iter(|| pool.install(|| render_frame(&scene, &none, &state, &mut pixels)))
     });
-    group.bench_function("bare_ray_cast", |b| {
-        b.iter(|| pool.install(|| bare_ray_cast(&bvh, &state, &mut depth)))
+    group.bench_function("ray_cast_all", |b| {
+        b.iter(|| pool.install(|| ray_cast(&bvh, &rays_all, &mut depth)))
+    });
+    group.bench_function("ray_cast_none", |b| {
+        b.iter(|| pool.install(|| ray_cast(&bvh, &rays_none, &mut depth)))
     });
     group.finish();
     c.final_summary();
 
     let t_all = seconds_per_frame(&pool, || render_frame(&scene, &all, &state, &mut pixels));
     let t_none = seconds_per_frame(&pool, || render_frame(&scene, &none, &state, &mut pixels));
-    let t_cast = seconds_per_frame(&pool, || bare_ray_cast(&bvh, &state, &mut depth));
+    let t_cast_all = seconds_per_frame(&pool, || ray_cast(&bvh, &rays_all, &mut depth));
+    let t_cast_none = seconds_per_frame(&pool, || ray_cast(&bvh, &rays_none, &mut depth));
     println!(
-        "render {WIDTH}x{HEIGHT}, {THREADS} threads, built-in cube scene, {} triangles ({lit} of {} pixels lit):",
+        "render {WIDTH}x{HEIGHT}, {THREADS} threads, built-in cube scene, {} triangles; \
+         frame 50 of a 100-frame dolly at beta 0.5: {lit} pixels lit, rays hitting the mesh: \
+         {hits_all} (all effects), {hits_none} (effects none) of {}",
         bvh.mesh().triangle_count(),
         WIDTH * HEIGHT
     );
-    for (name, t) in [
+    println!(
+        "  {:<28} {:>10} {:>9} {:>10} {:>16}",
+        "", "wall ms", "wall fps", "CPU ms", "fps on 2 cores"
+    );
+    for (name, (wall, cpu)) in [
         ("all effects", t_all),
         ("--effects none", t_none),
-        ("bare ray cast", t_cast),
+        ("ray cast (all-effects rays)", t_cast_all),
+        ("ray cast (effects-none rays)", t_cast_none),
     ] {
+        let (cpu_ms, fps2) = match cpu {
+            Some(c) => (
+                format!("{:.2}", c * 1e3),
+                format!("{:.1}", THREADS as f64 / c),
+            ),
+            None => ("n/a".into(), "n/a".into()),
+        };
         println!(
-            "  {name:<15} {:8.2} ms/frame {:8.1} frames/s",
-            t * 1e3,
-            1.0 / t
+            "  {name:<28} {:>10.2} {:>9.1} {cpu_ms:>10} {fps2:>16}",
+            wall * 1e3,
+            1.0 / wall
         );
     }
-    println!(
-        "  physics cost (all effects - ray cast) / ray cast: {:.2}",
-        (t_all - t_cast) / t_cast
-    );
+    if let (Some(a), Some(c)) = (t_all.1, t_cast_all.1) {
+        println!(
+            "  physics and lookups, all effects: {:.2} CPU ms = {:.2} x the ray cast",
+            (a - c) * 1e3,
+            (a - c) / c
+        );
+    }
+    if let (Some(a), Some(c)) = (t_none.1, t_cast_none.1) {
+        println!(
+            "  lookups, effects none: {:.2} CPU ms = {:.2} x the ray cast",
+            (a - c) * 1e3,
+            (a - c) / c
+        );
+    }
 }

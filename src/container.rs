@@ -146,7 +146,7 @@ pub enum ContainerError {
 }
 
 impl From<io::Error> for ContainerError {
-    /// An I/O error without a path yet; [`ContainerError::at`] fills it in.
+    /// An I/O error without a path yet; `ContainerError::at` fills it in.
     fn from(source: io::Error) -> Self {
         ContainerError::Io {
             path: PathBuf::new(),
@@ -2088,7 +2088,10 @@ fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
 /// What a [`GroupUpdate`] writes into.
 enum UpdateTarget {
     /// A copy of a cube file; its groups not rewritten are copied at the end.
-    Cube { sink: CubeSink, reader: CubeReader },
+    Cube {
+        sink: Box<CubeSink>,
+        reader: Box<CubeReader>,
+    },
     /// A file holding groups only.
     SideFile { file: H5File },
 }
@@ -2137,7 +2140,10 @@ impl GroupUpdate {
         }
         Ok(GroupUpdate {
             groups: GroupSinks::default(),
-            target: UpdateTarget::Cube { sink, reader },
+            target: UpdateTarget::Cube {
+                sink: Box::new(sink),
+                reader: Box::new(reader),
+            },
             tmp,
             dest: cube_path.to_path_buf(),
         })
@@ -2384,6 +2390,56 @@ mod tests {
             CubeCompression::Deflate(10),
         )
         .is_err());
+    }
+
+    #[test]
+    fn streamed_groups_must_be_complete_and_leave_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let side = dir.path().join("side.h5");
+        let spec = [DatasetSpec::new("d", &[3, 2], GroupElem::F64)];
+        let attrs = vec![("n".to_string(), AttrValue::I64(3))];
+        // Row 2 never written: refused, and neither the file nor a temporary file remains.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        up.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0, 2.0, 3.0, 4.0]))
+            .unwrap();
+        let e = up.finish().unwrap_err().to_string();
+        assert!(e.contains("/g/d") && e.contains("row 2"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // Wrong type, past the end, undeclared dataset, then a complete file read back.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        assert!(up
+            .write_group_rows("g", "d", 0, &DataBuf::F32(vec![0.0; 2]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "d", 2, &DataBuf::F64(vec![0.0; 4]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "e", 0, &DataBuf::F64(vec![0.0; 2]))
+            .is_err());
+        assert!(up.begin_group("g", &[], &[]).is_err());
+        for r in [2, 0, 1] {
+            let v = vec![r as f64, -(r as f64)];
+            up.write_group_rows("g", "d", r, &DataBuf::F64(v)).unwrap();
+        }
+        up.finish().unwrap();
+        let reader = GroupReader::open(&side).unwrap();
+        assert!(!reader.has_cube());
+        assert_eq!(reader.groups(), ["g"]);
+        let g = reader.read_group("g").unwrap();
+        assert_eq!(g.attrs, attrs);
+        assert_eq!(
+            g.dataset("d").unwrap(),
+            (
+                &[3usize, 2][..],
+                &DataBuf::F64(vec![0.0, -0.0, 1.0, -1.0, 2.0, -2.0])
+            )
+        );
+        assert!(matches!(
+            CubeReader::open(&side),
+            Err(ContainerError::NoCube { .. })
+        ));
     }
 
     #[test]

@@ -12,6 +12,7 @@ pub mod camera_path;
 pub mod color;
 pub mod container;
 pub mod cube;
+pub mod demo;
 pub mod formats;
 pub mod geometry;
 pub mod ingest;

@@ -738,13 +738,13 @@ fn jitter_is_estimated_reported_and_removed() {
     let want = truth(NX, ny, &AXIS);
     let mut worst_fixed = 0.0f64;
     let mut worst_raw = 0.0f64;
-    for y in 0..ny {
+    for (y, delay) in delays.iter().enumerate().take(ny) {
         for x in 2..NX {
             let mu = pulses(x, y, ny)[0].1;
             let cw = centroid_ps(want.profile(x, y), &AXIS, mu - 14.0, mu + 14.0);
             let c = centroid_ps(got.profile(x, y), &AXIS, mu - 14.0, mu + 14.0);
-            worst_fixed = worst_fixed.max(((c - cw) / AXIS.dt_ps - 0.0).abs());
-            worst_raw = worst_raw.max(delays[y].abs() / AXIS.dt_ps);
+            worst_fixed = worst_fixed.max(((c - cw) / AXIS.dt_ps).abs());
+            worst_raw = worst_raw.max(delay.abs() / AXIS.dt_ps);
         }
     }
     eprintln!("jitter: worst centroid {worst_fixed:.2} bins after, {worst_raw:.2} before");

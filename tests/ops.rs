@@ -323,14 +323,17 @@ fn markers(cal: &Calibration, step_m: f64) -> Vec<(String, Point3<f64>)> {
     pts
 }
 
-/// Correspondences `(name, pixel, point)` of `markers` seen by `cal` with seeded Gaussian
-/// noise of `noise_px` per axis.
+/// Correspondences `(name, pixel, point)`.
+type Observations = Vec<(String, (f64, f64), Point3<f64>)>;
+
+/// Correspondences of `markers` seen by `cal` with seeded Gaussian noise of `noise_px` per
+/// axis.
 fn observe(
     cal: &Calibration,
     markers: &[(String, Point3<f64>)],
     noise_px: f64,
     seed: u64,
-) -> Vec<(String, (f64, f64), Point3<f64>)> {
+) -> Observations {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
     let noise = Normal::new(0.0, noise_px).unwrap();
     markers
@@ -951,7 +954,7 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
     let known = dir.path().join("known.toml");
     write_known_intrinsics(&known, &cal);
     let laser = "-0.4,0,0.3";
-    let cases: Vec<(&str, Vec<(String, (f64, f64), Point3<f64>)>, bool, &str)> = vec![
+    let cases: Vec<(&str, Observations, bool, &str)> = vec![
         ("five", all[..5].to_vec(), false, "at least 6"),
         ("three_known", all[..3].to_vec(), true, "at least 4"),
         ("coplanar", floor, false, "lie on one plane"),
@@ -1093,4 +1096,187 @@ fn info_describes_streak_images() {
         text.contains("20 x 12") && text.contains("HPD-TA"),
         "{text}"
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// The whole chain on a simulated capture: simulate (clean) -> calibrate with the simulator's
+// fiducials -> unwarp -> the simulator's world-time truth.
+
+#[test]
+fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cap = tmp.path().join("cap");
+    // The built-in cube scene, small: 48 x 36 pixels, 64 bins of 16 ps, 16 paths per pixel.
+    let (nx, ny) = (48usize, 36usize);
+    femto_ok(&[
+        "simulate",
+        "--out",
+        s(&cap),
+        "--size",
+        "48x36",
+        "--nt",
+        "64",
+        "--dt-ps",
+        "16",
+        "--spp",
+        "16",
+        "--bounces",
+        "2",
+    ]);
+    let truth_cal = Calibration::load(&cap.join("calibration.toml")).unwrap();
+    let camera = cap.join("truth_camera.h5");
+    let l = truth_cal.laser_m;
+    // The simulator lists some points twice (a scene grid point that is also a marker, a few
+    // nanometres apart), which
+    // `femto calibrate` refuses as repeated points: keep the first of each.
+    let points = femto::calibrate::load_points(&cap.join("fiducials.toml")).unwrap();
+    let mut unique: Vec<femto::calibrate::Correspondence> = Vec::new();
+    for p in points.iter() {
+        if !unique.iter().any(|q| (q.point_m - p.point_m).norm() < 1e-6) {
+            unique.push(p.clone());
+        }
+    }
+    println!(
+        "simulated capture: {} fiducials, {} repeated",
+        points.len(),
+        points.len() - unique.len()
+    );
+    let fiducials = tmp.path().join("fiducials.toml");
+    femto::calibrate::save_points_toml(&fiducials, &unique).unwrap();
+    femto_ok(&[
+        "calibrate",
+        s(&camera),
+        "--mesh",
+        s(&cap.join("scene.glb")),
+        "--points",
+        s(&fiducials),
+        "--laser",
+        &format!("{},{},{}", l.x, l.y, l.z),
+        "--eta",
+        &truth_cal.eta.to_string(),
+    ]);
+    let fitted = Calibration::load(&cap.join("truth_camera.calibration.toml")).unwrap();
+    let dt_ps = container::read_meta(&camera).unwrap().axis.dt_ps;
+    let dpos_mm = 1e3 * (fitted.pose.position_m - truth_cal.pose.position_m).norm();
+    let rot_deg = UnitQuaternion::from_rotation_matrix(
+        &(fitted.pose.world_from_camera * truth_cal.pose.world_from_camera.inverse()),
+    )
+    .angle()
+    .to_degrees();
+    let fx_pct = 100.0 * (fitted.intrinsics.fx / truth_cal.intrinsics.fx - 1.0);
+    let t0_bins = (fitted.t0_ps - truth_cal.t0_ps) / dt_ps;
+    println!(
+        "simulated capture: camera off by {dpos_mm:.4} mm, {rot_deg:.5} deg, fx {fx_pct:+.4} %; t0 {t0_bins:+.3} bins"
+    );
+    // Noise-free fiducials: the camera is exact up to the fit's convergence.
+    assert!(dpos_mm < 0.1 && rot_deg < 1e-3 && fx_pct.abs() < 0.01);
+    // Sub-bin pulses spread over each pixel's footprint: first arrivals are coarser than
+    // the closed-form pulses above; still within half a bin.
+    assert!(t0_bins.abs() < 0.5, "t0 off by {t0_bins} bins");
+
+    // Unwarp onto the truth's world axis and compare pixel by pixel.
+    let truth_world = container::read_cube(&cap.join("truth_world.h5")).unwrap();
+    let world = tmp.path().join("world.h5");
+    femto_ok(&[
+        "unwarp",
+        s(&camera),
+        "--out",
+        s(&world),
+        "--t0-ps",
+        &truth_world.axis.t0_ps.to_string(),
+        "--nt",
+        &truth_world.axis.nt.to_string(),
+        "--dt-ps",
+        &truth_world.axis.dt_ps.to_string(),
+    ]);
+    let got = container::read_cube(&world).unwrap();
+    assert_eq!(got.axis, truth_world.axis);
+    let cam_cube = container::read_cube(&camera).unwrap();
+    // Pixels whose footprint lies on one surface: the distances at the four corners (rays
+    // through the true camera, intersected with the scene mesh) within 2 mm of the centre's.
+    let bvh = femto::geometry::bvh::Bvh::new(
+        femto::geometry::load::load_mesh(&cap.join("scene.glb")).unwrap(),
+    );
+    let o = truth_cal.pose.position_m;
+    let distance = |u: f64, v: f64| -> Option<f64> {
+        let d = truth_cal.world_ray(u, v).into_inner();
+        let ray = femto::geometry::Ray::new(o.cast::<f32>(), d.cast::<f32>());
+        bvh.intersect(&ray, 0.0, f32::INFINITY).map(|h| h.t as f64)
+    };
+    let totals = cam_cube.time_integral();
+    let max_total = totals.iter().cloned().fold(0.0, f64::max);
+    let mean = |p: &[f32], a: &TimeAxis| {
+        p.iter()
+            .enumerate()
+            .map(|(i, &v)| v as f64 * a.bin_centre_ps(i))
+            .sum::<f64>()
+            / p.iter().map(|&v| v as f64).sum::<f64>()
+    };
+    let cdf = |p: &[f32]| -> Vec<f64> {
+        let mut acc = 0.0;
+        p.iter()
+            .map(|&v| {
+                acc += v as f64;
+                acc
+            })
+            .collect()
+    };
+    let (mut checked, mut worst_mean_ps) = (0, 0.0f64);
+    for y in 0..ny {
+        for x in 0..nx {
+            let Some(d_m) = distance(x as f64 + 0.5, y as f64 + 0.5) else {
+                continue;
+            };
+            let corners: Vec<f64> = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .iter()
+                .filter_map(|(a, b)| distance(x as f64 + a, y as f64 + b))
+                .collect();
+            if corners.len() < 4 || corners.iter().any(|c| (c - d_m).abs() > 2e-3) {
+                continue;
+            }
+            let total = totals[y * nx + x];
+            let (g, w) = (got.profile(x, y), truth_world.profile(x, y));
+            let total_w: f64 = w.iter().map(|&v| v as f64).sum();
+            let total_g: f64 = g.iter().map(|&v| v as f64).sum();
+            // Skip dim pixels and those whose light the truth's axis clips.
+            if total < 1e-3 * max_total || (total_w / total - 1.0).abs() > 1e-4 {
+                continue;
+            }
+            assert!(
+                (total_g / total_w - 1.0).abs() < 1e-4,
+                "pixel ({x}, {y}): total {total_g} vs {total_w}"
+            );
+            // Mean world time: the resampling keeps it; the tracer's paths go through random
+            // points of the pixel, whose mean distance differs from the centre's by about
+            // spread / sqrt(12 spp): 6 of those plus 0.2 ps, as in tests/simulate.rs.
+            let spread_m = corners.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - corners.iter().cloned().fold(f64::INFINITY, f64::min);
+            let tol_ps =
+                0.2 + 6.0 * truth_cal.eta * spread_m / C_M_PER_PS / (12.0f64 * 16.0).sqrt();
+            let err_ps = mean(g, &got.axis) - mean(w, &truth_world.axis);
+            worst_mean_ps = worst_mean_ps.max(err_ps.abs());
+            assert!(
+                err_ps.abs() < tol_ps,
+                "pixel ({x}, {y}): mean off by {err_ps} ps"
+            );
+            // Profiles: the cumulative sums agree to within the resampling's two bins.
+            let (cg, cw) = (cdf(g), cdf(w));
+            let n = cw.len();
+            for j in 0..n {
+                let (lo, hi) = (cw[j.saturating_sub(2)], cw[(j + 2).min(n - 1)]);
+                let eps = 1e-4 * total_w;
+                assert!(
+                    cg[j] >= lo - eps && cg[j] <= hi + eps,
+                    "pixel ({x}, {y}) bin {j}: {} outside [{lo}, {hi}]",
+                    cg[j]
+                );
+            }
+            checked += 1;
+        }
+    }
+    println!(
+        "simulated capture: {checked} pixels compared with truth_world.h5, worst mean time error {worst_mean_ps:.3} ps ({:.4} bins)",
+        worst_mean_ps / dt_ps
+    );
+    assert!(checked > 150, "only {checked} pixels compared");
 }

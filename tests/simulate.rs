@@ -758,3 +758,60 @@ fn bad_flags_exit_2_naming_the_flag() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-size"));
 }
+
+/// `../shared` (or `$FEMTO_SHARED`), where the Stanford bunny lives.
+fn shared_dir() -> PathBuf {
+    match std::env::var_os("FEMTO_SHARED") {
+        Some(p) => PathBuf::from(p),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+    }
+}
+
+#[test]
+fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
+    let bunny = shared_dir().join("data/stanford-bunny.obj");
+    if !bunny.is_file() {
+        eprintln!("skipped: ../shared not found");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let bunny = bunny.to_string_lossy().into_owned();
+    let args = [
+        "simulate",
+        "--scene",
+        "bunny",
+        "--bunny",
+        &bunny,
+        "--out",
+        "cap",
+        "--size",
+        "16x12",
+        "--nt",
+        "16",
+        "--dt-ps",
+        "64",
+        "--spp",
+        "1",
+        "--bounces",
+        "1",
+    ];
+    let out = femto(tmp.path(), &args, None);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cap = tmp.path().join("cap");
+    let bunny_mesh = load_mesh(Path::new(&bunny)).unwrap();
+    let cornell = femto::scene::Scene::builtin("cornell", None).unwrap();
+    let walls = cornell
+        .labels
+        .iter()
+        .filter(|l| l.contains("wall") || *l == "floor" || *l == "ceiling")
+        .count();
+    assert_eq!(walls, 5);
+    let glb = load_mesh(&cap.join("scene.glb")).unwrap();
+    // Five wall quads (two triangles each) and the bunny.
+    assert_eq!(glb.triangle_count(), 5 * 2 + bunny_mesh.triangle_count());
+    assert_eq!(manifest(&cap).capture.scene, "bunny");
+}

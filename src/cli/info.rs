@@ -264,7 +264,7 @@ fn side_file_info(path: &Path) -> anyhow::Result<(Value, String)> {
         "pyramid": p,
     });
     let mut out = String::new();
-    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<12}{v}\n"));
+    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<14}{v}\n"));
     line("file", path.display().to_string());
     line("kind", "femto pyramid side file (HDF5, no cube)".into());
     line("pyramid", pyramid_text(&p));
@@ -277,7 +277,10 @@ fn pyramid_text(p: &Value) -> String {
     }
     let mut s = format!(
         "prefix sums {} (f64), {} mip level(s) with {} samples per pixel; built from {}",
-        p["prefix_shape"], p["levels"], p["level_nt"], p["source"]
+        p["prefix_shape"],
+        p["levels"],
+        p["level_nt"],
+        p["source"].as_str().unwrap_or("?")
     );
     if p["matches_cube"] == json!(false) {
         s.push_str(" (STALE: the cube's shape or time axis has changed)");
@@ -320,20 +323,22 @@ fn registration_text(r: &Value) -> Vec<String> {
             100.0 * fr
         ));
     }
+    let num = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     if !r["dist_m"].is_null() {
         lines.push(format!(
-            "distance to the camera {} .. {} m",
-            r["dist_m"]["min"], r["dist_m"]["max"]
+            "distance to the camera {:.4} .. {:.4} m",
+            num(&r["dist_m"]["min"]),
+            num(&r["dist_m"]["max"])
         ));
     }
     let fit = &r["fit"];
     if !fit.is_null() {
         lines.push(format!(
-            "fit: {} points, {} outlier(s), reprojection rms {} px; time residual rms {} ps over {} of {} pixels",
+            "fit: {} points, {} outlier(s), reprojection rms {:.3} px; time residual rms {:.3} ps over {} of {} pixels",
             fit["points"],
             fit["outliers"],
-            fit["reprojection_rms_px"],
-            fit["time_residual_rms_ps"],
+            num(&fit["reprojection_rms_px"]),
+            num(&fit["time_residual_rms_ps"]),
             fit["time_inliers"],
             fit["time_samples"]
         ));
@@ -376,7 +381,7 @@ fn cube_json(path: &Path, s: &CubeSummary) -> Value {
 fn cube_text(path: &Path, s: &CubeSummary) -> String {
     let m = &s.meta;
     let mut out = String::new();
-    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<12}{v}\n"));
+    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<14}{v}\n"));
     line("file", path.display().to_string());
     line("kind", "femto cube (HDF5)".into());
     line(
@@ -476,7 +481,7 @@ fn mesh_json(path: &Path, mesh: &TriangleMesh) -> Value {
 fn mesh_text(path: &Path, mesh: &TriangleMesh) -> String {
     let j = mesh_json(path, mesh);
     let mut out = String::new();
-    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<12}{v}\n"));
+    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<14}{v}\n"));
     line("file", path.display().to_string());
     line("kind", format!("triangle mesh ({})", extension(path)));
     line(
@@ -494,7 +499,7 @@ fn mesh_text(path: &Path, mesh: &TriangleMesh) -> String {
             "empty".into()
         } else {
             format!(
-                "({}, {}, {}) .. ({}, {}, {}) m, size {} x {} x {} m",
+                "({:.6}, {:.6}, {:.6}) .. ({:.6}, {:.6}, {:.6}) m, size {:.6} x {:.6} x {:.6} m",
                 b.min.x,
                 b.min.y,
                 b.min.z,
@@ -597,7 +602,7 @@ fn streak_json(path: &Path, img: &StreakImage) -> Value {
 fn streak_text(path: &Path, img: &StreakImage) -> String {
     let j = streak_json(path, img);
     let mut out = String::new();
-    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<12}{v}\n"));
+    let mut line = |k: &str, v: String| out.push_str(&format!("{k:<14}{v}\n"));
     line("file", path.display().to_string());
     line("kind", format!("streak image ({})", extension(path)));
     line(

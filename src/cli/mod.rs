@@ -5,6 +5,7 @@
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
 pub mod calibrate;
+pub mod demo;
 pub mod info;
 pub mod ingest;
 pub mod pyramid;
@@ -28,6 +29,9 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Run the whole chain on the built-in scenes (simulate, ingest, calibrate, unwarp,
+    /// pyramid, render) and write the seed's figures with a report.
+    Demo(demo::DemoArgs),
     /// Describe a file: a cube (shape, time axis, value range, registration, pyramid), a
     /// pyramid side file, a mesh or a streak image.
     Info(info::InfoArgs),
@@ -52,6 +56,7 @@ pub enum Command {
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => demo::run(args),
         Command::Info(args) => info::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         Command::Unwarp(args) => unwarp::run(args),

@@ -33,9 +33,6 @@ use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Largest number of frames accepted.
-const MAX_FRAMES: usize = 1_000_000;
-
 /// Laser wavelength used when neither `--laser-nm` nor the cube says, nm.
 const DEFAULT_LASER_NM: f64 = 670.0;
 /// Cube attributes (provenance notes) that may hold the laser wavelength in nm.
@@ -127,7 +124,12 @@ pub struct RenderArgs {
     pub threads: Option<usize>,
 }
 
-/// `WxH` with both positive.
+/// Largest frame side accepted, pixels.
+const MAX_SIDE: usize = 16384;
+/// Largest number of frames accepted.
+const MAX_FRAMES: usize = 1_000_000;
+
+/// `WxH` with both positive and at most [`MAX_SIDE`].
 fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
     let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
         Some((
@@ -136,7 +138,10 @@ fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
         ))
     });
     match parsed {
-        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
+        Some((w, h)) if w > 0 && h > 0 && w <= MAX_SIDE && h <= MAX_SIDE => Ok((w, h)),
+        Some((w, h)) if w > 0 && h > 0 => {
+            bail!("--size {text}: each side must be at most {MAX_SIDE} pixels")
+        }
         _ => bail!("--size {text}: expected WIDTHxHEIGHT with positive integers, e.g. 640x480"),
     }
 }
@@ -328,6 +333,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (s.path, s.time_offset_ps, flag)
     };
     let spec = path.spec();
+    if spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.frames > MAX_FRAMES {
+        bail!(
+            "{path_flag}: {}x{} pixels and {} frames: at most {MAX_SIDE} pixels a side and {MAX_FRAMES} frames",
+            spec.width,
+            spec.height,
+            spec.frames
+        );
+    }
     if format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         bail!(
             "--size {}x{}: MP4 (H.264, 4:2:0) needs an even width and height; use --size {}x{} or another --format",

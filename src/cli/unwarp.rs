@@ -241,12 +241,15 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         meta.axis.t0_ps
     );
     match dist_range {
-        Some((lo, hi)) => println!(
-            "{valid_count} of {} pixels shifted (eta {eta}, distances {lo:.4} .. {hi:.4} m, shifts {:+.3} .. {:+.3} ps); the others are masked",
-            nx * ny,
-            direction.shift_ps(eta, lo),
-            direction.shift_ps(eta, hi)
-        ),
+        Some((lo, hi)) => {
+            let (a, b) = (direction.shift_ps(eta, lo), direction.shift_ps(eta, hi));
+            println!(
+                "{valid_count} of {} pixels shifted (eta {eta}, distances {lo:.4} .. {hi:.4} m, shifts {:+.3} .. {:+.3} ps); the others are masked",
+                nx * ny,
+                a.min(b),
+                a.max(b)
+            )
+        }
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
     Ok(())

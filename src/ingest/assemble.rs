@@ -153,10 +153,7 @@ pub fn ingest(
             log_integrals = vec![None; ny * nx];
         }
         let work = |y: usize| -> Result<Option<Prepared>, IngestError> {
-            Ok(match load_row(plan, y)? {
-                Some(raw) => Some(prepare(plan, y, raw)),
-                None => None,
-            })
+            Ok(load_row(plan, y)?.map(|raw| prepare(plan, y, raw)))
         };
         ordered_pipeline(ny, &work, &mut |y, prepared| {
             if let Some(p) = prepared {
@@ -763,7 +760,7 @@ mod tests {
             // Items are claimed in order, and never more than `window` ahead of the sink.
             let lead = i - sunk.load(Ordering::SeqCst).min(i);
             worst_lead.fetch_max(lead, Ordering::SeqCst);
-            if i % 7 == 0 {
+            if i.is_multiple_of(7) {
                 std::thread::sleep(std::time::Duration::from_millis(2));
             }
             Ok(i * i)

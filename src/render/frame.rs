@@ -55,6 +55,9 @@ struct FrameCtx<'s> {
     boost: Option<Boost>,
     t_receive_ps: f64,
     eta: f64,
+    /// `eta / c`: flight time per metre, ps.
+    eta_over_c_ps_per_m: f64,
+    inv_dtau_per_ps: f64,
 }
 
 /// A boost for `beta`, its speed pulled just below 1 if rounding took it to 1 (paths and
@@ -103,6 +106,8 @@ impl<'s> FrameCtx<'s> {
             boost,
             t_receive_ps: t_path_ps + settings.time_offset_ps,
             eta: scene.capture.eta,
+            eta_over_c_ps_per_m: flight_time_ps(scene.capture.eta, 1.0),
+            inv_dtau_per_ps: 1.0 / settings.dtau_ps,
         }
     }
 
@@ -118,7 +123,8 @@ impl<'s> FrameCtx<'s> {
         let (u, v) = (i as f64 + 0.5, j as f64 + 0.5);
         let offset = Vector2::new(u - self.half.x, v - self.half.y);
         let local = Vector3::new(offset.x / self.focal_px, offset.y / self.focal_px, 1.0);
-        let d_camera = (self.world_from_camera * local).normalize();
+        let d = self.world_from_camera * local;
+        let d_camera = d * (1.0 / d.norm());
         let (boost, beta) = match self.boost {
             Some(b) => (b, b.beta_vector()),
             None => {
@@ -193,20 +199,14 @@ impl<'s> FrameCtx<'s> {
             _ => {
                 let t_e = match settings.view {
                     View::Naive => views::naive_emission_ps(scene, &p, self.t_receive_ps),
-                    _ if e.unwarp => self.t_receive_ps - flight_time_ps(self.eta, dist_m),
+                    _ if e.unwarp => self.t_receive_ps - self.eta_over_c_ps_per_m * dist_m,
                     _ => self.t_receive_ps,
                 };
                 sample.t_emit_ps = Some(t_e);
                 let window_ps = settings.dtau_ps / d_light;
-                let energy = scene.world.integral(
-                    x,
-                    y,
-                    scene.cube_time_ps(t_e),
-                    scene.cube_time_ps(t_e + window_ps),
-                );
-                settings
-                    .radiometry
-                    .frame_value(d_light, 0.0, energy, settings.dtau_ps)
+                let energy = scene.emitted_energy(x, y, t_e, t_e + window_ps);
+                // Radiometry::frame_value, with the division by dtau done once per frame.
+                settings.radiometry.window_factor(d_light) * energy * self.inv_dtau_per_ps
             }
         };
         sample.value = value;

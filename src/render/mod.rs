@@ -96,6 +96,14 @@
 //!   integral of the capture pixel's signal, times the constant-light factor
 //!   ([`crate::relativity::constant_light_factor`]) with Doppler colour (seed Fig. 2 right).
 //!
+//! # Entry points
+//!
+//! Resolve, then compute: [`RenderScene::new`] (geometry, capture calibration, prefix sums,
+//! wavelength), a [`crate::camera_path::CameraPath`] (a file, or [`paths::shortcut_path`] for
+//! a dolly, an orbit or the capture camera's view), [`RenderSettings`] (with
+//! [`auto_exposure`] and, for isochrones, [`isochrone_range`]); then [`render_sequence`] (or
+//! [`render_frame`] per frame) and [`encode_srgb8`] for display.
+//!
 //! # Visibility
 //!
 //! [`RenderScene::new`] casts one ray through every capture pixel centre once and keeps its
@@ -434,6 +442,8 @@ pub struct RenderScene<'a> {
     /// Laser wavelength in its rest frame, nm.
     pub laser_nm: f64,
     hits: Vec<CaptureHit>,
+    /// `1 / dt` of the cube's axis, per ps.
+    inv_dt_per_ps: f64,
 }
 
 impl<'a> RenderScene<'a> {
@@ -494,7 +504,34 @@ impl<'a> RenderScene<'a> {
             world,
             laser_nm,
             hits,
+            inv_dt_per_ps: 1.0 / world.axis.dt_ps,
         })
+    }
+
+    /// Signal of cube pixel `(x, y)` emitted during the physical world times
+    /// `[t_a_ps, t_b_ps]`: `P(cube(t_b)) - P(cube(t_a))` from the prefix sums, the same value
+    /// as [`Pyramid::integral`] on the cube times (piecewise-linear `P`, zero before the axis,
+    /// the total after it), with the bin coordinate computed by one multiplication.
+    #[inline]
+    pub fn emitted_energy(&self, x: usize, y: usize, t_a_ps: f64, t_b_ps: f64) -> f64 {
+        let w = self.world;
+        let nt = w.axis.nt;
+        let base = (y * w.nx + x) * (nt + 1);
+        let p = &w.prefix[base..base + nt + 1];
+        let at = |t_ps: f64| {
+            let c = (self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps;
+            if c <= 0.0 {
+                0.0
+            } else if c >= nt as f64 {
+                p[nt]
+            } else if c.is_nan() {
+                f64::NAN
+            } else {
+                let i = c as usize;
+                p[i] + (c - i as f64) * (p[i + 1] - p[i])
+            }
+        };
+        at(t_b_ps) - at(t_a_ps)
     }
 
     /// Cube time of a physical world time: `capture.t0_ps + capture.time_scale * t_world_ps`.

@@ -90,11 +90,10 @@ pub fn laser_sees(scene: &RenderScene, p_m: &Point3<f64>) -> bool {
 /// camera's warp gives, `t_receive - eta |p - o_capture| / c`.
 #[inline]
 pub fn naive_emission_ps(scene: &RenderScene, p_m: &Point3<f64>, t_receive_ps: f64) -> f64 {
+    // Written as (eta / c) * distance, like the transient view's re-warp, so that both views
+    // agree to the last bit at the capture camera's position.
     t_receive_ps
-        - flight_time_ps(
-            scene.capture.eta,
-            (p_m - scene.capture.pose.position_m).norm(),
-        )
+        - flight_time_ps(scene.capture.eta, 1.0) * (p_m - scene.capture.pose.position_m).norm()
 }
 
 /// Hue ramp from blue (`s = 0`) through cyan, green and yellow to red (`s = 1`), linear

@@ -23,7 +23,7 @@
 //! 5. **photon noise** — each bin becomes `Poisson(k v) / k`, with `k = N / full_scale`
 //!    photons per signal unit for `N` photons at the full-scale value;
 //! 6. **dark signal** — `offset + N(0, sigma)` added to each bin; a dark frame (a streak
-//!    image with no light, [`CaptureModel::dark_frame`]) is drawn the same way;
+//!    image with no light, [`CaptureModel::dark_frame_counts`]) is drawn the same way;
 //! 7. **saturation** — values clipped at the level;
 //! 8. **quantisation** — `counts = clamp(round(v / value_per_count), 0, 65535)`, always
 //!    applied: the capture holds what a 16-bit sensor reports. `value_per_count` is chosen

@@ -1,5 +1,5 @@
 //! The `registration` group of a cube file: what every pixel sees through the calibrated
-//! camera ([`crate::calibrate::register`]: surface point, distance to the camera centre,
+//! camera ([`crate::calibrate::register()`]: surface point, distance to the camera centre,
 //! normal, triangle, mask), with the calibration that produced it.
 //!
 //! The distances are the `|p - o|` of physics.md's `t_world = t_camera - eta |p - o| / c`,
