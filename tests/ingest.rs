@@ -795,6 +795,16 @@ fn laser_power_is_normalised_to_the_median_row() {
     let out = dir.path().join("cube.h5");
     ingest_ok(&[s(dir.path()), "-o", s(&out), "--power-ref", "auto"]);
     let got = container::read_cube(&out).unwrap();
+    let meta = container::read_meta(&out).unwrap();
+    let gains: Vec<Option<f64>> =
+        serde_json::from_str(note(&meta, "ingest.power_gains").unwrap()).unwrap();
+    for y in 0..ny {
+        eprintln!(
+            "DBG {y} {:.4} {:.4}",
+            powers[y],
+            gains[y].unwrap() * powers[y]
+        );
+    }
     let want = truth(NX, ny, &AXIS);
     let row_sum = |c: &Cube, y: usize| -> f64 { c.row(y).iter().map(|&v| v as f64).sum() };
     // The bright patch (rows 10..14) changes the scene's row totals abruptly, which 'auto'

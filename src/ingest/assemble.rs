@@ -17,9 +17,9 @@
 //!    row that cannot be normalised is masked);
 //! 5. sweep-linearity resampling from the recorded bin edges onto the uniform axis,
 //!    conserving each pixel's integral;
-//! 6. jitter removal: each pixel's leading-edge time (after 1-5) is compared with the same
-//!    pixel in the neighbouring rows ([`super::row_offsets`]), and the row is shifted back by
-//!    the median difference.
+//! 6. jitter removal: each pixel's pulse time (after 1-5) is predicted from the same pixel
+//!    in the neighbouring rows, the rows' offsets are solved for ([`super::row_offsets`]),
+//!    and each row is shifted back by its offset.
 //!
 //! A gain commutes with the resampling, so step 4's factor is measured before step 5 (in the
 //! recorded bins the reference region is given in) and applied after it.
@@ -30,7 +30,7 @@
 //! scanlines (plus the `ny x nx` byte mask). Steps 4 and 6 need every row before any row can
 //! be finished (the median power, the neighbouring rows). For those, ingest makes two passes
 //! and keeps the rows on disk, not in memory: pass 1 decodes and applies steps 1-3 and 5,
-//! records each row's power factor or each pixel's integral and leading edge (`ny x nx`
+//! records each row's power factor or each pixel's integral and pulse time (`ny x nx`
 //! values, like the mask), and writes the row (f32, uncompressed) to an
 //! anonymous scratch file beside the output (deleted when the ingest ends, whatever the
 //! outcome); pass 2 reads the rows back, applies the gains and shifts and writes the cube.
@@ -57,7 +57,7 @@ use super::corrections::{
 use super::plan::{
     stack_image, to_row_layout, DarkCorrection, IngestPlan, PowerCorrection, RowSource,
 };
-use super::row_offsets::{estimate_row_offsets, pixel_leading_edges, pixel_log_integrals};
+use super::row_offsets::{estimate_row_offsets, pixel_log_integrals, pixel_pulse_times};
 use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
@@ -477,7 +477,7 @@ struct Prepared {
     row: Vec<f32>,
     mask: Vec<u8>,
     power_factor: Option<f64>,
-    /// Per-pixel leading edges (ps), for jitter.
+    /// Per-pixel pulse times (ps), for jitter.
     edges_ps: Option<Vec<Option<f64>>>,
     /// Per-pixel log integrals, for automatic power normalisation.
     log_integrals: Option<Vec<Option<f64>>>,
@@ -517,7 +517,7 @@ fn prepare(plan: &IngestPlan, y: usize, raw: RawRow) -> Prepared {
     }
     let edges_ps = plan
         .jitter
-        .map(|_| pixel_leading_edges(&row, nx, &plan.out_axis));
+        .map(|_| pixel_pulse_times(&row, nx, &plan.out_axis));
     Prepared {
         row,
         mask,
