@@ -1334,10 +1334,13 @@ fn cube_scene_jitter_and_power_estimates_against_the_manifest() {
     // Tolerances: the cube scene at 16 paths per pixel is as rough from pixel to pixel as
     // the jitter (its pulse times scatter by ~2 ps about a quadratic in y), so each row's
     // residual carries ~0.5 ps of noise and the estimator cannot see offsets slower than
-    // about 10 rows (row_offsets module doc): it keeps the fast part. Within 0.65 of the
-    // spread (the earlier row-level estimate was off by 16 times the spread), and the
-    // row-to-row jumps, the ragged front the eye sees, within a half of theirs.
-    assert!(rms_of(&err) < 0.65 * rms_of(&want), "{err:?}");
+    // a few rows: the centred stencil's response to an offset of frequency f (rad/row),
+    // 1 - (4 cos f - cos 2f) / 3, falls under the noise-to-spread ratio 0.25 below f = 1.2,
+    // so about 1.2 / pi = 38 % of white jitter's power is lost, sqrt(0.38) = 0.62 of its
+    // rms (row_offsets module doc). Within 0.75 of the spread (0.62 plus the sampling
+    // spread of 48 rows; the earlier row-level estimate was off by 16 times the spread),
+    // and the row-to-row jumps, the ragged front the eye sees, within a half of theirs.
+    assert!(rms_of(&err) < 0.75 * rms_of(&want), "{err:?}");
     assert!(rms_of(&jumps(&err)) < 0.5 * rms_of(&jumps(&want)));
 
     // Power, 3 % per row: the scene's pixel integrals change from row to row by more than
@@ -1462,6 +1465,33 @@ fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
         .flat_map(|y| (0..nx).map(move |x| (x, y)))
         .filter(|&(x, y)| mask[y * nx + x] == 1)
         .collect();
+    // The total over the valid pixels: each row carries its laser power times the gain
+    // ingest gave it (the power normalisation's residual, known here), every other
+    // correction conserves signal. Its noise: the capture's own, independent from bin to
+    // bin, and the dark frame's, the same in every row, so summed coherently over the rows.
+    let meta = container::read_meta(&out).unwrap();
+    let gains: Vec<Option<f64>> =
+        serde_json::from_str(note(&meta, "ingest.power_gains").unwrap()).unwrap();
+    let (mut expected_total, mut truth_total, mut var_own) = (0.0, 0.0, 0.0);
+    let mut frame_weight = vec![0.0f64; nx]; // sum over valid rows of 1 / g, per column
+    for &(x, y) in &valid {
+        let g = flat.data[y * nx + x] as f64;
+        let t: f64 = truth.profile(x, y).iter().map(|&v| v as f64).sum();
+        truth_total += t;
+        expected_total += t * powers[y] * gains[y].unwrap();
+        var_own += truth
+            .profile(x, y)
+            .iter()
+            .map(|&v| (v as f64).max(0.0) * g / k + sigma_d * sigma_d + vpc * vpc / 12.0)
+            .sum::<f64>()
+            / (g * g);
+        frame_weight[x] += 1.0 / g;
+    }
+    let var_frame: f64 = frame_weight.iter().map(|w| w * w).sum::<f64>()
+        * axis.nt as f64
+        * (sigma_d * sigma_d + vpc * vpc / 12.0);
+    let total_sd = (var_own + var_frame).sqrt() / truth_total;
+    let expected = expected_total / truth_total - 1.0;
     // Per cube: (total over the valid pixels / truth's - 1, rms z of the pixel integrals,
     // rms z of the bins summed by 8 (32 ps), rms centroid error in ps over the first pulse).
     let stats = |c: &Cube| -> (f64, f64, f64, f64) {
@@ -1519,9 +1549,8 @@ fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
          32 ps bins {r_bins:.2} x theirs; centroids {r_cen:.2} ps rms"
     );
     // Tolerances, stated:
-    // - total over the valid pixels within 2 %: power is normalised to the median row (the
-    //   median of 48 draws of 3 % lies within about 1 % of 1), every other correction
-    //   conserves signal, and the noise on the total is far below that;
+    // - total over the valid pixels within 4 standard deviations of what the rows' powers
+    //   and gains make of it (the dark frame's noise, summed over the 48 rows, dominates);
     // - pixel integrals within 1.5 times their noise (rms): the dark noise of 256 bins
     //   dominates them; the 3 % power left per row ('auto' cannot resolve it on this scene,
     //   test above) adds a little;
@@ -1530,7 +1559,11 @@ fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
     //   boundaries, and the 3 % power;
     // - first-pulse centroids within 2 ps rms: the jitter left plus the noise in 10 bins.
     // And the raw capture is far off on each count, so each can fail.
-    assert!(g_total.abs() < 0.02, "total {g_total}");
+    eprintln!("every flaw: total expected {expected:+.4} +- {total_sd:.4}");
+    assert!(
+        (g_total - expected).abs() < 4.0 * total_sd,
+        "total {g_total}"
+    );
     assert!(g_int < 1.5, "integrals {g_int}");
     assert!(g_bins < 2.0, "bins {g_bins}");
     assert!(g_cen < 2.0, "centroids {g_cen}");
