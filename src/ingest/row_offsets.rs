@@ -719,10 +719,11 @@ mod tests {
             rms(&want),
             rms(&err)
         );
-        // Tolerance: the slow part is lost (about a third of the spread of white offsets when
-        // the noise is negligible, see the module doc): under 0.4.
+        // Tolerance: the slow part is lost (offsets slower than a few rows; and residuals
+        // are not trusted below a fiftieth of the typical one, so a little more: just over
+        // two fifths of the spread here): under a half.
         assert!(
-            rms(&err) < 0.4 * rms(&want),
+            rms(&err) < 0.5 * rms(&want),
             "{} vs {}",
             rms(&err),
             rms(&want)
