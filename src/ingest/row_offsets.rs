@@ -143,7 +143,7 @@ pub fn pixel_pulse_times(row: &[f32], nx: usize, axis: &TimeAxis) -> Vec<Option<
         .collect();
     let mut heights: Vec<f64> = stats.iter().map(|s| s.1).collect();
     let reference = quantile(&mut heights, 0.9);
-    if !(reference > 0.0) {
+    if reference.is_nan() || reference <= 0.0 {
         return vec![None; nx];
     }
     row.chunks_exact(nt)
@@ -196,7 +196,7 @@ pub fn pixel_log_integrals(row: &[f32], nx: usize, nt: usize) -> Vec<Option<f64>
         .collect();
     let mut sorted = sums.clone();
     let reference = quantile(&mut sorted, 0.9);
-    if !(reference > 0.0) {
+    if reference.is_nan() || reference <= 0.0 {
         return vec![None; nx];
     }
     sums.iter()
@@ -359,7 +359,7 @@ pub fn estimate_row_offsets(
     nx: usize,
     fit: &RowOffsetFit,
 ) -> Vec<Option<f64>> {
-    let ny = if nx == 0 { 0 } else { values.len() / nx };
+    let ny = values.len().checked_div(nx).unwrap_or(0);
     if ny < 5 {
         return vec![None; ny];
     }
@@ -426,9 +426,9 @@ pub fn estimate_row_offsets(
     let mut residuals: Vec<f64> = Vec::with_capacity(nx);
     let mut fitted: Vec<Vec<(f64, f64, usize)>> = Vec::with_capacity(ny);
     let mut centred_all: Vec<Option<(f64, f64)>> = Vec::with_capacity(ny);
-    for y in 0..ny {
+    for (y, row_windows) in windows.iter().enumerate() {
         let mut row = Vec::with_capacity(5);
-        for k in 0..windows[y].len() {
+        for k in 0..row_windows.len() {
             residuals.clear();
             residuals.extend(
                 (0..nx)
@@ -506,7 +506,7 @@ pub fn estimate_row_offsets(
         })
         .collect();
     let sigma2 = median(&mut moments) / MEDIAN_CHI2_1;
-    if !(sigma2 > 0.0) {
+    if sigma2.is_nan() || sigma2 <= 0.0 {
         // Nothing the scene does not explain: no offsets.
         return known.iter().map(|&k| k.then_some(0.0)).collect();
     }
@@ -608,6 +608,7 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(4);
         let normal = Normal::new(0.0, 1.0).unwrap();
         let mut dense = vec![vec![0.0f64; n]; n];
+        #[allow(clippy::needless_range_loop)] // (i, j) and (j, i) of a symmetric matrix
         for i in 0..n {
             for j in i.saturating_sub(BAND)..i {
                 let v = normal.sample(&mut rng);
