@@ -6,6 +6,9 @@
 //!   accumulation, time dilation, per-view unwarp, capture visibility lookup);
 //! - `effects_none`: the same frame with every effect off (ray cast, capture lookup, prefix
 //!   sums, colour);
+//! - (summary only) `all effects, rays reused`: the full pipeline through
+//!   `render_frame_reusing_rays`, as `render_sequence` renders the frames of a dolly after the
+//!   first (the camera rays, aberration and Doppler factors of the frame before are reused);
 //! - `ray_cast_all` / `ray_cast_none`: only the world rays of the same two frames (the
 //!   aberrated rays of the full pipeline; the plain pinhole rays with every effect off), made
 //!   beforehand and cast against the BVH (`Bvh::intersect`), hit distances written to a
@@ -14,10 +17,12 @@
 //! The world-time cube is synthetic (single-bounce light in flight from the scene's laser
 //! spot, `tests/common`), on the scene's own 64 x 48 capture camera, 256 bins of 6 ps. The
 //! camera dollies towards the box at beta 0.5 (`--dolly 0.5` of the command line); the frame
-//! benchmarked is frame 50 of 100. A summary is printed at the end: wall time per frame, CPU
-//! time per frame (user + system of the whole process, `/proc/self/stat`; the steadier
-//! figure on a machine shared with other jobs), and the frame rate two dedicated cores would
-//! give, `2 / CPU seconds per frame` (rows are independent, so the two threads stay busy).
+//! benchmarked is frame 50 of 100. A summary is printed at the end, from the four jobs run in
+//! interleaved rounds (so that a change of load on a shared machine affects each alike):
+//! wall time per frame, CPU time per frame (time on a CPU of all the process's threads,
+//! `/proc/self/task/*/schedstat`; the steadier figure on a machine shared with other jobs),
+//! and the frame rate two dedicated cores would give, `2 / CPU seconds per frame` (rows are
+//! independent, so the two threads stay busy).
 //!
 //! Run: `cargo bench --bench render`.
 
@@ -31,7 +36,10 @@ use femto::geometry::bvh::Bvh;
 use femto::geometry::Ray;
 use femto::pyramid::Pyramid;
 use femto::render::paths::{shortcut_path, Shortcut};
-use femto::render::{probe_pixel, render_frame, Effects, RenderScene, RenderSettings};
+use femto::render::{
+    probe_pixel, render_frame, render_frame_reusing_rays, Effects, FrameRays, RenderScene,
+    RenderSettings,
+};
 use femto::scene::Scene;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -67,34 +75,46 @@ fn ray_cast(bvh: &Bvh, rays: &[Ray], out: &mut [f32]) {
         });
 }
 
-/// User plus system CPU time of this process so far, in seconds (Linux `/proc/self/stat`,
-/// 100 ticks per second), or `None` where that file is missing.
+/// CPU seconds spent so far by all threads of this process: the sum over
+/// `/proc/self/task/*/schedstat` of the time on a CPU (Linux, nanoseconds, unaffected by
+/// the time a thread waits for a core on a shared machine), or `None` where it is missing.
 fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are the 12th and 13th.
-    let rest = &stat[stat.rfind(')')? + 1..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
-    Some(ticks as f64 / 100.0)
+    let mut ns = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(ns as f64 * 1e-9)
 }
 
-/// Wall and CPU seconds per call of `f` on `pool`, over at least 3 s of wall time and 10
-/// calls.
-fn seconds_per_frame(pool: &rayon::ThreadPool, mut f: impl FnMut() + Send) -> (f64, Option<f64>) {
+/// Wall and CPU seconds per call of each of `jobs`, run on `pool` in interleaved rounds (one
+/// call of each job per round, after one warm-up round) for at least 12 s of wall time and
+/// 10 rounds, so that a change of the machine's load affects every job alike.
+fn seconds_per_frame(
+    pool: &rayon::ThreadPool,
+    jobs: &mut [&mut (dyn FnMut() + Send)],
+) -> Vec<(f64, Option<f64>)> {
     pool.install(|| {
-        f();
-        let cpu_start = cpu_seconds();
+        jobs.iter_mut().for_each(|f| f());
+        let mut wall = vec![0.0; jobs.len()];
+        let mut cpu = vec![Some(0.0); jobs.len()];
         let start = Instant::now();
         let mut n = 0;
-        while start.elapsed() < Duration::from_secs(3) || n < 10 {
-            f();
+        while start.elapsed() < Duration::from_secs(12) || n < 10 {
+            for (k, f) in jobs.iter_mut().enumerate() {
+                let (c0, t0) = (cpu_seconds(), Instant::now());
+                f();
+                wall[k] += t0.elapsed().as_secs_f64();
+                cpu[k] = cpu[k]
+                    .zip(c0.zip(cpu_seconds()))
+                    .map(|(s, (a, b))| s + b - a);
+            }
             n += 1;
         }
-        let wall = start.elapsed().as_secs_f64() / n as f64;
-        let cpu = cpu_start
-            .zip(cpu_seconds())
-            .map(|(a, b)| (b - a) / n as f64);
-        (wall, cpu)
+        wall.iter()
+            .zip(cpu)
+            .map(|(w, c)| (w / n as f64, c.map(|c| c / n as f64)))
+            .collect()
     })
 }
 
@@ -134,6 +154,8 @@ fn main() {
         .expect("thread pool");
     let mut pixels = vec![[0.0f32; 3]; WIDTH * HEIGHT];
     let mut depth = vec![0.0f32; WIDTH * HEIGHT];
+    let (mut pixels2, mut pixels3, mut depth2) = (pixels.clone(), pixels.clone(), depth.clone());
+    let mut reused = FrameRays::default();
     let rays_all = frame_rays(&scene, &all, &state);
     let rays_none = frame_rays(&scene, &none, &state);
 
@@ -166,10 +188,18 @@ fn main() {
     group.finish();
     c.final_summary();
 
-    let t_all = seconds_per_frame(&pool, || render_frame(&scene, &all, &state, &mut pixels));
-    let t_none = seconds_per_frame(&pool, || render_frame(&scene, &none, &state, &mut pixels));
-    let t_cast_all = seconds_per_frame(&pool, || ray_cast(&bvh, &rays_all, &mut depth));
-    let t_cast_none = seconds_per_frame(&pool, || ray_cast(&bvh, &rays_none, &mut depth));
+    let times = seconds_per_frame(
+        &pool,
+        &mut [
+            &mut || render_frame(&scene, &all, &state, &mut pixels),
+            &mut || render_frame(&scene, &none, &state, &mut pixels2),
+            &mut || ray_cast(&bvh, &rays_all, &mut depth),
+            &mut || ray_cast(&bvh, &rays_none, &mut depth2),
+            &mut || render_frame_reusing_rays(&scene, &all, &state, &mut reused, &mut pixels3),
+        ],
+    );
+    let (t_all, t_none, t_cast_all, t_cast_none) = (times[0], times[1], times[2], times[3]);
+    let t_reused = times[4];
     println!(
         "render {WIDTH}x{HEIGHT}, {THREADS} threads, built-in cube scene, {} triangles; \
          frame 50 of a 100-frame dolly at beta 0.5: {lit} pixels lit, rays hitting the mesh: \
@@ -183,6 +213,7 @@ fn main() {
     );
     for (name, (wall, cpu)) in [
         ("all effects", t_all),
+        ("all effects, rays reused", t_reused),
         ("--effects none", t_none),
         ("ray cast (all-effects rays)", t_cast_all),
         ("ray cast (effects-none rays)", t_cast_none),
@@ -203,6 +234,13 @@ fn main() {
     if let (Some(a), Some(c)) = (t_all.1, t_cast_all.1) {
         println!(
             "  physics and lookups, all effects: {:.2} CPU ms = {:.2} x the ray cast",
+            (a - c) * 1e3,
+            (a - c) / c
+        );
+    }
+    if let (Some(a), Some(c)) = (t_reused.1, t_cast_all.1) {
+        println!(
+            "  physics and lookups, all effects, rays reused (a dolly's frames): {:.2} CPU ms = {:.2} x the ray cast",
             (a - c) * 1e3,
             (a - c) / c
         );

@@ -5,7 +5,8 @@
 //! Usage: bench_cubeops [--nx 672] [--ny 600] [--nt 512] [--threads 2] [--reps 3]
 //!
 //! GB/s counts bytes read plus bytes written (1 GB = 1e9 bytes), from the best of `reps`
-//! runs; the median is printed beside it. Output buffers are written once before timing so
+//! runs; the median and the mean CPU seconds per run (time on a CPU of all threads, which a
+//! shared machine's load disturbs less than wall time) are printed beside it. Output buffers are written once before timing so
 //! that page faults are not counted.
 
 use femto::cube::TimeAxis;
@@ -24,8 +25,23 @@ fn arg(args: &[String], name: &str, default: usize) -> usize {
     }
 }
 
-/// Runs `f` `reps` times; returns (best, median) seconds.
-fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+/// CPU seconds spent so far by all threads of this process: the sum over
+/// `/proc/self/task/*/schedstat` of the time on a CPU (Linux, nanoseconds; the time a
+/// thread waits for a core on a shared machine is not counted); 0 where it is missing.
+fn cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    let ns: u64 = tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    ns as f64 * 1e-9
+}
+
+/// Runs `f` `reps` times; returns (best, median, mean CPU) seconds.
+fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64, f64) {
+    let cpu0 = cpu_seconds();
     let mut t: Vec<f64> = (0..reps)
         .map(|_| {
             let s = Instant::now();
@@ -33,13 +49,14 @@ fn time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
             s.elapsed().as_secs_f64()
         })
         .collect();
+    let cpu = (cpu_seconds() - cpu0) / reps as f64;
     t.sort_by(f64::total_cmp);
-    (t[0], t[t.len() / 2])
+    (t[0], t[t.len() / 2], cpu)
 }
 
-fn report(name: &str, (best, median): (f64, f64), bytes: usize) {
+fn report(name: &str, (best, median, cpu): (f64, f64, f64), bytes: usize) {
     println!(
-        "{name:<22} {best:>8.3} s (median {median:.3} s)  {:>6.2} GB/s  ({:.0} MB moved)",
+        "{name:<22} {best:>8.3} s (median {median:.3} s, CPU {cpu:.3} s)  {:>6.2} GB/s  ({:.0} MB moved)",
         bytes as f64 / best / 1e9,
         bytes as f64 / 1e6
     );
@@ -48,6 +65,28 @@ fn report(name: &str, (best, median): (f64, f64), bytes: usize) {
 /// Fill in parallel (also pre-faults the pages).
 fn touch<T: Copy + Send + Sync>(v: &mut [T], x: T) {
     v.par_chunks_mut(1 << 16).for_each(|c| c.fill(x));
+}
+
+/// The mip kernel as it was before non-temporal stores (femto commit 193b77e): the same
+/// arithmetic, ordinary stores. The baseline of the "before" figures, timed in the same run.
+mod plain {
+    use rayon::prelude::*;
+
+    pub fn mip_halve_rows(src: &[f32], nt_src: usize, dst: &mut [f32]) {
+        let nt_dst = nt_src.div_ceil(2);
+        dst.par_chunks_mut(nt_dst)
+            .zip(src.par_chunks(nt_src))
+            .with_min_len(64)
+            .for_each(|(d, s)| {
+                let pairs = s.chunks_exact(2);
+                if let Some(&v) = pairs.remainder().first() {
+                    d[nt_dst - 1] = v;
+                }
+                for (o, p) in d.iter_mut().zip(pairs) {
+                    *o = p[0] + p[1];
+                }
+            });
+    }
 }
 
 fn main() {
@@ -163,9 +202,19 @@ fn main() {
             for k in 0..levels.len() {
                 let (lower, upper) = levels.split_at_mut(k);
                 let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
+                plain::mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
+            }
+        });
+        report("mips (plain stores)", t, bytes);
+        let before = levels[0][levels[0].len() / 2];
+        let t = time(reps, || {
+            for k in 0..levels.len() {
+                let (lower, upper) = levels.split_at_mut(k);
+                let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
                 mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
             }
         });
         report(&format!("mips ({} levels)", levels.len()), t, bytes);
+        assert_eq!(levels[0][levels[0].len() / 2], before);
     }
 }

@@ -71,7 +71,8 @@ pub fn cmf_xyz(lambda_nm: f64) -> Option<[f64; 3]> {
         return None;
     }
     let pos = lambda_nm - first;
-    let i = (pos.floor() as usize).min(cie1931::XYZ_CMF.len() - 2);
+    // `pos >= 0` here, so truncation is the floor (and needs no libm call on x86-64).
+    let i = (pos as usize).min(cie1931::XYZ_CMF.len() - 2);
     let f = pos - i as f64;
     let (a, b) = (cie1931::XYZ_CMF[i], cie1931::XYZ_CMF[i + 1]);
     Some([

@@ -42,25 +42,39 @@ const EXPECTED: [&str; 22] = [
     "data/capture/manifest.toml",
 ];
 
-/// Mean of the 8-bit values over full scale, and the fraction of pixels whose brightest
-/// channel exceeds `lit_above` and that are not the contact sheets' label and background
-/// greys (`(235, 235, 235)` ink, `(24, 24, 24)` background).
-fn brightness(path: &Path, lit_above: u8) -> (f64, f64, usize) {
+/// What an 8-bit image shows, leaving out the contact sheets' label ink `(235, 235, 235)` and
+/// background `(24, 24, 24)`: how many pixels have a channel of at least 64 (visibly lit),
+/// the brightest channel anywhere, the fraction of pure-white pixels (clipped), and the
+/// number of pixels.
+struct Exposure {
+    lit: usize,
+    brightest: u8,
+    white_fraction: f64,
+    n: usize,
+}
+
+fn exposure(path: &Path) -> Exposure {
     let img = image::open(path)
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .to_rgb8();
     let n = (img.width() * img.height()) as usize;
-    let mut sum = 0.0;
-    let mut lit = 0usize;
+    let (mut lit, mut brightest, mut white) = (0usize, 0u8, 0usize);
     for p in img.pixels() {
         let [r, g, b] = p.0;
-        sum += (r as f64 + g as f64 + b as f64) / (3.0 * 255.0);
-        let grey = r == g && g == b && (r == 235 || r == 24);
-        if r.max(g).max(b) > lit_above && !grey {
-            lit += 1;
+        if r == g && g == b && (r == 235 || r == 24) {
+            continue;
         }
+        let m = r.max(g).max(b);
+        brightest = brightest.max(m);
+        lit += usize::from(m >= 64);
+        white += usize::from(r.min(g).min(b) >= 254);
     }
-    (sum / n as f64, lit as f64 / n as f64, n)
+    Exposure {
+        lit,
+        brightest,
+        white_fraction: white as f64 / n as f64,
+        n,
+    }
 }
 
 #[test]
@@ -84,19 +98,24 @@ fn quick_demo_writes_every_figure_with_calibration_in_tolerance() {
         "fig7 is written only with --bunny"
     );
 
-    // No image is black or saturated.
+    // No image is black or saturated. Some frames are mostly black by physics (fig. 8's
+    // sensor edge at beta 0.99 looks past the scene), so "black" means nothing visible: the
+    // brightest channel must reach mid-grey and at least 10 pixels be visibly lit;
+    // "saturated" means more than 1 % of the pixels clipped to white.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for f in EXPECTED.iter().filter(|f| f.ends_with(".png")) {
-        let (mean, lit, n) = brightness(&out.join(f), 40);
-        assert!(n > 1000, "{f}: only {n} pixels");
+        let e = exposure(&out.join(f));
+        assert!(e.n > 1000, "{f}: only {} pixels", e.n);
         assert!(
-            (0.02..=0.98).contains(&mean),
-            "{f}: mean value {mean:.4} of full scale (black or saturated)"
+            e.brightest >= 128 && e.lit >= 10,
+            "{f}: black (brightest channel {}, {} lit pixels)",
+            e.brightest,
+            e.lit
         );
         assert!(
-            lit >= 0.05,
-            "{f}: only {:.1} % of the pixels are lit",
-            100.0 * lit
+            e.white_fraction <= 0.01,
+            "{f}: saturated ({:.2} % of the pixels white)",
+            100.0 * e.white_fraction
         );
         assert!(
             report.contains(&format!("]({f})")),

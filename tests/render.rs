@@ -1216,3 +1216,211 @@ fn emitted_energy_equals_the_pyramid_integral_at_cube_times() {
         );
     }
 }
+
+/// Reads the EXR frames `frame_00000.exr ..` of `dir` (width 32).
+fn read_exr_frames(dir: &Path, n: usize) -> Vec<Vec<[f32; 3]>> {
+    (0..n)
+        .map(|k| {
+            let file = dir.join(format!("frame_{k:05}.exr"));
+            exr::prelude::read_first_rgba_layer_from_file(
+                &file,
+                |size, _| vec![[0.0f32; 3]; size.0 * size.1],
+                |buf: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    buf[pos.1 * 32 + pos.0] = [r, g, b];
+                },
+            )
+            .unwrap()
+            .layer_data
+            .channel_data
+            .pixels
+        })
+        .collect()
+}
+
+fn femto_pyramid(dir: &Path, args: &[&std::ffi::OsStr]) {
+    let out = Command::new(env!("CARGO_BIN_EXE_femto"))
+        .current_dir(dir)
+        .arg("pyramid")
+        .args(args)
+        .output()
+        .unwrap();
+    assert_ok(&out);
+}
+
+/// The renderer reads the pyramid that `femto pyramid` stored (in the cube file or a side
+/// file given with `--pyramid`) instead of rebuilding it, and says so when it has to build.
+/// A side file built from the same cube with every value doubled gives frames of exactly
+/// twice the values (scaling by 2 is exact in every step, down to the subnormal f32 output
+/// values, which are rounded to a fixed step), which shows that the stored prefix sums are the
+/// ones used; a side file of another time axis is refused.
+#[test]
+fn cli_reads_the_stored_pyramid() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let inputs = write_cube_scene(dir);
+    let (cube_path, cal, mesh) = inputs.clone();
+    let args = [
+        "--dolly",
+        "0.5",
+        "--size",
+        "32x24",
+        "--frame-count",
+        "3",
+        "--format",
+        "exr",
+    ];
+    let run = |inputs: &(PathBuf, PathBuf, PathBuf), extra: &[&str]| {
+        let mut a: Vec<&str> = args.to_vec();
+        a.extend_from_slice(extra);
+        let out = femto_render(dir, inputs, &a);
+        assert_ok(&out);
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    // No stored pyramid: built in memory, with a note.
+    let err = run(&inputs, &["--out", "built"]);
+    assert!(err.contains("no stored pyramid"), "{err}");
+    let built = read_exr_frames(&dir.join("built"), 3);
+    assert!(built.iter().flatten().any(|p| p[0] > 0.0), "black frames");
+    // Stored in the cube's own file: the same frames, bit for bit, and no note.
+    let stored = dir.join("stored.h5");
+    std::fs::copy(&cube_path, &stored).unwrap();
+    femto_pyramid(dir, &[stored.as_os_str()]);
+    let stored_inputs = (stored.clone(), cal.clone(), mesh.clone());
+    let err = run(&stored_inputs, &["--out", "stored"]);
+    assert!(!err.contains("no stored pyramid"), "{err}");
+    assert!(read_exr_frames(&dir.join("stored"), 3) == built);
+    // A side file built from the doubled cube: every value exactly doubled.
+    let mut doubled = femto::container::read_cube(&cube_path).unwrap();
+    doubled.data.iter_mut().for_each(|v| *v *= 2.0);
+    let doubled_path = dir.join("doubled.h5");
+    femto::container::write_cube(
+        &doubled_path,
+        &doubled,
+        &femto::container::Provenance::new("t"),
+    )
+    .unwrap();
+    let side = dir.join("side.h5");
+    femto_pyramid(
+        dir,
+        &[
+            doubled_path.as_os_str(),
+            "--side-file".as_ref(),
+            side.as_os_str(),
+        ],
+    );
+    let side_arg = side.to_str().unwrap();
+    let err = run(&inputs, &["--pyramid", side_arg, "--out", "side"]);
+    assert!(!err.contains("no stored pyramid"), "{err}");
+    let twice = read_exr_frames(&dir.join("side"), 3);
+    for (a, b) in twice.iter().flatten().zip(built.iter().flatten()) {
+        for (&a, &b) in a.iter().zip(b) {
+            if (2.0 * b).abs() >= f32::MIN_POSITIVE {
+                assert_eq!(a, 2.0 * b);
+            } else {
+                // Subnormal f32: each rounding is off by up to half a step of 1.4e-45.
+                assert!((a - 2.0 * b).abs() <= 3e-45, "{a} vs 2 x {b}");
+            }
+        }
+    }
+    // A side file of another cube (other time axis) is refused, naming the flag.
+    let mut other = doubled;
+    other.axis.dt_ps *= 2.0;
+    let other_path = dir.join("other.h5");
+    femto::container::write_cube(&other_path, &other, &femto::container::Provenance::new("t"))
+        .unwrap();
+    let other_side = dir.join("other_side.h5");
+    femto_pyramid(
+        dir,
+        &[
+            other_path.as_os_str(),
+            "--side-file".as_ref(),
+            other_side.as_os_str(),
+        ],
+    );
+    let mut a: Vec<&str> = args.to_vec();
+    a.extend([
+        "--pyramid",
+        other_side.to_str().unwrap(),
+        "--out",
+        "refused",
+    ]);
+    let out = femto_render(dir, &inputs, &a);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--pyramid") && err.contains("rebuild"),
+        "{err}"
+    );
+    assert!(!dir.join("refused").exists());
+}
+
+/// Frames rendered with the rays of the frame before (a dolly keeps its orientation and
+/// velocity; an orbit and a rotating sensor do not) are the frames `render_frame` makes, bit
+/// for bit, whatever the order in which frames and settings come.
+#[test]
+fn reused_rays_give_the_same_frames_bit_for_bit() {
+    use femto::render::paths::{shortcut_path, Shortcut};
+    use femto::render::{render_frame_reusing_rays, FrameRays};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let (w, h, frames) = (24usize, 18usize, 8usize);
+    let mut rays = FrameRays::default();
+    let mut lit = 0;
+    for shortcut in [
+        Shortcut::Dolly { beta: 0.6 },
+        Shortcut::Orbit { beta: 0.5 },
+        Shortcut::Dolly { beta: -0.4 },
+    ] {
+        let s = shortcut_path(&scene, shortcut, w, h, frames, None).unwrap();
+        let mut all = RenderSettings::for_path(&s.path);
+        all.time_offset_ps = s.time_offset_ps;
+        let no_aberration = RenderSettings {
+            effects: Effects::parse("unwarp,doppler,searchlight,dilation").unwrap(),
+            ..all
+        };
+        for k in [0, 1, 2, 5, 5, 7, 3] {
+            let state = s.path.frame(k);
+            for settings in [&all, &no_aberration] {
+                let want = render(&scene, settings, &state);
+                let mut got = vec![[f32::NAN; 3]; w * h];
+                render_frame_reusing_rays(&scene, settings, &state, &mut rays, &mut got);
+                assert!(got == want, "{shortcut:?} frame {k}");
+                lit += want.iter().filter(|p| p[0] > 0.0).count();
+            }
+        }
+    }
+    assert!(lit > 0, "every frame is black");
+    // A rotating sensor: a boost per pixel, rendered as render_frame does.
+    let mut path = shortcut_path(&scene, Shortcut::Dolly { beta: 0.3 }, w, h, frames, None)
+        .unwrap()
+        .path;
+    path = CameraPath::new(
+        path.spec(),
+        Some(path.tau0_ps()),
+        Some(SensorRotation {
+            axis: RotationAxis::Roll,
+            beta_edge: 0.5,
+        }),
+        path.motion().clone(),
+        "rotating",
+    )
+    .unwrap();
+    let settings = RenderSettings::for_path(&path);
+    for k in [0, 1] {
+        let state = path.frame(k);
+        let mut got = vec![[f32::NAN; 3]; w * h];
+        render_frame_reusing_rays(&scene, &settings, &state, &mut rays, &mut got);
+        assert!(
+            got == render(&scene, &settings, &state),
+            "rotating frame {k}"
+        );
+    }
+}

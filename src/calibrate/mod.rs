@@ -30,7 +30,9 @@ pub use points::{load_points, save_points_toml, Correspondence};
 pub use refine::{fit_camera, IntrinsicsPrior, SpatialFit, SpatialOptions};
 pub use register::{register, Registration};
 pub use temporal::{
-    arrival_samples, first_arrival_bin, fit_time_offset, ArrivalOptions, ArrivalSample, TimeFit,
+    arrival_samples, calibrate_time, direct_arrival_samples, first_arrival_bin, fit_direct_time,
+    fit_time_offset, footprints, window_centroid_bin, ArrivalOptions, ArrivalSample, Footprint,
+    Footprints, TimeFit,
 };
 
 /// Errors of the calibration algorithms and of the correspondence files.

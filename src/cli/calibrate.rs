@@ -1,6 +1,7 @@
 //! `femto calibrate CUBE.h5 --mesh MESH --points POINTS [--laser X,Y,Z] [--intrinsics CAL.toml]`:
 //! fit the capture camera to 2D-3D correspondences, register every pixel to the mesh, fit the
-//! time offset from the cube's first arrivals, then write the calibration TOML and the cube's
+//! time offset from the cube's direct light (first arrivals, then direct-light centroids over
+//! each pixel's footprint), then write the calibration TOML and the cube's
 //! `registration` group, and print the report.
 //!
 //! Glue only: the fits are [`femto::calibrate`], the group schema [`femto::store::registration`].
@@ -8,8 +9,9 @@
 use anyhow::{bail, Context};
 use clap::Args;
 use femto::calibrate::{
-    arrival_samples, fit_camera, fit_time_offset, load_points, register, ArrivalOptions,
-    ArrivalSample, CalibrateError, Registration, SpatialOptions,
+    arrival_samples, direct_arrival_samples, fit_camera, fit_direct_time, footprints, load_points,
+    register, ArrivalOptions, ArrivalSample, CalibrateError, Footprints, Registration,
+    SpatialOptions,
 };
 use femto::camera::{one_line_toml_error, Intrinsics, LaserFile, MediumFile};
 use femto::container::{self, CubeReader};
@@ -58,11 +60,12 @@ pub struct CalibrateArgs {
     /// Keep points flagged as outliers in the camera fit (they are still reported).
     #[arg(long)]
     pub keep_outliers: bool,
-    /// First-arrival detection: the direct pulse is searched from the first bin at or above
-    /// this fraction of a pixel's maximum.
+    /// First-arrival detection (the first pass of the time fit): the direct pulse is searched
+    /// from the first bin at or above this fraction of a pixel's maximum.
     #[arg(long, default_value_t = 0.3)]
     pub threshold: f64,
-    /// First-arrival detection: skip pixels whose maximum is below this value.
+    /// Time fit: skip pixels whose maximum (over the direct-light window, after the first
+    /// pass) is below this value.
     #[arg(long, default_value_t = 0.0)]
     pub min_peak: f32,
     /// Where to write the calibration TOML [default: next to the cube, <stem>.calibration.toml].
@@ -131,18 +134,27 @@ fn default_out(cube: &Path) -> PathBuf {
     cube.with_file_name(format!("{stem}.calibration.toml"))
 }
 
-/// First arrivals of every registered pixel, streaming the cube by row slabs.
-fn first_arrivals(
+/// The time samples of one pass of [`fit_direct_time`], streaming the cube by row slabs:
+/// first arrivals (`model` None) or direct-light centroids under `model = (t0_ps, scale)`.
+fn time_samples(
     reader: &CubeReader,
     reg: &Registration,
+    prints: &Footprints,
     laser_m: &Point3<f64>,
+    eta: f64,
+    model: Option<(f64, f64)>,
     options: &ArrivalOptions,
 ) -> anyhow::Result<Vec<ArrivalSample>> {
     let meta = reader.meta();
     let (nx, ny) = (meta.nx, meta.ny);
     let mask = reader.read_mask()?;
     let rows_per_slab = ((32usize << 20) / (meta.row_len() * 4)).clamp(1, ny);
-    let bar = super::progress(ny as u64, "arrivals");
+    let what = if model.is_some() {
+        "direct light"
+    } else {
+        "first arrivals"
+    };
+    let bar = super::progress(ny as u64, what);
     let mut samples = Vec::new();
     for y0 in (0..ny).step_by(rows_per_slab) {
         let n = rows_per_slab.min(ny - y0);
@@ -155,17 +167,24 @@ fn first_arrivals(
             data: reader.read_rows(y0, n)?,
             mask: mask.as_ref().map(|m| m[a..b].to_vec()),
         };
-        let slab_reg = Registration {
-            nx,
-            ny: n,
-            camera_m: reg.camera_m,
-            point_m: reg.point_m[a..b].to_vec(),
-            dist_m: reg.dist_m[a..b].to_vec(),
-            normal: reg.normal[a..b].to_vec(),
-            triangle: reg.triangle[a..b].to_vec(),
-            mask: reg.mask[a..b].to_vec(),
+        let found = match model {
+            None => {
+                let slab_reg = Registration {
+                    nx,
+                    ny: n,
+                    camera_m: reg.camera_m,
+                    point_m: reg.point_m[a..b].to_vec(),
+                    dist_m: reg.dist_m[a..b].to_vec(),
+                    normal: reg.normal[a..b].to_vec(),
+                    triangle: reg.triangle[a..b].to_vec(),
+                    mask: reg.mask[a..b].to_vec(),
+                };
+                arrival_samples(&slab, &slab_reg, laser_m, options)?
+            }
+            Some((t0_ps, scale)) => {
+                direct_arrival_samples(&slab, &prints.rows(y0, n), eta, t0_ps, scale, options)?
+            }
         };
-        let found = arrival_samples(&slab, &slab_reg, laser_m, options)?;
         samples.extend(
             found
                 .into_iter()
@@ -231,12 +250,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let arrival = ArrivalOptions {
         threshold_fraction: args.threshold,
         min_peak: args.min_peak,
+        ..ArrivalOptions::default()
     };
-    let samples = first_arrivals(&reader, &reg, &laser_m, &arrival)?;
+    let prints = footprints(&reg, &laser_m);
+    let (tfit, samples) = fit_direct_time(eta, args.fit_time_scale, &mut |model| {
+        time_samples(&reader, &reg, &prints, &laser_m, eta, model, &arrival)
+    })
+    .with_context(|| format!("{}", args.cube.display()))?;
     drop(reader);
-    let pairs: Vec<(f64, f64)> = samples.iter().map(|s| (s.t_first_ps, s.path_m)).collect();
-    let tfit = fit_time_offset(&pairs, eta, args.fit_time_scale)
-        .with_context(|| format!("{}", args.cube.display()))?;
     let cal = fit.calibration(tfit.t0_ps, tfit.time_scale, laser_m, eta);
 
     let summary = FitSummary {
@@ -350,7 +371,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         }
     ));
     line(format!(
-        "time residuals: rms {:.3} ps over {} inliers of {} pixels with a first arrival, robust sigma {:.3} ps",
+        "time residuals: rms {:.3} ps over {} inliers of {} pixels with direct light, robust sigma {:.3} ps",
         tfit.rms_ps,
         tfit.inlier_count(),
         samples.len(),

@@ -9,9 +9,13 @@
 //! femto render ... --path path.toml --frames 60..120 --format exr --out frames/ # job 2
 //! ```
 //!
-//! The world-time cube's prefix sums are built in memory (`Pyramid::build`) on every run:
-//! no cube file format for stored prefix sums exists yet. Frame sequences are numbered with
-//! the global frame index, so the parts of a split render land side by side.
+//! The world-time cube's prefix sums come from the pyramid stored by `femto pyramid`: the
+//! cube file's `pyramid` group, or the side file given with `--pyramid`
+//! ([`femto::store::pyramid::read_pyramid_for`], refused when it was built from a cube of
+//! another shape or time axis). A cube without one is read whole and its prefix sums are
+//! built in memory (`Pyramid::build`, the same kernel), with a note saying so. Frame
+//! sequences are numbered with the global frame index, so the parts of a split render land
+//! side by side.
 
 use anyhow::{anyhow, bail, Context};
 use clap::{ArgGroup, Args};
@@ -28,6 +32,7 @@ use femto::render::{
     auto_exposure, check_frames, check_path_clear, encode_srgb8, isochrone_range, render_sequence,
     Effects, Isochrones, RenderScene, RenderSettings, View,
 };
+use femto::store::pyramid::{self as stored_pyramid, read_pyramid_for};
 use femto::video::{Frame, VideoFormat, VideoWriter};
 use std::ops::Range;
 use std::path::PathBuf;
@@ -48,6 +53,10 @@ pub struct RenderArgs {
     /// World-time cube (HDF5, e.g. from the unwarp step).
     #[arg(long, value_name = "WORLD.h5")]
     pub cube: PathBuf,
+    /// Pyramid side file of the cube (`femto pyramid CUBE --side-file PATH`). Default: the
+    /// cube file's own `pyramid` group when it has one, else prefix sums built in memory.
+    #[arg(long, value_name = "PYRAMID.h5")]
+    pub pyramid: Option<PathBuf>,
     /// Calibration of the capture camera, laser spot and time origin (TOML).
     #[arg(long, value_name = "CAL.toml")]
     pub calibration: PathBuf,
@@ -276,9 +285,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     let laser_nm = laser_wavelength(&args, &meta.notes)?;
-    let cube = container::read_cube(&args.cube).with_context(cube_ctx)?;
-    let pyramid = Pyramid::build(&cube);
-    drop(cube);
+    // The note is printed once the inputs have passed every check (an error stays one line).
+    let (pyramid, pyramid_note) = if let Some(side) = &args.pyramid {
+        let p = read_pyramid_for(&args.cube, Some(side))
+            .with_context(|| format!("--pyramid {}", side.display()))?;
+        (p, None)
+    } else if meta.groups.iter().any(|g| g == stored_pyramid::GROUP) {
+        (
+            read_pyramid_for(&args.cube, None).with_context(cube_ctx)?,
+            None,
+        )
+    } else {
+        let cube = container::read_cube(&args.cube).with_context(cube_ctx)?;
+        let note = format!(
+            "femto render: note: {} has no stored pyramid; its prefix sums were built in \
+             memory (`femto pyramid {}` stores them once)",
+            args.cube.display(),
+            args.cube.display()
+        );
+        (Pyramid::build(&cube), Some(note))
+    };
     let scene = RenderScene::new(&bvh, calibration, &pyramid, laser_nm).with_context(|| {
         format!(
             "--cube {} and --calibration {}",
@@ -378,6 +404,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut writer = VideoWriter::create(&args.out, format, spec.width, spec.height, args.fps)
         .with_context(|| format!("--out {}", args.out.display()))?
         .first_frame_index(frames.start);
+    if let Some(note) = pyramid_note {
+        eprintln!("{note}");
+    }
     let bar = super::progress(frames.len() as u64, "render");
     let started = Instant::now();
     let mut frame = Frame {
@@ -439,6 +468,7 @@ mod tests {
     fn laser_wavelength_comes_from_flag_then_attribute_then_default() {
         let args = |nm: Option<f64>| RenderArgs {
             cube: "c.h5".into(),
+            pyramid: None,
             calibration: "c.toml".into(),
             mesh: "m.obj".into(),
             path: None,

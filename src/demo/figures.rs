@@ -121,6 +121,26 @@ fn render_rgb8(scene: &RenderScene, s: &RenderSettings, path: &CameraPath, k: us
     rgb8
 }
 
+/// Write `frames` (label, `w` x `h` 8-bit RGB) side by side as one labelled contact sheet.
+fn write_sheet(
+    path: &Path,
+    w: usize,
+    h: usize,
+    frames: &[(String, Vec<u8>)],
+) -> Result<(), DemoError> {
+    let tiles: Vec<Tile> = frames
+        .iter()
+        .map(|(label, rgb8)| Tile {
+            width: w,
+            height: h,
+            rgb8,
+            label,
+        })
+        .collect();
+    let sheet = contact_sheet(&tiles, &SheetStyle::default());
+    write_png(path, sheet.width, sheet.height, &sheet.rgb8)
+}
+
 /// Times of reception (world time at which light reaches the camera, ps) by which a camera
 /// at rest at `camera_m` has received each fraction in `fractions` (increasing, in `[0, 1]`)
 /// of the captured light: every bin of the world cube, at the surface point its capture
@@ -155,7 +175,8 @@ pub fn receive_quantiles_ps(
             (a.min(s), b.max(s))
         });
     let t_start = scene.world_time_ps(w.axis.t0_ps);
-    if !(lo <= hi) {
+    if lo > hi {
+        // No pixel sees the mesh (min/max of nothing).
         return vec![t_start; fractions.len()];
     }
     let start = t_start + lo;
@@ -414,20 +435,13 @@ pub fn fig5(
             s.time_offset_ps = t_receive_ps;
             frames.push(render_rgb8(scene, &s, &path, 0));
         }
-        let labels: Vec<String> = betas.iter().map(|b| format!("beta={b}")).collect();
-        let tiles: Vec<Tile> = frames
+        let labelled: Vec<(String, Vec<u8>)> = betas
             .iter()
-            .zip(&labels)
-            .map(|(rgb8, label)| Tile {
-                width: w,
-                height: h,
-                rgb8,
-                label,
-            })
+            .map(|b| format!("beta={b}"))
+            .zip(frames)
             .collect();
-        let sheet = contact_sheet(&tiles, &SheetStyle::default());
         let file = format!("{stem}.png");
-        write_png(&out.join(&file), sheet.width, sheet.height, &sheet.rgb8)?;
+        write_sheet(&out.join(&file), w, h, &labelled)?;
         outputs.push(OutputFile {
             figure: "fig5".into(),
             path: file,
@@ -456,18 +470,17 @@ fn join_betas(betas: &[f64]) -> String {
 }
 
 /// The approach path: from `start` towards `target`, proper velocity rising linearly from 0 to
-/// that of `beta_max` over `total_tau_ps` of proper time (module doc).
+/// that of `beta_max` over the proper time of `spec`'s frames, `dtau_ps` times the number of
+/// frame intervals (module doc).
 pub fn approach_path(
     start: Point3<f64>,
     target: Point3<f64>,
     up: Vector3<f64>,
     vfov_deg: f64,
     beta_max: f64,
-    width: usize,
-    height: usize,
-    frames: usize,
-    total_tau_ps: f64,
+    spec: FrameSpec,
 ) -> Result<CameraPath, DemoError> {
+    let total_tau_ps = spec.dtau_ps * (spec.frames.max(2) - 1) as f64;
     let pose = Pose::look_at(start, target, up).ok_or_else(|| {
         DemoError::Render(crate::render::RenderError::Setting {
             name: "approach",
@@ -488,12 +501,6 @@ pub fn approach_path(
         clock: Clock::Proper,
         interpolation: Interpolation::Cubic,
         keyframes: vec![kf(0.0, start, 0.0), kf(total_tau_ps, end, beta_max)],
-    };
-    let spec = FrameSpec {
-        width,
-        height,
-        frames,
-        dtau_ps: total_tau_ps / (frames.max(2) - 1) as f64,
     };
     Ok(CameraPath::new(
         spec,
@@ -540,7 +547,15 @@ pub fn approach_video(
     // The camera must stop short of the target: at most 60 % of the way.
     let u_max = gamma(APPROACH_BETA) * APPROACH_BETA * C_M_PER_PS;
     let tau_max = 1.2 * r0 / u_max;
-    let build = |tau: f64| approach_path(start, st.target, up, vfov, APPROACH_BETA, w, h, n, tau);
+    let build = |tau: f64| {
+        let spec = FrameSpec {
+            width: w,
+            height: h,
+            frames: n,
+            dtau_ps: tau / (n.max(2) - 1) as f64,
+        };
+        approach_path(start, st.target, up, vfov, APPROACH_BETA, spec)
+    };
     let mut tau = tau_max;
     if swept_span_ps(&build(tau_max)?, &st.target, eta) > want_ps {
         let (mut lo, mut hi) = (0.0, tau_max);
@@ -608,23 +623,8 @@ pub fn approach_video(
         ),
         params: params(&pairs),
     }];
-    let tiles: Vec<Tile> = poster
-        .iter()
-        .map(|(label, rgb8)| Tile {
-            width: w,
-            height: h,
-            rgb8,
-            label,
-        })
-        .collect();
-    let sheet = contact_sheet(&tiles, &SheetStyle::default());
     let sheet_file = format!("{stem}_frames.png");
-    write_png(
-        &out.join(&sheet_file),
-        sheet.width,
-        sheet.height,
-        &sheet.rgb8,
-    )?;
+    write_sheet(&out.join(&sheet_file), w, h, &poster)?;
     outputs.push(OutputFile {
         figure: figure.into(),
         path: sheet_file,
@@ -719,18 +719,8 @@ pub fn fig8(
         ));
         frames.push((format!("edge={beta_edge}"), rgb));
     }
-    let tiles: Vec<Tile> = frames
-        .iter()
-        .map(|(label, rgb8)| Tile {
-            width: w,
-            height: h,
-            rgb8,
-            label,
-        })
-        .collect();
-    let sheet = contact_sheet(&tiles, &SheetStyle::default());
     let file = "fig8_rotation.png";
-    write_png(&out.join(file), sheet.width, sheet.height, &sheet.rgb8)?;
+    write_sheet(&out.join(file), w, h, &frames)?;
     outputs.push(OutputFile {
         figure: "fig8".into(),
         path: file.into(),

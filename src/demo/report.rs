@@ -108,7 +108,7 @@ pub fn markdown(summary: &DemoSummary) -> String {
              and field of view; intrinsics scaled to the capture's {} x {}), {} px of Gaussian \
              noise added to each coordinate; fit RMS {:.3} px, {} outliers. Camera {:.3} m from \
              the fiducials' centroid, off by {:.3} mm. t0 fitted {:.3} ps (true {:.3} ps, bins of \
-             {} ps) from {} first arrivals ({} inliers, RMS {:.3} ps).",
+             {} ps) from the direct light of {} pixels ({} inliers, RMS {:.3} ps).",
             cell(&c.scene),
             c.fiducials,
             c.fiducial_width,

@@ -1,7 +1,9 @@
 //! The per-pixel pipeline of the renderer (steps 1-7 of the [`crate::render`] module doc):
 //! camera ray, aberration, hit, emission time, capture lookup, searchlight accumulation,
 //! Doppler colour. [`render_frame`] runs it over a frame in parallel (rayon, one task per
-//! row); [`probe_pixel`] returns every intermediate quantity of one pixel.
+//! row, each stage over the whole row before the next); [`render_frame_reusing_rays`] keeps
+//! the rays of steps 1-2 from frame to frame while they stay the same (a dolly);
+//! [`probe_pixel`] returns every intermediate quantity of one pixel.
 
 use super::views;
 use super::{ColourOutput, RenderScene, RenderSettings, View};
@@ -43,21 +45,65 @@ pub struct PixelSample {
     pub rgb: [f64; 3],
 }
 
+/// A boost with the constants of its aberration formula precomputed, so that a ray costs one
+/// division ([`Boost::aberrate_with_doppler`] written with `1 / gamma`,
+/// `gamma / (gamma + 1)` and one reciprocal of `1 - b . d'`).
+#[derive(Clone, Copy)]
+struct PixelBoost {
+    beta: Vector3<f64>,
+    gamma: f64,
+    inv_gamma: f64,
+    /// `gamma / (gamma + 1)`.
+    k: f64,
+}
+
+impl PixelBoost {
+    #[inline]
+    fn new(b: &Boost) -> PixelBoost {
+        let g = b.gamma();
+        PixelBoost {
+            beta: b.beta_vector(),
+            gamma: g,
+            inv_gamma: 1.0 / g,
+            k: g / (g + 1.0),
+        }
+    }
+
+    /// World-frame ray and Doppler factor of the camera ray `d_cam` (physics.md; the same
+    /// formula as [`Boost::aberrate_with_doppler`]).
+    #[inline(always)]
+    fn aberrate_with_doppler(&self, d_cam: &Vector3<f64>) -> (Vector3<f64>, f64) {
+        let b_dot_d = self.beta.dot(d_cam);
+        let inv = 1.0 / (1.0 - b_dot_d);
+        let d_world = (d_cam * self.inv_gamma + self.beta * (self.k * b_dot_d - 1.0)) * inv;
+        (d_world, self.gamma * (1.0 - b_dot_d))
+    }
+
+    /// Doppler factor of light arriving from the world direction `d`, `1 / (gamma (1 + b . d))`
+    /// (aberration off).
+    #[inline(always)]
+    fn doppler_of_world_ray(&self, d: &Vector3<f64>) -> f64 {
+        1.0 / (self.gamma * (1.0 + self.beta.dot(d)))
+    }
+}
+
 /// Per-frame constants of the pipeline.
 struct FrameCtx<'s> {
     state: &'s FrameState,
     world_from_camera: Matrix3<f64>,
     origin: Point3<f64>,
     origin_f32: Point3<f32>,
-    focal_px: f64,
+    inv_focal_px: f64,
     half: Vector2<f64>,
     /// One boost for the whole frame; None when it varies per pixel (rotating sensor).
-    boost: Option<Boost>,
+    boost: Option<PixelBoost>,
     t_receive_ps: f64,
     eta: f64,
     /// `eta / c`: flight time per metre, ps.
     eta_over_c_ps_per_m: f64,
     inv_dtau_per_ps: f64,
+    /// The colour of every pixel when the Doppler shift is off (the laser's own).
+    fixed_colour: Option<[f64; 3]>,
 }
 
 /// A boost for `beta`, its speed pulled just below 1 if rounding took it to 1 (paths and
@@ -77,6 +123,21 @@ fn boost_of(beta: &Vector3<f64>) -> Boost {
     }
 }
 
+/// Colour of light received at `lambda_nm` in the output's colour space, luminance 1.
+#[inline]
+fn colour_of(colour: ColourOutput, lambda_nm: f64) -> [f64; 3] {
+    match colour {
+        ColourOutput::LinearSrgb => color::laser_colour(lambda_nm),
+        ColourOutput::Xyz => match color::monochromatic_linear_srgb(lambda_nm) {
+            Some(_) => {
+                let [cx, cy, cz] = color::cmf_xyz(lambda_nm).unwrap_or([1.0; 3]);
+                [cx / cy, 1.0, cz / cy]
+            }
+            None => color::linear_srgb_to_xyz([1.0; 3]),
+        },
+    }
+}
+
 impl<'s> FrameCtx<'s> {
     fn new(scene: &RenderScene, settings: &RenderSettings, state: &'s FrameState) -> Self {
         let e = settings.effects;
@@ -84,11 +145,11 @@ impl<'s> FrameCtx<'s> {
         let focal_px = 0.5 * h / (0.5 * state.vfov_deg.to_radians()).tan();
         let per_pixel = e.rotation && state.rotation.is_some();
         let boost = if !e.needs_boost() {
-            Some(Boost::identity())
+            Some(PixelBoost::new(&Boost::identity()))
         } else if per_pixel {
             None
         } else {
-            Some(boost_of(&state.beta))
+            Some(PixelBoost::new(&boost_of(&state.beta)))
         };
         let t_path_ps = if e.dilation {
             state.t_world_ps
@@ -101,72 +162,90 @@ impl<'s> FrameCtx<'s> {
             world_from_camera: *state.world_from_camera.matrix(),
             origin: o,
             origin_f32: Point3::new(o.x as f32, o.y as f32, o.z as f32),
-            focal_px,
+            inv_focal_px: 1.0 / focal_px,
             half: Vector2::new(0.5 * w, 0.5 * h),
             boost,
             t_receive_ps: t_path_ps + settings.time_offset_ps,
             eta: scene.capture.eta,
             eta_over_c_ps_per_m: flight_time_ps(scene.capture.eta, 1.0),
             inv_dtau_per_ps: 1.0 / settings.dtau_ps,
+            fixed_colour: (!e.doppler).then(|| colour_of(settings.colour, scene.laser_nm)),
         }
     }
 
+    /// Step 1-2 of the pipeline for pixel `(i, j)`: the camera ray `d'` (world axes), the
+    /// world ray and the Doppler factor of the light arriving along it, and the velocity used.
     #[inline(always)]
-    fn trace(
+    fn ray(&self, settings: &RenderSettings, i: usize, j: usize) -> PixelRay {
+        let (u, v) = (i as f64 + 0.5, j as f64 + 0.5);
+        let offset = Vector2::new(u - self.half.x, v - self.half.y);
+        let local = Vector3::new(
+            offset.x * self.inv_focal_px,
+            offset.y * self.inv_focal_px,
+            1.0,
+        );
+        let d = self.world_from_camera * local;
+        let d_camera = d * (1.0 / d.norm());
+        let boost = match self.boost {
+            Some(b) => b,
+            None => PixelBoost::new(&boost_of(&self.state.pixel_beta(&offset, &self.half))),
+        };
+        let (d_world, doppler) = if settings.effects.aberration {
+            boost.aberrate_with_doppler(&d_camera)
+        } else {
+            (d_camera, boost.doppler_of_world_ray(&d_camera))
+        };
+        PixelRay {
+            d_camera,
+            d_world,
+            beta: boost.beta,
+            doppler,
+        }
+    }
+
+    /// Step 3: distance to the nearest hit of the world ray `d_world` (from the frame's
+    /// camera position), or None when it leaves the scene.
+    #[inline(always)]
+    fn cast(&self, scene: &RenderScene, d_world: &Vector3<f64>) -> Option<f32> {
+        let ray = Ray::new(
+            self.origin_f32,
+            Vector3::new(d_world.x as f32, d_world.y as f32, d_world.z as f32),
+        );
+        scene.bvh.intersect(&ray, 0.0, f32::INFINITY).map(|h| h.t)
+    }
+
+    /// Steps 4-7 for the world ray `d_world` with Doppler factor `doppler` whose nearest hit
+    /// is at `hit_t` metres.
+    #[inline(always)]
+    fn shade(
         &self,
         scene: &RenderScene,
         settings: &RenderSettings,
-        i: usize,
-        j: usize,
-    ) -> PixelSample {
+        d_world: &Vector3<f64>,
+        doppler: f64,
+        hit_t: Option<f32>,
+    ) -> Shaded {
         let e = settings.effects;
-        let (u, v) = (i as f64 + 0.5, j as f64 + 0.5);
-        let offset = Vector2::new(u - self.half.x, v - self.half.y);
-        let local = Vector3::new(offset.x / self.focal_px, offset.y / self.focal_px, 1.0);
-        let d = self.world_from_camera * local;
-        let d_camera = d * (1.0 / d.norm());
-        let (boost, beta) = match self.boost {
-            Some(b) => (b, b.beta_vector()),
-            None => {
-                let beta = self.state.pixel_beta(&offset, &self.half);
-                (boost_of(&beta), beta)
-            }
-        };
-        let (d_world, doppler) = if e.aberration {
-            boost.aberrate_with_doppler(&d_camera)
-        } else {
-            // D of the light arriving from the world direction d: 1 / (gamma (1 + beta . d)).
-            (d_camera, 1.0 / boost.inverse().doppler_factor(&d_camera))
-        };
         let lambda_nm = if e.doppler {
             doppler * scene.laser_nm
         } else {
             scene.laser_nm
         };
-        let mut sample = PixelSample {
-            d_camera,
-            d_world,
-            beta,
-            doppler,
-            t_receive_ps: self.t_receive_ps,
+        let mut out = Shaded {
+            lambda_nm,
             hit_m: None,
             t_emit_ps: None,
             t_arrival_ps: None,
             capture_pixel: None,
-            lambda_nm,
             value: 0.0,
-            rgb: [0.0; 3],
+            colour: Colour::Black,
         };
-        let ray = Ray::new(
-            self.origin_f32,
-            Vector3::new(d_world.x as f32, d_world.y as f32, d_world.z as f32),
-        );
-        let Some(hit) = scene.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
-            return sample;
+        let Some(t) = hit_t else {
+            return out;
         };
-        let dist_m = hit.t as f64;
+        let dist_m = t as f64;
         let p = self.origin + d_world * dist_m;
-        sample.hit_m = Some((p, dist_m));
+        out.hit_m = Some((p, dist_m));
         if let View::Isochrones(iso) = settings.view {
             let t = views::first_arrival_world_ps(scene, &p)
                 + if e.unwarp {
@@ -174,16 +253,17 @@ impl<'s> FrameCtx<'s> {
                 } else {
                     0.0
                 };
-            sample.t_arrival_ps = Some(t);
+            out.t_arrival_ps = Some(t);
             let lit = views::laser_sees(scene, &p);
-            sample.rgb = views::isochrone_colour(&iso, t, lit);
-            sample.value = color::luminance(sample.rgb);
-            return sample;
+            let rgb = views::isochrone_colour(&iso, t, lit);
+            out.value = color::luminance(rgb);
+            out.colour = Colour::Display(rgb);
+            return out;
         }
-        let Some((x, y)) = scene.capture_pixel(&p, &d_world) else {
-            return sample;
+        let Some((x, y)) = scene.capture_pixel(&p, d_world) else {
+            return out;
         };
-        sample.capture_pixel = Some((x, y));
+        out.capture_pixel = Some((x, y));
         let d_light = if e.searchlight { doppler } else { 1.0 };
         let value = match settings.view {
             View::Integrated => {
@@ -202,27 +282,132 @@ impl<'s> FrameCtx<'s> {
                     _ if e.unwarp => self.t_receive_ps - self.eta_over_c_ps_per_m * dist_m,
                     _ => self.t_receive_ps,
                 };
-                sample.t_emit_ps = Some(t_e);
+                out.t_emit_ps = Some(t_e);
                 let window_ps = settings.dtau_ps / d_light;
                 let energy = scene.emitted_energy(x, y, t_e, t_e + window_ps);
                 // Radiometry::frame_value, with the division by dtau done once per frame.
                 settings.radiometry.window_factor(d_light) * energy * self.inv_dtau_per_ps
             }
         };
-        sample.value = value;
-        let colour = match settings.colour {
-            ColourOutput::LinearSrgb => color::laser_colour(lambda_nm),
-            ColourOutput::Xyz => match color::monochromatic_linear_srgb(lambda_nm) {
-                Some(_) => {
-                    let [cx, cy, cz] = color::cmf_xyz(lambda_nm).unwrap_or([1.0; 3]);
-                    [cx / cy, 1.0, cz / cy]
-                }
-                None => color::linear_srgb_to_xyz([1.0; 3]),
-            },
-        };
-        sample.rgb = [value * colour[0], value * colour[1], value * colour[2]];
-        sample
+        out.value = value;
+        out.colour = Colour::Radiance(value);
+        out
     }
+
+    /// Step 7, the pixel's colour: `value` times the colour of the received wavelength
+    /// `lambda_nm`, black, or the display colour of an isochrone.
+    #[inline(always)]
+    fn rgb(&self, settings: &RenderSettings, lambda_nm: f64, colour: Colour) -> [f64; 3] {
+        match colour {
+            Colour::Black => [0.0; 3],
+            Colour::Display(rgb) => rgb,
+            Colour::Radiance(value) => {
+                let c = match self.fixed_colour {
+                    Some(c) => c,
+                    None => colour_of(settings.colour, lambda_nm),
+                };
+                [value * c[0], value * c[1], value * c[2]]
+            }
+        }
+    }
+
+    /// Steps 3-7 for one row whose world rays and Doppler factors are given, one stage at a
+    /// time (all casts, then all lookups, then all colours): the same arithmetic as
+    /// [`FrameCtx::trace`], with each stage's loop kept tight.
+    #[inline(always)]
+    fn render_row(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        d_world: &[Vector3<f64>],
+        doppler: &[f64],
+        scratch: &mut RowScratch,
+        row: &mut [[f32; 3]],
+    ) {
+        scratch.hit_t.clear();
+        scratch.lambda_nm.clear();
+        scratch.colour.clear();
+        scratch
+            .hit_t
+            .extend(d_world.iter().map(|d| self.cast(scene, d)));
+        for ((d, &doppler), &hit_t) in d_world.iter().zip(doppler).zip(&scratch.hit_t) {
+            let s = self.shade(scene, settings, d, doppler, hit_t);
+            scratch.lambda_nm.push(s.lambda_nm);
+            scratch.colour.push(s.colour);
+        }
+        for ((px, &lambda_nm), &colour) in
+            row.iter_mut().zip(&scratch.lambda_nm).zip(&scratch.colour)
+        {
+            let rgb = self.rgb(settings, lambda_nm, colour);
+            *px = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32];
+        }
+    }
+
+    /// The whole pipeline for one pixel.
+    fn trace(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        i: usize,
+        j: usize,
+    ) -> PixelSample {
+        let r = self.ray(settings, i, j);
+        let hit_t = self.cast(scene, &r.d_world);
+        let s = self.shade(scene, settings, &r.d_world, r.doppler, hit_t);
+        let rgb = self.rgb(settings, s.lambda_nm, s.colour);
+        PixelSample {
+            d_camera: r.d_camera,
+            d_world: r.d_world,
+            beta: r.beta,
+            doppler: r.doppler,
+            t_receive_ps: self.t_receive_ps,
+            hit_m: s.hit_m,
+            t_emit_ps: s.t_emit_ps,
+            t_arrival_ps: s.t_arrival_ps,
+            capture_pixel: s.capture_pixel,
+            lambda_nm: s.lambda_nm,
+            value: s.value,
+            rgb,
+        }
+    }
+}
+
+/// Steps 1-2 of one pixel.
+struct PixelRay {
+    d_camera: Vector3<f64>,
+    d_world: Vector3<f64>,
+    beta: Vector3<f64>,
+    doppler: f64,
+}
+
+/// Steps 4-7 of one pixel.
+struct Shaded {
+    lambda_nm: f64,
+    hit_m: Option<(Point3<f64>, f64)>,
+    t_emit_ps: Option<f64>,
+    t_arrival_ps: Option<f64>,
+    capture_pixel: Option<(usize, usize)>,
+    value: f64,
+    colour: Colour,
+}
+
+/// What step 7 makes of a pixel.
+#[derive(Clone, Copy)]
+enum Colour {
+    /// The ray leaves the scene or the capture camera does not see its point.
+    Black,
+    /// Isochrones: a display colour.
+    Display([f64; 3]),
+    /// Scene-linear luminance, to be coloured by the received wavelength.
+    Radiance(f64),
+}
+
+/// One row's hit distances, wavelengths and colours, filled one stage at a time.
+#[derive(Default)]
+struct RowScratch {
+    hit_t: Vec<Option<f32>>,
+    lambda_nm: Vec<f64>,
+    colour: Vec<Colour>,
 }
 
 /// Render one frame of `settings.width x settings.height` pixels for the camera state
@@ -246,11 +431,98 @@ pub fn render_frame(
     let ctx = FrameCtx::new(scene, settings, state);
     out.par_chunks_mut(settings.width)
         .enumerate()
-        .for_each(|(j, row)| {
-            for (i, px) in row.iter_mut().enumerate() {
-                let s = ctx.trace(scene, settings, i, j);
-                *px = [s.rgb[0] as f32, s.rgb[1] as f32, s.rgb[2] as f32];
-            }
+        .for_each_init(
+            || (Vec::new(), Vec::new(), RowScratch::default()),
+            |(d_world, doppler, scratch), (j, row)| {
+                d_world.clear();
+                doppler.clear();
+                for i in 0..row.len() {
+                    let r = ctx.ray(settings, i, j);
+                    d_world.push(r.d_world);
+                    doppler.push(r.doppler);
+                }
+                ctx.render_row(scene, settings, d_world, doppler, scratch, row);
+            },
+        );
+}
+
+/// The world rays and Doppler factors of every pixel of a frame, kept from one frame to the
+/// next by [`render_frame_reusing_rays`]: they depend only on the camera's orientation,
+/// velocity and field of view, which stay the same over a straight path at constant speed
+/// (a dolly), so such frames skip steps 1-2 of the pipeline.
+#[derive(Default)]
+pub struct FrameRays {
+    key: Option<RayKey>,
+    d_world: Vec<Vector3<f64>>,
+    doppler: Vec<f64>,
+}
+
+/// Everything [`FrameCtx::ray`] depends on for a frame with one boost.
+#[derive(Clone, Copy, PartialEq)]
+struct RayKey {
+    world_from_camera: Matrix3<f64>,
+    beta: Vector3<f64>,
+    gamma: f64,
+    inv_focal_px: f64,
+    half: Vector2<f64>,
+    aberration: bool,
+    width: usize,
+    height: usize,
+}
+
+/// [`render_frame`], with steps 1-2 (camera rays, aberration, Doppler factors) taken from
+/// `rays` when they were made for the same ray geometry (see [`FrameRays`]), and left in
+/// `rays` for the next frame otherwise. The pixels are the same, bit for bit. A rotating
+/// sensor (a boost per pixel) is rendered as by [`render_frame`].
+pub fn render_frame_reusing_rays(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    state: &FrameState,
+    rays: &mut FrameRays,
+    out: &mut [[f32; 3]],
+) {
+    let ctx = FrameCtx::new(scene, settings, state);
+    let Some(boost) = ctx.boost else {
+        rays.key = None;
+        return render_frame(scene, settings, state, out);
+    };
+    assert_eq!(
+        out.len(),
+        settings.width * settings.height,
+        "render_frame_reusing_rays: output buffer size"
+    );
+    let key = RayKey {
+        world_from_camera: ctx.world_from_camera,
+        beta: boost.beta,
+        gamma: boost.gamma,
+        inv_focal_px: ctx.inv_focal_px,
+        half: ctx.half,
+        aberration: settings.effects.aberration,
+        width: settings.width,
+        height: settings.height,
+    };
+    let w = settings.width;
+    if rays.key != Some(key) {
+        rays.key = None;
+        rays.d_world.resize(out.len(), Vector3::zeros());
+        rays.doppler.resize(out.len(), 0.0);
+        rays.d_world
+            .par_chunks_mut(w)
+            .zip(rays.doppler.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(j, (d_row, dop_row))| {
+                for (i, (d, dop)) in d_row.iter_mut().zip(dop_row).enumerate() {
+                    let r = ctx.ray(settings, i, j);
+                    (*d, *dop) = (r.d_world, r.doppler);
+                }
+            });
+        rays.key = Some(key);
+    }
+    out.par_chunks_mut(w)
+        .zip(rays.d_world.par_chunks(w))
+        .zip(rays.doppler.par_chunks(w))
+        .for_each_init(RowScratch::default, |scratch, ((row, d_world), doppler)| {
+            ctx.render_row(scene, settings, d_world, doppler, scratch, row);
         });
 }
 

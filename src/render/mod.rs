@@ -120,7 +120,7 @@ pub mod frame;
 pub mod paths;
 pub mod views;
 
-pub use frame::{probe_pixel, render_frame, PixelSample};
+pub use frame::{probe_pixel, render_frame, render_frame_reusing_rays, FrameRays, PixelSample};
 pub use views::Isochrones;
 
 use crate::camera::Calibration;
@@ -428,6 +428,8 @@ struct CaptureHit {
     normal: [f32; 3],
     /// `|n . (p - q)|` allowed for a point `p` on the same surface, metres.
     tolerance_m: f32,
+    /// `n . (o_c - q)`: which side of the surface the capture camera at `o_c` is on.
+    capture_side: f64,
 }
 
 /// The scene as the renderer sees it: geometry, the capture camera, the world-time cube's
@@ -479,6 +481,7 @@ impl<'a> RenderScene<'a> {
                 point: [f32::NAN; 3],
                 normal: [f32::NAN; 3],
                 tolerance_m: 0.0,
+                capture_side: f64::NAN,
             };
             k.width * k.height
         ];
@@ -490,10 +493,13 @@ impl<'a> RenderScene<'a> {
                     let dir = Vector3::new(d.x as f32, d.y as f32, d.z as f32);
                     if let Some(hit) = bvh.intersect(&Ray::new(origin, dir), 0.0, f32::INFINITY) {
                         let p = origin + dir * hit.t;
+                        let q = Point3::new(p.x as f64, p.y as f64, p.z as f64);
+                        let n = hit.normal.cast::<f64>();
                         *h = CaptureHit {
                             point: [p.x, p.y, p.z],
                             normal: [hit.normal.x, hit.normal.y, hit.normal.z],
                             tolerance_m: (1e-4 + 2.0 * footprint * hit.t as f64) as f32,
+                            capture_side: n.dot(&(capture.pose.position_m - q)),
                         };
                     }
                 }
@@ -555,7 +561,7 @@ impl<'a> RenderScene<'a> {
     /// The cube pixel that records `p_m` for a viewer looking along `d_world` (unit, towards
     /// `p_m`), or None when the capture camera does not see that side of that point or the
     /// pixel is masked out.
-    #[inline]
+    #[inline(always)]
     pub fn capture_pixel(
         &self,
         p_m: &Point3<f64>,
@@ -577,9 +583,8 @@ impl<'a> RenderScene<'a> {
             return None;
         }
         // Same side: the capture camera and the viewer both face the same face.
-        let capture_side = n.dot(&(self.capture.pose.position_m - q));
         let viewer_side = -n.dot(d_world);
-        if capture_side * viewer_side <= 0.0 {
+        if h.capture_side * viewer_side <= 0.0 {
             return None;
         }
         if let Some(mask) = &self.world.mask {
@@ -639,7 +644,9 @@ pub fn check_frames(path: &CameraPath, frames: &Range<usize>) -> Result<(), Rend
 /// Render frames `frames` of `path`, calling `sink(k, pixels)` with each frame's scene-linear
 /// pixels (row-major from the top row) in order. Validates the settings, the frame range and
 /// that the path does not pass through the geometry first. Frame `k` depends only on `k`, so
-/// any split of a sequence into ranges gives the same frames, bit for bit.
+/// any split of a sequence into ranges gives the same frames, bit for bit. Frames whose rays
+/// are those of the frame before (a dolly) reuse them ([`render_frame_reusing_rays`]: the same
+/// pixels).
 pub fn render_sequence<E: From<RenderError>>(
     scene: &RenderScene,
     settings: &RenderSettings,
@@ -651,8 +658,9 @@ pub fn render_sequence<E: From<RenderError>>(
     check_frames(path, &frames)?;
     check_path_clear(scene.bvh, path)?;
     let mut pixels = vec![[0.0f32; 3]; settings.width * settings.height];
+    let mut rays = FrameRays::default();
     for k in frames {
-        render_frame(scene, settings, &path.frame(k), &mut pixels);
+        render_frame_reusing_rays(scene, settings, &path.frame(k), &mut rays, &mut pixels);
         sink(k, &pixels)?;
     }
     Ok(())

@@ -210,27 +210,33 @@ fn write_pyramid_slabs(
         out.write_group_rows(GROUP, "mask", 0, &DataBuf::U8(m))?;
     }
     let rows_per_slab = rows_per_slab.clamp(1, ny);
+    // One set of slab buffers for the whole cube (page faults and allocation once): the
+    // source rows, the prefix and each level, resized (down, for the last slab) in place.
     let mut src = vec![0.0f32; rows_per_slab * nx * nt];
+    let mut prefix = DataBuf::F64(vec![0.0f64; rows_per_slab * nx * (nt + 1)]);
+    let mut level_bufs: Vec<DataBuf> = (1..=levels)
+        .map(|k| DataBuf::F32(vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)]))
+        .collect();
     for y0 in (0..ny).step_by(rows_per_slab) {
         let n = rows_per_slab.min(ny - y0);
         let src = &mut src[..n * nx * nt];
         reader.read_rows_into(y0, src)?;
-        let mut prefix = vec![0.0f64; n * nx * (nt + 1)];
-        prefix_rows(src, nt, &mut prefix);
-        out.write_group_rows(GROUP, "prefix", y0, &DataBuf::F64(prefix))?;
-        let mut prev: Vec<f32> = Vec::new();
-        let mut prev_nt = nt;
+        if let DataBuf::F64(p) = &mut prefix {
+            p.truncate(n * nx * (nt + 1));
+            prefix_rows(src, nt, p);
+        }
+        out.write_group_rows(GROUP, "prefix", y0, &prefix)?;
         for k in 1..=levels {
-            let nt_k = level_nt(nt, k);
-            let mut dst = vec![0.0f32; n * nx * nt_k];
-            mip_halve_rows(if k == 1 { src } else { &prev }, prev_nt, &mut dst);
-            let dst = DataBuf::F32(dst);
-            out.write_group_rows(GROUP, &level_name(k), y0, &dst)?;
-            prev = match dst {
-                DataBuf::F32(v) => v,
-                _ => unreachable!("written as f32"),
+            let (below, this) = level_bufs.split_at_mut(k - 1);
+            let prev: &[f32] = match below.last() {
+                Some(DataBuf::F32(v)) => v,
+                _ => src,
             };
-            prev_nt = nt_k;
+            if let DataBuf::F32(dst) = &mut this[0] {
+                dst.truncate(n * nx * level_nt(nt, k));
+                mip_halve_rows(prev, level_nt(nt, k - 1), dst);
+            }
+            out.write_group_rows(GROUP, &level_name(k), y0, &this[0])?;
         }
         on_rows(y0 + n);
     }
