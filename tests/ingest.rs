@@ -1306,11 +1306,6 @@ fn detrended(v: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Time centroid (ps) of a whole profile.
-fn profile_centroid_ps(profile: &[f32], axis: &TimeAxis) -> f64 {
-    centroid_ps(profile, axis, f64::NEG_INFINITY, f64::INFINITY)
-}
-
 #[test]
 fn cube_scene_jitter_and_power_estimates_against_the_manifest() {
     let dir = tempfile::tempdir().unwrap();
