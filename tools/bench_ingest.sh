@@ -9,8 +9,8 @@
 #   - the plain Python script tools/ingest_baseline.py (numpy + imageio + h5py);
 #   - femto ingest of the first N/4 scanlines, to show that peak memory does not grow
 #     with the number of scanlines.
-# and checks that femto's cube equals the script's. Wall seconds, MB/s of PNG data read and
-# peak RSS (from /usr/bin/time -v) go to stdout and to tools/bench_ingest_results.md.
+# and checks that femto's cube equals the script's. Wall seconds, MB/s of PNG data read, CPU
+# seconds and peak RSS (from /usr/bin/time -v) go to stdout and to tools/bench_ingest_results.md.
 #
 # Usage: tools/bench_ingest.sh [N=600] [REPS=3] [WORKDIR=target/bench_ingest]
 set -euo pipefail
@@ -40,7 +40,8 @@ AXIS=(--dt-ps 1.9 --t0-ps 0)
 # Warm the page cache so every run reads the same way.
 "$FEMTO" ingest "$PATTERN" --rows "$N" "${AXIS[@]}" --decode-only > /dev/null
 
-# run LABEL BYTES CMD...: time CMD REPS times; print "LABEL wall_s MB/s rss_MB" per run.
+# run LABEL BYTES CMD...: time CMD REPS times; print "LABEL wall_s MB/s cpu_s rss_MB" per run
+# (CPU seconds, user + system, are disturbed less than wall time by other load).
 run() {
     local label=$1 bytes=$2
     shift 2
@@ -51,13 +52,16 @@ run() {
         wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, p, ":"); s = 0;
             for (i = 1; i <= n; i++) s = s * 60 + p[i]; print s}' "$WORK/$label.time")
         rss=$(awk -F': ' '/Maximum resident set size/ {printf "%.1f", $2 / 1024}' "$WORK/$label.time")
-        printf "%-24s %8.2f s %8.1f MB/s %8.1f MB RSS\n" "$label" "$wall" \
-            "$(echo "$bytes / 1000000 / $wall" | bc -l)" "$rss"
+        cpu=$(awk -F': ' '/(User|System) time \(seconds\)/ {s += $2} END {printf "%.2f", s}' "$WORK/$label.time")
+        printf "%-24s %8.2f s %8.1f MB/s %8.2f s CPU %8.1f MB RSS\n" "$label" "$wall" \
+            "$(echo "$bytes / 1000000 / $wall" | bc -l)" "$cpu" "$rss"
     done
 }
 
 {
     echo "## $(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)), load $(cut -d' ' -f1-3 /proc/loadavg)"
+    echo
+    echo "commit $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src || echo ' (plus uncommitted changes)'); command: tools/bench_ingest.sh $N $REPS"
     echo
     echo "$N scanlines of $NX x $NT 16-bit PNG, $(echo "$BYTES / 1000000" | bc -l | xargs printf %.1f) MB; $REPS runs each"
     echo

@@ -53,8 +53,8 @@ pub struct IngestArgs {
     #[arg(long)]
     pub jitter: bool,
     /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
-    /// that sees a fixed part of the scene in every scanline, or 'auto' (each scanline's
-    /// total against its neighbours').
+    /// that sees a fixed part of the scene in every scanline, or 'auto' (each pixel's
+    /// integral against the same pixel in the neighbouring scanlines).
     #[arg(long, value_parser = parse_power_ref)]
     pub power_ref: Option<PowerRef>,
     /// Mask saturated pixels: a level (value units) or 'auto' (the sample type's maximum).

@@ -12,12 +12,14 @@
 //! 3. flat-field division (a pixel whose gain is not positive is zeroed and masked);
 //! 4. laser power normalisation: the row's reference region (recorded bins) is integrated,
 //!    and the row multiplied by `median / own` over all rows; or, with no reference in view
-//!    (`auto`), the row's total against a smooth fit through its neighbours' totals (a row
-//!    whose reference holds no positive signal cannot be normalised and is masked);
+//!    (`auto`), the log of each pixel's integral is compared with the same pixel in the
+//!    neighbouring rows ([`super::row_offsets`]) and the row multiplied by `exp(-offset)` (a
+//!    row that cannot be normalised is masked);
 //! 5. sweep-linearity resampling from the recorded bin edges onto the uniform axis,
 //!    conserving each pixel's integral;
-//! 6. jitter removal: each row's arrival front (after 1-5) is compared with a smooth fit
-//!    through its neighbours' and the row is shifted back by the difference.
+//! 6. jitter removal: each pixel's pulse time (after 1-5) is predicted from the same pixel
+//!    in the neighbouring rows, the rows' offsets are solved for ([`super::row_offsets`]),
+//!    and each row is shifted back by its offset.
 //!
 //! A gain commutes with the resampling, so step 4's factor is measured before step 5 (in the
 //! recorded bins the reference region is given in) and applied after it.
@@ -26,9 +28,10 @@
 //! `2 x threads + 2` rows in flight, and written in order by the calling thread through
 //! [`CubeWriter`], so the memory in use is a few rows per thread whatever the number of
 //! scanlines (plus the `ny x nx` byte mask). Steps 4 and 6 need every row before any row can
-//! be finished (the median power, the neighbours' fronts). For those, ingest makes two passes
+//! be finished (the median power, the neighbouring rows). For those, ingest makes two passes
 //! and keeps the rows on disk, not in memory: pass 1 decodes and applies steps 1-3 and 5,
-//! records each row's power factor and front, and writes the row (f32, uncompressed) to an
+//! records each row's power factor or each pixel's integral and pulse time (`ny x nx`
+//! values, like the mask), and writes the row (f32, uncompressed) to an
 //! anonymous scratch file beside the output (deleted when the ingest ends, whatever the
 //! outcome); pass 2 reads the rows back, applies the gains and shifts and writes the cube.
 //! Re-reading the scratch file costs far less than decoding the images twice; the price is
@@ -48,13 +51,13 @@ use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Condvar, Mutex};
 
 use super::corrections::{
-    apply_gain, arrival_front, divide_flat, estimate_jitter_with, power_factor, power_gains,
-    power_gains_smooth, remove_shift, resample_sweep, row_total, saturation_mask, subtract_dark,
-    Dark,
+    apply_gain, divide_flat, power_factor, power_gains, remove_shift, resample_sweep,
+    saturation_mask, subtract_dark, Dark,
 };
 use super::plan::{
     stack_image, to_row_layout, DarkCorrection, IngestPlan, PowerCorrection, RowSource,
 };
+use super::row_offsets::{estimate_row_offsets, pixel_log_integrals, pixel_pulse_times};
 use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
@@ -140,7 +143,15 @@ pub fn ingest(
     let scratch = if plan.needs_two_passes() {
         let scratch = Scratch::create(&out_dir, nx * plan.out_axis.nt)?;
         let mut factors = vec![f64::NAN; ny];
-        let mut fronts: Vec<Option<f64>> = vec![None; ny];
+        // Per-pixel measurements for the row offsets (`ny x nx`; only when asked for).
+        let mut edges: Vec<Option<f64>> = Vec::new();
+        let mut log_integrals: Vec<Option<f64>> = Vec::new();
+        if plan.jitter.is_some() {
+            edges = vec![None; ny * nx];
+        }
+        if matches!(plan.power, Some(PowerCorrection::Auto(_))) {
+            log_integrals = vec![None; ny * nx];
+        }
         let work = |y: usize| -> Result<Option<Prepared>, IngestError> {
             Ok(load_row(plan, y)?.map(|raw| prepare(plan, y, raw)))
         };
@@ -149,7 +160,12 @@ pub fn ingest(
                 scratch.write_row(y, &p.row)?;
                 mask[y * nx..(y + 1) * nx].copy_from_slice(&p.mask);
                 factors[y] = p.power_factor.unwrap_or(f64::NAN);
-                fronts[y] = p.front_ps;
+                if let Some(e) = &p.edges_ps {
+                    edges[y * nx..(y + 1) * nx].copy_from_slice(e);
+                }
+                if let Some(l) = &p.log_integrals {
+                    log_integrals[y * nx..(y + 1) * nx].copy_from_slice(l);
+                }
                 bytes_read += p.bytes;
                 saturated_pixels += p.saturated;
             }
@@ -158,13 +174,15 @@ pub fn ingest(
         })?;
         match &plan.power {
             Some(PowerCorrection::Region(_)) => globals.gains = Some(power_gains(&factors)),
-            Some(PowerCorrection::Smooth(fit)) => {
-                globals.gains = Some(power_gains_smooth(&factors, fit))
+            Some(PowerCorrection::Auto(fit)) => {
+                let offsets = estimate_row_offsets(&log_integrals, nx, fit);
+                globals.gains = Some(offsets.iter().map(|o| o.map(|o| (-o).exp())).collect());
             }
             None => {}
         }
         if let Some(fit) = &plan.jitter {
-            globals.shifts_ps = Some(estimate_jitter_with(&fronts, fit));
+            let offsets = estimate_row_offsets(&edges, nx, fit);
+            globals.shifts_ps = Some(offsets.iter().map(|o| o.unwrap_or(0.0)).collect());
         }
         Some(scratch)
     } else {
@@ -338,9 +356,9 @@ fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String)> {
             "ingest.power_ref".into(),
             format!("x {}..{}, bins {}..{}", r.x0, r.x1, r.t0_bin, r.t1_bin),
         )),
-        Some(PowerCorrection::Smooth(_)) => n.push((
+        Some(PowerCorrection::Auto(_)) => n.push((
             "ingest.power_ref".into(),
-            "auto (row totals against a smooth fit through the neighbouring rows)".into(),
+            "auto (pixel integrals against the same pixels in the neighbouring rows)".into(),
         )),
         None => {}
     }
@@ -459,7 +477,10 @@ struct Prepared {
     row: Vec<f32>,
     mask: Vec<u8>,
     power_factor: Option<f64>,
-    front_ps: Option<f64>,
+    /// Per-pixel pulse times (ps), for jitter.
+    edges_ps: Option<Vec<Option<f64>>>,
+    /// Per-pixel log integrals, for automatic power normalisation.
+    log_integrals: Option<Vec<Option<f64>>>,
     saturated: usize,
     bytes: u64,
 }
@@ -483,23 +504,26 @@ fn prepare(plan: &IngestPlan, y: usize, raw: RawRow) -> Prepared {
     if let Some(flat) = &plan.flat {
         divide_flat(&mut row, flat.row(y, nx), &mut mask);
     }
-    let power_factor = plan.power.map(|p| match p {
-        PowerCorrection::Region(r) => power_factor(&row, nx, nt, r),
-        PowerCorrection::Smooth(_) => row_total(&row),
-    });
+    let power_factor = match plan.power {
+        Some(PowerCorrection::Region(r)) => Some(power_factor(&row, nx, nt, r)),
+        _ => None,
+    };
+    let log_integrals = matches!(plan.power, Some(PowerCorrection::Auto(_)))
+        .then(|| pixel_log_integrals(&row, nx, nt));
     if let Some(sweep) = &plan.sweep {
         let mut out = vec![0.0f32; nx * plan.out_axis.nt];
         resample_sweep(&row, nx, &sweep.edges_ps, &plan.out_axis, &mut out);
         row = out;
     }
-    let front_ps = plan
+    let edges_ps = plan
         .jitter
-        .and_then(|_| arrival_front(&row, nx, &plan.out_axis));
+        .map(|_| pixel_pulse_times(&row, nx, &plan.out_axis));
     Prepared {
         row,
         mask,
         power_factor,
-        front_ps,
+        edges_ps,
+        log_integrals,
         saturated,
         bytes: raw.bytes,
     }

@@ -15,11 +15,12 @@
 //! - trigger jitter between scanlines: [`arrival_front`] measures a robust first-arrival time
 //!   per row, [`estimate_jitter`] compares each row with a local polynomial fit through its
 //!   neighbours (so a front that moves smoothly with `y`, which is scene geometry, is kept),
-//!   and [`remove_shift`] moves the row back ([`crate::resample::shift_into`]);
+//!   and [`remove_shift`] moves the row back ([`crate::resample::shift_into`]). The row-level
+//!   estimate fails where the scene's front jumps between rows (a horizontal edge); ingest
+//!   uses the per-pixel estimate of [`super::row_offsets`] and this module's `remove_shift`;
 //! - laser power drift between scanlines: [`power_factor`] integrates a reference region of
-//!   the row and [`power_gains`] normalises the rows to their median; without a reference in
-//!   view, [`power_gains_smooth`] compares each row's total ([`row_total`]) with a smooth fit
-//!   through its neighbours', as the jitter estimate does with fronts;
+//!   the row and [`power_gains`] normalises the rows to their median (without a reference in
+//!   view, see [`super::row_offsets`]);
 //! - saturation: [`saturation_mask`] flags pixels whose raw profile reaches the saturation
 //!   level.
 //!
@@ -509,33 +510,6 @@ pub fn power_gains(factors: &[f64]) -> Vec<Option<f64>> {
         .collect()
 }
 
-/// Total signal of a scanline (non-finite values skipped): the laser power measure of
-/// [`power_gains_smooth`], for captures with no fixed reference in view.
-pub fn row_total(row: &[f32]) -> f64 {
-    row.iter()
-        .filter(|v| v.is_finite())
-        .map(|&v| v as f64)
-        .sum()
-}
-
-/// Gain per row from the rows' total signals when the scene holds no fixed power reference:
-/// the scene's brightness changes smoothly from row to row while the laser power does not, so
-/// each row's `ln(total)` is compared with a polynomial fit through its neighbours', exactly
-/// as [`estimate_jitter_with`] does with arrival fronts, and the gain is `exp(-(ln total -
-/// fit))`. Like jitter, a fluctuation that is smooth over the fit window cannot be told from
-/// the scene and stays. `None` for rows whose total is not positive.
-pub fn power_gains_smooth(totals: &[f64], fit: &JitterFit) -> Vec<Option<f64>> {
-    let logs: Vec<Option<f64>> = totals
-        .iter()
-        .map(|&t| (t.is_finite() && t > 0.0).then(|| t.ln()))
-        .collect();
-    let deviations = estimate_jitter_with(&logs, fit);
-    logs.iter()
-        .zip(deviations)
-        .map(|(l, d)| l.map(|_| (-d).exp()))
-        .collect()
-}
-
 /// Multiply a scanline by a gain (from [`power_gains`]).
 pub fn apply_gain(row: &mut [f32], gain: f64) {
     row.iter_mut().for_each(|v| *v = (*v as f64 * gain) as f32);
@@ -978,31 +952,6 @@ mod tests {
                 + gains[y].unwrap() * nt as f64;
             assert!((got / want - 1.0).abs() < 0.01, "row {y}: {got} vs {want}");
         }
-    }
-
-    #[test]
-    fn smooth_power_gains_recover_row_to_row_fluctuations() {
-        // Row totals: a scene brightness that curves with y, times a laser power that
-        // fluctuates from row to row by 5 % rms.
-        let ny = 96;
-        let mut rng = Pcg64::seed_from_u64(3);
-        let normal = Normal::new(0.0, 0.05).unwrap();
-        let powers: Vec<f64> = (0..ny).map(|_| 1.0 + normal.sample(&mut rng)).collect();
-        let scene = |y: usize| 1e4 * (1.0 + 0.5 * (y as f64 / 40.0).sin());
-        let mut totals: Vec<f64> = (0..ny).map(|y| scene(y) * powers[y]).collect();
-        totals[10] = 0.0; // a dark row
-        let gains = power_gains_smooth(&totals, &JitterFit::default());
-        assert_eq!(gains[10], None);
-        // After the gain each row should be at the scene's brightness, up to the smooth part
-        // of the fluctuation (a fit over 32 rows absorbs about a quarter of it).
-        let errors: Vec<f64> = (0..ny)
-            .filter(|&y| y != 10)
-            .map(|y| totals[y] * gains[y].unwrap() / scene(y) - 1.0)
-            .collect();
-        let err = rms(errors.iter().copied());
-        let before = rms((0..ny).map(|y| powers[y] - 1.0));
-        eprintln!("smooth power gains: {before:.4} rms before, {err:.4} after");
-        assert!(err < 0.35 * before, "{err} vs {before}");
     }
 
     #[test]

@@ -9,7 +9,8 @@
 //!   printf pattern of files, a stack of images in one HDF5 dataset) into a typed
 //!   [`plan::IngestPlan`]: the file of each scanline, the image size, the time axis, and each
 //!   requested correction with its parameters (dark frame, flat field, sweep table, ...).
-//! - [`assemble`] streams the scanlines through the corrections of [`corrections`] into the
+//! - [`assemble`] streams the scanlines through the corrections of [`corrections`] (with the
+//!   per-scanline jitter and laser power of [`row_offsets`]) into the
 //!   HDF5 cube (`docs/cube-format.md`), decoding rows in parallel with a bounded number in
 //!   flight, so peak memory does not grow with the number of scanlines.
 //!
@@ -19,6 +20,7 @@
 pub mod assemble;
 pub mod corrections;
 pub mod plan;
+pub mod row_offsets;
 
 use std::path::PathBuf;
 

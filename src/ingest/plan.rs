@@ -36,7 +36,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::corrections::{check_flat, check_sweep_edges, JitterFit, RefRegion};
+use super::corrections::{check_flat, check_sweep_edges, RefRegion};
+use super::row_offsets::RowOffsetFit;
 use super::IngestError;
 use crate::cube::TimeAxis;
 use crate::formats::{read_streak, PixelType, StreakImage};
@@ -203,8 +204,8 @@ pub enum PowerRef {
     /// A block of every scanline that sees a fixed part of the scene (the laser spot, a
     /// reference fibre): rows are scaled to the median of its integral.
     Region(RefRegion),
-    /// No reference in view: each row's total signal against a smooth fit through its
-    /// neighbours' ([`super::corrections::power_gains_smooth`]).
+    /// No reference in view: each row's pixel integrals against the same pixels in the
+    /// neighbouring rows ([`super::row_offsets`]).
     Auto,
 }
 
@@ -213,8 +214,9 @@ pub enum PowerRef {
 pub enum PowerCorrection {
     /// Reference region (recorded bins), rows scaled to the median of its integral.
     Region(RefRegion),
-    /// Row totals against a smooth fit through the neighbouring rows.
-    Smooth(JitterFit),
+    /// Pixel integrals against the same pixels in the neighbouring rows
+    /// ([`super::row_offsets`]).
+    Auto(RowOffsetFit),
 }
 
 /// The saturation level asked for.
@@ -348,7 +350,7 @@ pub struct IngestPlan {
     pub flat: Option<FlatCorrection>,
     pub power: Option<PowerCorrection>,
     pub sweep: Option<SweepCorrection>,
-    pub jitter: Option<JitterFit>,
+    pub jitter: Option<RowOffsetFit>,
     pub saturation: Option<SaturationCorrection>,
     /// Scanlines without a file, filled by interpolation and masked.
     pub missing: Vec<usize>,
@@ -590,7 +592,7 @@ impl IngestPlan {
 
         let power = match options.power_ref {
             None => None,
-            Some(PowerRef::Auto) => Some(PowerCorrection::Smooth(JitterFit::default())),
+            Some(PowerRef::Auto) => Some(PowerCorrection::Auto(RowOffsetFit::default())),
             Some(PowerRef::Region(region)) => {
                 region
                     .check(nx, nt)
@@ -665,7 +667,7 @@ impl IngestPlan {
             flat,
             power,
             sweep,
-            jitter: options.jitter.then(JitterFit::default),
+            jitter: options.jitter.then(RowOffsetFit::default),
             saturation,
             missing,
         })
@@ -710,8 +712,10 @@ impl IngestPlan {
                 "laser power normalisation (reference x {}..{}, bins {}..{})",
                 r.x0, r.x1, r.t0_bin, r.t1_bin
             )),
-            Some(PowerCorrection::Smooth(_)) => out.push(
-                "laser power normalisation (automatic: row totals against their neighbours)".into(),
+            Some(PowerCorrection::Auto(_)) => out.push(
+                "laser power normalisation (automatic: pixel integrals against the \
+                 neighbouring rows)"
+                    .into(),
             ),
             None => {}
         }
