@@ -174,7 +174,7 @@ impl DemoSizes {
         }
     }
 
-    /// The full demo: a 320 x 240 x 256 capture at 1024 spp, 320 x 240 stills, a 120-frame
+    /// The full demo: a 320 x 240 x 256 capture at 4096 spp, 320 x 240 stills, a 120-frame
     /// video. The spp is what keeps the indirect light of 4 ps bins from looking like speckle
     /// (at 256 spp it does) within the ten minutes.
     pub fn full() -> DemoSizes {
@@ -183,7 +183,7 @@ impl DemoSizes {
             capture_ny: 240,
             nt: 256,
             dt_ps: 4.0,
-            spp: 1024,
+            spp: 4096,
             max_bounces: 4,
             fiducial_nx: 4032,
             fiducial_ny: 3024,
