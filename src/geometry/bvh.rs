@@ -23,6 +23,7 @@
 
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use nalgebra::{Point3, Vector3};
+use std::mem::MaybeUninit;
 
 /// Number of SAH bins per axis.
 const BINS: usize = 16;
@@ -158,8 +159,9 @@ impl Bvh {
         if slab(&root, &pre, t_min, t_far).is_none() {
             return;
         }
-        // Entries: (2 * pair + child, entry distance).
-        let mut stack = [(0u32, 0f32); STACK];
+        // Entries: (2 * pair + child, entry distance). Left uninitialised: zeroing 1 KiB for
+        // every ray cost a few per cent of a short ray's traversal.
+        let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut sp = 0usize;
         let mut n = root;
         loop {
@@ -180,7 +182,7 @@ impl Bvh {
                     (Some(ta), Some(tb)) => {
                         let (near, far, t_enter_far) =
                             if ta <= tb { (0, 1, tb) } else { (1, 0, ta) };
-                        stack[sp] = (2 * n.first + far, t_enter_far);
+                        stack[sp].write((2 * n.first + far, t_enter_far));
                         sp += 1;
                         n = pair[near as usize];
                         continue;
@@ -202,7 +204,10 @@ impl Bvh {
                     return;
                 }
                 sp -= 1;
-                let (next, t_enter) = stack[sp];
+                // SAFETY: entries are pushed by writing `stack[sp]` before `sp += 1`, and
+                // popped by `sp -= 1` before this read, so every entry below the old `sp`
+                // (this one included) was written by this traversal.
+                let (next, t_enter) = unsafe { stack[sp].assume_init() };
                 if t_enter < t_far {
                     n = self.pairs[next as usize / 2].0[next as usize % 2];
                     break;
