@@ -226,7 +226,8 @@ fn median_f32(values: &mut [f32]) -> f32 {
     *m
 }
 
-fn median_f64(values: &mut [f64]) -> f64 {
+/// Median of `values` (sorted in place; the mean of the middle two for an even count).
+pub(crate) fn median_f64(values: &mut [f64]) -> f64 {
     let n = values.len();
     values.sort_by(f64::total_cmp);
     if n % 2 == 1 {

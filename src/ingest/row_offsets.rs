@@ -43,6 +43,7 @@
 //! large as the fluctuation); a reference region (`PowerRef::Region`) is what normalises
 //! such a capture.
 
+use super::corrections::median_f64 as median;
 use crate::cube::TimeAxis;
 
 /// Fraction of the row's reference (90th-percentile) pulse height, or integral, below which a
@@ -96,16 +97,6 @@ fn quantile(values: &mut [f64], q: f64) -> f64 {
     let k = ((values.len() - 1) as f64 * q).round() as usize;
     let (_, v, _) = values.select_nth_unstable_by(k, f64::total_cmp);
     *v
-}
-
-fn median(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    values.sort_by(f64::total_cmp);
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
-    }
 }
 
 /// Median arrival time (ps) of each pixel's pulse in a scanline (`[x][t]` on `axis`): the
