@@ -2,8 +2,8 @@
 //!
 //! The truth: every pixel sees a short Gaussian pulse (sigma 4 ps) followed by a broader,
 //! weaker one, whose arrival varies smoothly with x and curves gently with y (a hyperbola, as
-//! a plane seen at an angle, curving over 30 rows: jitter removal follows a front that curves
-//! over more rows than its 32-row fit window, see `corrections::JitterFit`); pixels x 0..2 see a fixed "laser spot" pulse at 30 ps in every row (the
+//! a plane seen at an angle, curving over 30 rows: jitter removal must keep a front that
+//! curves from row to row, see `ingest::row_offsets`); pixels x 0..2 see a fixed "laser spot" pulse at 30 ps in every row (the
 //! power reference), and a small patch (x 20, y 10..14) is six times brighter than the rest. Bin values are exact integrals of these pulses over each bin
 //! (erf), so a flaw is modelled by integrating over other intervals (sweep: the true edges of
 //! the recorded rows; jitter: the pulses moved by the row's delay), scaling (power, flat),
@@ -724,8 +724,9 @@ fn jitter_is_estimated_reported_and_removed() {
     let err_rms = rms(&mut (0..ny).map(|y| shifts[y] - delays[y]));
     eprintln!("jitter: true {true_rms:.2} ps rms, estimates off by {err_rms:.2} ps rms");
 
-    // The estimator compares each row with a quadratic fit through 32 neighbours, so about a
-    // quarter of the jitter's spread leaks into each estimate (corrections::JitterFit).
+    // The estimator predicts each pixel from its neighbours in the rows around it, whose own
+    // jitter leaks into the prediction, so part of the spread stays in each estimate
+    // (ingest::row_offsets).
     assert!(err_rms < 0.35 * true_rms, "{err_rms} vs {true_rms}");
     assert!(
         (shifts[30] - 9.0).abs() < 1.5,

@@ -12,12 +12,10 @@
 //!   are non-uniform (a calibration table, or the `.img` scaling table via
 //!   [`edges_from_centres`]), onto a uniform [`TimeAxis`], conserving each pixel's integral
 //!   ([`crate::resample::rebin_add`]);
-//! - trigger jitter between scanlines: [`arrival_front`] measures a robust first-arrival time
-//!   per row, [`estimate_jitter`] compares each row with a local polynomial fit through its
-//!   neighbours (so a front that moves smoothly with `y`, which is scene geometry, is kept),
-//!   and [`remove_shift`] moves the row back ([`crate::resample::shift_into`]). The row-level
-//!   estimate fails where the scene's front jumps between rows (a horizontal edge); ingest
-//!   uses the per-pixel estimate of [`super::row_offsets`] and this module's `remove_shift`;
+//! - trigger jitter between scanlines: the per-row shifts are estimated from every pixel by
+//!   [`super::row_offsets`] (a row-level front fitted through the neighbours' fronts fails
+//!   where the scene's front jumps between rows, at a horizontal edge), and [`remove_shift`]
+//!   moves each row back ([`crate::resample::shift_into`]);
 //! - laser power drift between scanlines: [`power_factor`] integrates a reference region of
 //!   the row and [`power_gains`] normalises the rows to their median (without a reference in
 //!   view, see [`super::row_offsets`]);
@@ -27,7 +25,6 @@
 //! Kernels take validated values and cannot fail; the `check_*` functions and
 //! [`RefRegion::check`] validate the inputs once, with messages that name what is wrong.
 
-use nalgebra::{DMatrix, DVector};
 use thiserror::Error;
 
 use crate::cube::TimeAxis;
@@ -211,21 +208,6 @@ pub fn resample_sweep(
 // ---------------------------------------------------------------------------------------------
 // Jitter.
 
-/// Fraction of the row's reference pulse height below which a pixel takes no part in the front.
-const FRONT_MIN_RELATIVE_AMPLITUDE: f32 = 0.2;
-
-/// Quantile of the pixels' pulse heights that serves as the row's reference height: a high
-/// quantile rather than the maximum, so that a few very bright pixels (a specular patch, a hot
-/// pixel) do not exclude the rest of the row, which would make the front depend on the scene
-/// content of that row alone.
-const FRONT_REFERENCE_QUANTILE: f64 = 0.9;
-
-fn median_f32(values: &mut [f32]) -> f32 {
-    let mid = values.len() / 2;
-    let (_, m, _) = values.select_nth_unstable_by(mid, f32::total_cmp);
-    *m
-}
-
 /// Median of `values` (sorted in place; the mean of the middle two for an even count).
 pub(crate) fn median_f64(values: &mut [f64]) -> f64 {
     let n = values.len();
@@ -235,205 +217,6 @@ pub(crate) fn median_f64(values: &mut [f64]) -> f64 {
     } else {
         0.5 * (values[n / 2 - 1] + values[n / 2])
     }
-}
-
-/// Baseline (median) and peak height above it, with the peak bin.
-fn pulse_stats(profile: &[f32], scratch: &mut Vec<f32>) -> (f32, f32, usize) {
-    scratch.clear();
-    scratch.extend(profile.iter().copied().filter(|v| v.is_finite()));
-    if scratch.is_empty() {
-        return (0.0, 0.0, 0);
-    }
-    let baseline = median_f32(scratch);
-    let (peak_bin, &peak) = profile
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.is_finite())
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .expect("at least one finite value");
-    (baseline, peak - baseline, peak_bin)
-}
-
-/// Leading-edge time of one pixel's profile, in ps: where the rise before the highest bin
-/// crosses half of the peak height above the baseline (the profile's median), interpolated
-/// linearly between bin centres. `None` when the peak is not above the baseline or the rise
-/// starts above half height (a pulse cut by the start of the axis).
-pub fn leading_edge_ps(profile: &[f32], axis: &TimeAxis) -> Option<f64> {
-    let mut scratch = Vec::with_capacity(profile.len());
-    let (baseline, height, peak_bin) = pulse_stats(profile, &mut scratch);
-    leading_edge_from(profile, axis, baseline, height, peak_bin)
-}
-
-fn leading_edge_from(
-    profile: &[f32],
-    axis: &TimeAxis,
-    baseline: f32,
-    height: f32,
-    peak_bin: usize,
-) -> Option<f64> {
-    if height.is_nan() || height <= 0.0 {
-        return None;
-    }
-    let half = (baseline + 0.5 * height) as f64;
-    let below = (0..peak_bin).rev().find(|&i| (profile[i] as f64) < half)?;
-    let (a, b) = (profile[below] as f64, profile[below + 1] as f64);
-    let frac = (half - a) / (b - a);
-    if !frac.is_finite() {
-        return None;
-    }
-    Some(axis.bin_centre_ps(below) + frac * axis.dt_ps)
-}
-
-/// A robust first-arrival time of a scanline, in ps: the interquartile mean (mean of the middle
-/// half) of the pixels' leading-edge times ([`leading_edge_ps`]), over the pixels whose pulse
-/// height is at least a fifth of the row's reference height (the 90th percentile of the pixels'
-/// heights, so that a few very bright pixels do not exclude the others). Robust to dead or hot
-/// pixels like the median, and smoother from row to row; a shift of the whole row by `s` moves
-/// it by exactly `s`. `None` when no pixel has a usable pulse.
-pub fn arrival_front(row: &[f32], nx: usize, axis: &TimeAxis) -> Option<f64> {
-    let nt = axis.nt;
-    debug_assert_eq!(row.len(), nx * nt);
-    if nx == 0 || nt < 2 {
-        return None;
-    }
-    let mut scratch = Vec::with_capacity(nt);
-    let stats: Vec<(f32, f32, usize)> = row
-        .chunks_exact(nt)
-        .map(|p| pulse_stats(p, &mut scratch))
-        .collect();
-    let mut heights: Vec<f32> = stats.iter().map(|s| s.1).filter(|h| !h.is_nan()).collect();
-    if heights.is_empty() {
-        return None;
-    }
-    let k = ((heights.len() - 1) as f64 * FRONT_REFERENCE_QUANTILE).round() as usize;
-    let (_, &mut strongest, _) = heights.select_nth_unstable_by(k, f32::total_cmp);
-    if strongest.is_nan() || strongest <= 0.0 {
-        return None;
-    }
-    let mut edges: Vec<f64> = row
-        .chunks_exact(nt)
-        .zip(&stats)
-        .filter(|(_, s)| s.1 >= FRONT_MIN_RELATIVE_AMPLITUDE * strongest)
-        .filter_map(|(p, &(baseline, height, peak))| {
-            leading_edge_from(p, axis, baseline, height, peak)
-        })
-        .collect();
-    if edges.is_empty() {
-        return None;
-    }
-    edges.sort_by(f64::total_cmp);
-    let n = edges.len();
-    let (lo, hi) = (n / 4, n - n / 4);
-    Some(edges[lo..hi].iter().sum::<f64>() / (hi - lo) as f64)
-}
-
-/// How [`estimate_jitter_with`] separates jitter from scene geometry.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct JitterFit {
-    /// Each row is compared with the `2 * half_window_rows` nearest rows that have a front
-    /// (itself excluded).
-    pub half_window_rows: usize,
-    /// Degree of the least-squares polynomial in `y` fitted through those neighbours.
-    pub degree: usize,
-    /// Neighbours whose first-pass shift exceeds this many robust standard deviations
-    /// (1.4826 x median absolute shift) are left out of the second pass.
-    pub outlier_sigmas: f64,
-}
-
-impl Default for JitterFit {
-    /// 16 rows on each side, quadratic: a front that curves with `y` (a plane seen at an angle
-    /// gives a hyperbola) is followed, and the fit averages the jitter of 32 rows, so its own
-    /// error is at most about `0.27` times the jitter's spread (`sqrt(9 / 4 / 32)`, the
-    /// centre-value variance of a quadratic fit); on the synthetic 128-row capture of the tests
-    /// the recovered shifts were off by 0.19 times the jitter's rms.
-    fn default() -> Self {
-        JitterFit {
-            half_window_rows: 16,
-            degree: 2,
-            outlier_sigmas: 3.5,
-        }
-    }
-}
-
-/// Per-row time shifts (ps, positive = the row arrived late) with the default [`JitterFit`].
-pub fn estimate_jitter(fronts_ps: &[Option<f64>]) -> Vec<f64> {
-    estimate_jitter_with(fronts_ps, &JitterFit::default())
-}
-
-/// Per-row time shifts: each row's front minus the value at that row of a polynomial fitted
-/// through its neighbours' fronts (the row itself excluded), in two passes, the second without
-/// the neighbours that the first found to be outliers. Rows without a front get 0.
-pub fn estimate_jitter_with(fronts_ps: &[Option<f64>], fit: &JitterFit) -> Vec<f64> {
-    let valid: Vec<usize> = (0..fronts_ps.len())
-        .filter(|&y| fronts_ps[y].is_some_and(f64::is_finite))
-        .collect();
-    let first = jitter_pass(fronts_ps, &valid, fit, &vec![true; fronts_ps.len()]);
-    let mut abs: Vec<f64> = valid.iter().map(|&y| first[y].abs()).collect();
-    if abs.is_empty() {
-        return first;
-    }
-    let sigma = 1.4826 * median_f64(&mut abs);
-    if sigma.is_nan() || sigma <= 0.0 {
-        return first;
-    }
-    let usable: Vec<bool> = first
-        .iter()
-        .map(|s| s.abs() <= fit.outlier_sigmas * sigma)
-        .collect();
-    jitter_pass(fronts_ps, &valid, fit, &usable)
-}
-
-fn jitter_pass(
-    fronts_ps: &[Option<f64>],
-    valid: &[usize],
-    fit: &JitterFit,
-    usable: &[bool],
-) -> Vec<f64> {
-    let mut shifts = vec![0.0; fronts_ps.len()];
-    let want = 2 * fit.half_window_rows.max(1);
-    for &y in valid {
-        // Nearest usable rows on either side, alternating outwards.
-        let candidates: Vec<usize> = valid
-            .iter()
-            .copied()
-            .filter(|&n| n != y && usable[n])
-            .collect();
-        let split = candidates.partition_point(|&n| n < y);
-        let (mut below, mut above) = (split, split);
-        let mut neighbours = Vec::with_capacity(want);
-        while neighbours.len() < want && (below > 0 || above < candidates.len()) {
-            let take_below = match (below > 0, above < candidates.len()) {
-                (true, true) => y - candidates[below - 1] <= candidates[above] - y,
-                (b, _) => b,
-            };
-            if take_below {
-                below -= 1;
-                neighbours.push(candidates[below]);
-            } else {
-                neighbours.push(candidates[above]);
-                above += 1;
-            }
-        }
-        if neighbours.is_empty() {
-            continue;
-        }
-        let degree = fit.degree.min(neighbours.len() - 1);
-        let scale = fit.half_window_rows.max(1) as f64;
-        let a = DMatrix::from_fn(neighbours.len(), degree + 1, |r, c| {
-            ((neighbours[r] as f64 - y as f64) / scale).powi(c as i32)
-        });
-        let b = DVector::from_iterator(
-            neighbours.len(),
-            neighbours.iter().map(|&n| fronts_ps[n].unwrap_or(0.0)),
-        );
-        let Ok(coef) = a.svd(true, true).solve(&b, 1e-12) else {
-            continue;
-        };
-        if let Some(front) = fronts_ps[y] {
-            shifts[y] = front - coef[0];
-        }
-    }
-    shifts
 }
 
 /// Move a scanline back by `shift_ps` (the row was recorded `shift_ps` late; positive = earlier
@@ -571,15 +354,6 @@ mod tests {
             }
         }
         m1 / m0
-    }
-
-    fn rms(values: impl Iterator<Item = f64>) -> f64 {
-        let (mut n, mut s) = (0usize, 0.0);
-        for v in values {
-            n += 1;
-            s += v * v;
-        }
-        (s / n as f64).sqrt()
     }
 
     #[test]
@@ -770,98 +544,6 @@ mod tests {
             }
             row
         }
-    }
-
-    #[test]
-    fn jitter_is_recovered_and_scene_geometry_is_kept() {
-        let scene = Scene {
-            nx: 24,
-            ny: 128,
-            axis: axis(0.0, 2.0, 96),
-        };
-        let (nx, dt) = (scene.nx, scene.axis.dt_ps);
-        let mut rng = Pcg64::seed_from_u64(20130701);
-        let normal = Normal::new(0.0, 0.5).unwrap();
-        let mut jitter_bins: Vec<f64> = (0..scene.ny).map(|_| normal.sample(&mut rng)).collect();
-        // Two trigger glitches.
-        jitter_bins[40] = 5.0;
-        jitter_bins[90] = -4.0;
-
-        let clean: Vec<Vec<f32>> = (0..scene.ny)
-            .map(|y| scene.row(y, 0.0, 1.0, None))
-            .collect();
-        let rows: Vec<Vec<f32>> = (0..scene.ny)
-            .map(|y| scene.row(y, jitter_bins[y], 1.0, Some(&mut rng)))
-            .collect();
-
-        // Without jitter the fronts follow the geometry, which spans many bins...
-        let clean_fronts: Vec<Option<f64>> = clean
-            .iter()
-            .map(|r| arrival_front(r, nx, &scene.axis))
-            .collect();
-        let (lo, hi) = clean_fronts
-            .iter()
-            .map(|f| f.unwrap())
-            .fold((f64::MAX, f64::MIN), |(l, h), f| (l.min(f), h.max(f)));
-        assert!(
-            (hi - lo) / dt > 15.0,
-            "geometry spans {} bins",
-            (hi - lo) / dt
-        );
-        // ...and the estimator leaves that geometry alone.
-        let clean_shifts = estimate_jitter(&clean_fronts);
-        let clean_rms = rms(clean_shifts.iter().map(|s| s / dt));
-        eprintln!("jitter-free capture: estimated shifts {clean_rms:.3} bins rms");
-        assert!(
-            clean_rms < 0.05,
-            "jitter found in a jitter-free capture: {clean_rms} bins rms"
-        );
-
-        // With jitter, the estimated shifts match the true ones.
-        let fronts: Vec<Option<f64>> = rows
-            .iter()
-            .map(|r| arrival_front(r, nx, &scene.axis))
-            .collect();
-        let shifts_ps = estimate_jitter(&fronts);
-        let err_rms = rms((0..scene.ny).map(|y| shifts_ps[y] / dt - jitter_bins[y]));
-        eprintln!(
-            "jitter recovery error: {err_rms:.3} bins rms (true jitter 0.5 bins rms + 2 glitches)"
-        );
-        assert!(err_rms < 0.2, "jitter error {err_rms} bins rms");
-
-        // Removing the estimated shifts brings each row's front back onto the geometry.
-        let mut corrected = vec![0.0f32; nx * scene.axis.nt];
-        let residual = rms((0..scene.ny).map(|y| {
-            remove_shift(&rows[y], nx, &scene.axis, shifts_ps[y], &mut corrected);
-            let f = arrival_front(&corrected, nx, &scene.axis).unwrap();
-            (f - clean_fronts[y].unwrap()) / dt
-        }));
-        eprintln!("corrected fronts: {residual:.3} bins rms from the jitter-free fronts");
-        assert!(
-            residual < 0.2,
-            "corrected fronts off by {residual} bins rms"
-        );
-    }
-
-    #[test]
-    fn arrival_front_follows_a_shift_exactly_and_ignores_dead_pixels() {
-        let scene = Scene {
-            nx: 12,
-            ny: 1,
-            axis: axis(0.0, 2.0, 96),
-        };
-        let base = arrival_front(&scene.row(50, 0.0, 1.0, None), 12, &scene.axis).unwrap();
-        // A whole-bin shift moves the binned data exactly, so the front moves exactly.
-        let shifted = arrival_front(&scene.row(50, 3.0, 1.0, None), 12, &scene.axis).unwrap();
-        assert!((shifted - base - 3.0 * scene.axis.dt_ps).abs() < 1e-6);
-        // Dead pixels (flat-masked to zero) take no part: the front is that of the live pixels.
-        let mut row = scene.row(50, 0.0, 1.0, None);
-        row[..2 * 96].iter_mut().for_each(|v| *v = 0.0);
-        let with_dead = arrival_front(&row, 12, &scene.axis).unwrap();
-        let live_only = arrival_front(&row[2 * 96..], 10, &scene.axis).unwrap();
-        assert_eq!(with_dead, live_only);
-        assert_ne!(with_dead, base);
-        assert_eq!(arrival_front(&vec![0.0; 12 * 96], 12, &scene.axis), None);
     }
 
     #[test]
