@@ -781,17 +781,10 @@ fn simulated_capture(nx: usize, ny: usize, nt: usize, spp: u32) -> tempfile::Tem
     dir
 }
 
-/// The simulator's fiducials, each point once: the simulator may list a scene grid point
-/// that is also a marker twice (a few nanometres apart), which `fit_camera` rightly refuses
-/// as repeated points, so a point closer than 1 mm to an earlier one is dropped here.
+/// The simulator's fiducials (it writes no two within 1 mm of each other, which
+/// `fit_camera` would refuse as repeated points).
 fn simulator_fiducials(cap: &Path) -> Vec<Correspondence> {
-    let mut unique: Vec<Correspondence> = Vec::new();
-    for c in load_points(&cap.join("fiducials.toml")).unwrap() {
-        if !unique.iter().any(|u| (u.point_m - c.point_m).norm() < 1e-3) {
-            unique.push(c);
-        }
-    }
-    unique
+    load_points(&cap.join("fiducials.toml")).unwrap()
 }
 
 /// `points` with seeded Gaussian noise of `sigma_px` added to each pixel coordinate.

@@ -189,25 +189,6 @@ pub fn scale_intrinsics(k: &Intrinsics, to_w: usize, to_h: usize) -> Intrinsics 
     }
 }
 
-/// Points closer than this are one physical point, metres.
-pub const SAME_POINT_M: f64 = 1e-6;
-
-/// `points` without repeats of a 3-D position (within [`SAME_POINT_M`]; the first is kept): a
-/// marker of the grid that falls on one of the scene's own fiducial candidates is the same
-/// physical point, and the fit refuses repeated points.
-pub fn distinct_points(points: Vec<Correspondence>) -> Vec<Correspondence> {
-    let mut kept: Vec<Correspondence> = Vec::with_capacity(points.len());
-    for c in points {
-        if kept
-            .iter()
-            .all(|k| (k.point_m - c.point_m).norm() > SAME_POINT_M)
-        {
-            kept.push(c);
-        }
-    }
-    kept
-}
-
 /// `points` with seeded Gaussian noise of `sigma_px` added to each pixel coordinate.
 pub fn add_pixel_noise(points: &[Correspondence], sigma_px: f64, seed: u64) -> Vec<Correspondence> {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
@@ -348,7 +329,6 @@ pub(crate) fn run_chain(
                     crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
                 )
             };
-            let points = distinct_points(points);
             let noisy = add_pixel_noise(&points, FIDUCIAL_NOISE_PX, DEMO_SEED);
             let fit = fit_camera(&noisy, &spatial_options(sizes))?;
             let mut cal = fit.calibration(0.0, 1.0, truth.laser_m, truth.eta);

@@ -655,16 +655,12 @@ fn scene_label(figure: &str) -> &'static str {
 /// The exposure that puts the 99.9th percentile of a frame's non-zero luminances at 1 (half
 /// of white after tone mapping), None for a black frame.
 pub fn frame_exposure(pixels: &[[f32; 3]]) -> Option<f64> {
-    let mut lum: Vec<f64> = pixels
-        .iter()
-        .map(|p| crate::color::luminance([p[0] as f64, p[1] as f64, p[2] as f64]))
-        .filter(|&y| y > 0.0 && y.is_finite())
-        .collect();
-    if lum.is_empty() {
-        return None;
-    }
-    let k = ((lum.len() as f64 * 0.999) as usize).min(lum.len() - 1);
-    Some(1.0 / *lum.select_nth_unstable_by(k, f64::total_cmp).1)
+    crate::render::exposure_for(
+        pixels
+            .iter()
+            .map(|p| crate::color::luminance([p[0] as f64, p[1] as f64, p[2] as f64]))
+            .collect(),
+    )
 }
 
 /// Seed Fig. 8: the capture camera's view with a sensor rolling about its optical axis,

@@ -675,14 +675,9 @@ pub fn render_sequence<E: From<RenderError>>(
 pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
     let w = scene.world;
     let nt = w.axis.nt;
-    let mut values: Vec<f64> = match view {
+    let values: Vec<f64> = match view {
         View::Isochrones(_) => return 1.0,
-        View::Integrated => w
-            .prefix
-            .chunks_exact(nt + 1)
-            .map(|p| p[nt])
-            .filter(|&v| v > 0.0 && v.is_finite())
-            .collect(),
+        View::Integrated => w.prefix.chunks_exact(nt + 1).map(|p| p[nt]).collect(),
         View::Transient | View::Naive => {
             let bins = w.nx * w.ny * nt;
             let step = (bins / (1 << 20)).max(1);
@@ -693,16 +688,22 @@ pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
                     let p = &w.prefix[pix * (nt + 1)..(pix + 1) * (nt + 1)];
                     (p[i + 1] - p[i]) / w.axis.dt_ps
                 })
-                .filter(|&v| v > 0.0 && v.is_finite())
                 .collect()
         }
     };
+    exposure_for(values).unwrap_or(1.0)
+}
+
+/// The exposure that brings the 99.9th percentile of `values` (their positive, finite ones)
+/// to 1: its reciprocal. None when no value is positive and finite.
+pub fn exposure_for(mut values: Vec<f64>) -> Option<f64> {
+    values.retain(|&v| v > 0.0 && v.is_finite());
     if values.is_empty() {
-        return 1.0;
+        return None;
     }
     let k = ((values.len() as f64 * 0.999) as usize).min(values.len() - 1);
-    let (_, q, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    1.0 / *q
+    let (_, q, _) = values.select_nth_unstable_by(k, f64::total_cmp);
+    Some(1.0 / *q)
 }
 
 /// The range of first-arrival times that [`View::Isochrones`] colour-codes for `path`:
