@@ -58,7 +58,10 @@ const DEFLATE_LEVEL: u32 = 4;
 
 /// Target size of one chunk, bytes.
 ///
-/// The cube is chunked `(1, cx, nt)` with `cx = clamp(CHUNK_TARGET_BYTES / (4 nt), 1, nx)`:
+/// The cube is chunked `(1, cx, nt)` with `cx` the width of `n = ceil(nx / cx_max)` equal
+/// chunks, `cx = ceil(nx / n)`, where `cx_max = clamp(CHUNK_TARGET_BYTES / (4 nt), 1, nx)`
+/// (so a 672-pixel row of 512 bins is 6 chunks of 112 pixels, not 5 of 128 and a sixth
+/// padded from 32 to 128, which stored and compressed 14 % more bytes):
 /// one chunk never spans two rows, so writing or reading a slab of whole rows touches only
 /// whole chunks (no read-modify-write, and a streaming writer keeps nothing but the slab it
 /// is given); every chunk holds whole time profiles, so reading one pixel's profile (the
@@ -540,8 +543,11 @@ fn check_axis(path: &Path, axis: &TimeAxis) -> Result<()> {
     Ok(())
 }
 
+/// Rows of `row_bytes` per chunk of a dataset of `rows` rows: at most
+/// [`CHUNK_TARGET_BYTES`], balanced so the last chunk is about as full as the others.
 fn chunk_rows(row_bytes: usize, rows: usize) -> usize {
-    (CHUNK_TARGET_BYTES / row_bytes.max(1)).clamp(1, rows.max(1))
+    let most = (CHUNK_TARGET_BYTES / row_bytes.max(1)).clamp(1, rows.max(1));
+    rows.max(1).div_ceil(rows.max(1).div_ceil(most))
 }
 
 impl CubeSink {
@@ -872,46 +878,65 @@ impl CubeWriter {
             nx: self.sink.nx,
             nt: self.sink.nt,
             cx: chunk_rows(self.sink.nt * 4, self.sink.nx),
-            pipeline: match self.sink.compression {
-                CubeCompression::Deflate(level) => Some(FilterPipeline::shuffle_deflate(4, level)),
-                CubeCompression::None => None,
-            },
+            compression: self.sink.compression,
         }
     }
 
-    /// Write row `y` from chunks compressed by this writer's [`RowCompressor`]: the bytes are
-    /// stored as they are, so the writer's thread does no compression.
+    /// Write row `y` from chunks made by this writer's [`RowCompressor`]: the bytes are
+    /// stored as they are, so the writer's thread does no compression (and, for an
+    /// uncompressed cube, no copy: the row's values go to the file from where they are).
     pub fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
         let s = &mut self.sink;
         let cx = chunk_rows(s.nt * 4, s.nx);
-        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx) {
+        let chunks = s.nx.div_ceil(cx);
+        let fits = match &row.storage {
+            RowStorage::Filtered { chunks: c, .. } => c.len() == chunks,
+            RowStorage::Plain(values) => values.len() == s.nx * s.nt,
+        };
+        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || !fits {
             return Err(invalid(
                 &s.path,
                 format!(
-                    "compressed row {y} ({} x {} values in {} chunks) does not fit the cube's \
-                     {} rows of {} x {}",
-                    row.nx,
-                    row.nt,
-                    row.chunks.len(),
-                    s.ny,
-                    s.nx,
-                    s.nt
+                    "compressed row {y} ({} x {} values) does not fit the cube's {} rows of \
+                     {} x {} in {chunks} chunks",
+                    row.nx, row.nt, s.ny, s.nx, s.nt
                 ),
             ));
         }
-        if row.filtered != matches!(s.compression, CubeCompression::Deflate(_)) {
+        if matches!(row.storage, RowStorage::Filtered { .. })
+            != matches!(s.compression, CubeCompression::Deflate(_))
+        {
             return Err(invalid(
                 &s.path,
                 "compressed row made by another writer's compressor",
             ));
         }
-        for (c, bytes) in row.chunks.iter().enumerate() {
-            if row.filtered {
-                s.cube.write_chunk_raw_at(&[y, c, 0], bytes, 0)
-            } else {
-                s.cube.write_chunk_at(&[y, c, 0], bytes)
+        let e = h5(&s.path);
+        match &row.storage {
+            RowStorage::Filtered { chunks, .. } => {
+                for (c, bytes) in chunks.iter().enumerate() {
+                    s.cube
+                        .write_chunk_raw_at(&[y, c, 0], bytes, 0)
+                        .map_err(&e)?;
+                }
             }
-            .map_err(h5(&s.path))?;
+            RowStorage::Plain(values) => {
+                let chunk_values = cx * s.nt;
+                for (c, part) in values.chunks(chunk_values).enumerate() {
+                    if part.len() == chunk_values {
+                        s.cube
+                            .write_chunk_at(&[y, c, 0], &le_bytes(part))
+                            .map_err(&e)?;
+                    } else {
+                        // The edge chunk, padded with zeros as HDF5 stores it.
+                        let mut padded = vec![0.0f32; chunk_values];
+                        padded[..part.len()].copy_from_slice(part);
+                        s.cube
+                            .write_chunk_at(&[y, c, 0], &le_bytes(&padded))
+                            .map_err(&e)?;
+                    }
+                }
+            }
         }
         s.rows_written[y] = true;
         Ok(())
@@ -932,37 +957,76 @@ impl CubeWriter {
     }
 }
 
+/// The little-endian bytes of `values` (the cube's on-disk type): a view of the same memory
+/// on little-endian machines, a converted copy elsewhere.
+fn le_bytes(values: &[f32]) -> std::borrow::Cow<'_, [u8]> {
+    if cfg!(target_endian = "little") {
+        std::borrow::Cow::Borrowed(bytemuck::cast_slice(values))
+    } else {
+        std::borrow::Cow::Owned(values.iter().flat_map(|v| v.to_le_bytes()).collect())
+    }
+}
+
 /// Compresses one row of a cube into the chunks of its `/cube` dataset (the writer's filters,
 /// shuffle + deflate by default, and the chunk shape of the schema), without touching the
 /// file.
 ///
-/// HDF5 compression is the slow part of writing a cube and the writer runs it on one thread;
+/// Compression is the slow part of writing a cube and the writer runs it on one thread;
 /// a `RowCompressor` (from [`CubeWriter::row_compressor`]) is `Send + Sync`, so streaming
 /// commands compress rows on their worker threads and hand the bytes to
 /// [`CubeWriter::write_compressed_row`], which only appends them to the file.
+///
+/// The chunks are standard HDF5 shuffle + deflate (zlib streams), which any HDF5 reader
+/// decodes with its built-in filters. The deflate encoder depends on the level, each the
+/// faster of the two measured on camera data (`examples/bench_chunk_compression.rs`,
+/// `tools/bench_ingest_results.md`): miniz_oxide at level 1 (its fast greedy mode beat
+/// libdeflate's level 1 by 1.5x in CPU for 5 % more bytes), libdeflate at every other level
+/// (at level 4, 2.2x faster than miniz_oxide and 5 % smaller).
 #[derive(Clone, Debug)]
 pub struct RowCompressor {
     nx: usize,
     nt: usize,
     cx: usize,
-    /// The filters of the cube (`None`: stored as is).
-    pipeline: Option<FilterPipeline>,
+    compression: CubeCompression,
 }
 
-/// One row of a cube as compressed chunks, from [`RowCompressor::compress`].
+/// One row of a cube as stored chunks, from [`RowCompressor::compress`].
 #[derive(Clone, Debug)]
 pub struct CompressedRow {
     nx: usize,
     nt: usize,
-    /// Whether the chunks went through the filters (else they are the raw bytes).
-    filtered: bool,
-    chunks: Vec<Vec<u8>>,
+    storage: RowStorage,
+}
+
+#[derive(Clone, Debug)]
+enum RowStorage {
+    /// The chunks after shuffle + deflate; `row` is the buffer the values came in (kept only
+    /// so the caller can reuse it, see [`CompressedRow::into_buffer`]).
+    Filtered { chunks: Vec<Vec<u8>>, row: Vec<f32> },
+    /// The values themselves (an unfiltered cube stores them as they are).
+    Plain(Vec<f32>),
 }
 
 impl CompressedRow {
-    /// Compressed size, bytes.
+    /// Stored size, bytes (an unfiltered edge chunk counts its padding).
     pub fn stored_bytes(&self) -> usize {
-        self.chunks.iter().map(Vec::len).sum()
+        match &self.storage {
+            RowStorage::Filtered { chunks, .. } => chunks.iter().map(Vec::len).sum(),
+            RowStorage::Plain(values) => {
+                let cx = chunk_rows(self.nt * 4, self.nx);
+                values.len().div_ceil(cx * self.nt) * cx * self.nt * 4
+            }
+        }
+    }
+
+    /// The row buffer given to [`RowCompressor::compress_owned`], for reuse once the row is
+    /// written (its contents are unspecified; empty when the row came from
+    /// [`RowCompressor::compress`] of a filtered cube).
+    pub fn into_buffer(self) -> Vec<f32> {
+        match self.storage {
+            RowStorage::Filtered { row, .. } => row,
+            RowStorage::Plain(values) => values,
+        }
     }
 }
 
@@ -978,29 +1042,100 @@ impl RowCompressor {
     /// # Panics
     /// If `row.len() != self.row_len()` (a programming error, not bad input).
     pub fn compress(&self, row: &[f32]) -> CompressedRow {
+        match self.compression {
+            CubeCompression::None => self.compress_owned(row.to_vec()),
+            CubeCompression::Deflate(_) => CompressedRow {
+                nx: self.nx,
+                nt: self.nt,
+                storage: RowStorage::Filtered {
+                    chunks: self.deflate_chunks(row),
+                    row: Vec::new(),
+                },
+            },
+        }
+    }
+
+    /// [`RowCompressor::compress`] of a row the caller gives away: an uncompressed cube
+    /// keeps the values where they are (no copy), and [`CompressedRow::into_buffer`] hands
+    /// the buffer back for the next row.
+    ///
+    /// # Panics
+    /// If `row.len() != self.row_len()`.
+    pub fn compress_owned(&self, row: Vec<f32>) -> CompressedRow {
         assert_eq!(row.len(), self.row_len(), "RowCompressor: row length");
-        let chunk_values = self.cx * self.nt;
-        let mut raw = vec![0u8; chunk_values * 4];
-        let chunks = row
-            .chunks(chunk_values)
-            .map(|values| {
-                raw.fill(0);
-                for (dst, v) in raw.chunks_exact_mut(4).zip(values) {
-                    dst.copy_from_slice(&v.to_le_bytes());
-                }
-                match &self.pipeline {
-                    Some(p) => apply_filters(p, &raw)
-                        .expect("shuffle and deflate cannot fail on a whole chunk"),
-                    None => raw.clone(),
-                }
-            })
-            .collect();
+        let storage = match self.compression {
+            CubeCompression::None => RowStorage::Plain(row),
+            CubeCompression::Deflate(_) => RowStorage::Filtered {
+                chunks: self.deflate_chunks(&row),
+                row,
+            },
+        };
         CompressedRow {
             nx: self.nx,
             nt: self.nt,
-            filtered: self.pipeline.is_some(),
-            chunks,
+            storage,
         }
+    }
+
+    fn deflate_chunks(&self, row: &[f32]) -> Vec<Vec<u8>> {
+        assert_eq!(row.len(), self.row_len(), "RowCompressor: row length");
+        let CubeCompression::Deflate(level) = self.compression else {
+            unreachable!("deflate_chunks of an unfiltered cube")
+        };
+        let chunk_values = self.cx * self.nt;
+        DEFLATE_SCRATCH.with_borrow_mut(|scratch| {
+            row.chunks(chunk_values)
+                .map(|values| scratch.shuffle_deflate(values, chunk_values, level))
+                .collect()
+        })
+    }
+}
+
+thread_local! {
+    /// Per-thread buffers and encoder of [`RowCompressor`].
+    static DEFLATE_SCRATCH: std::cell::RefCell<DeflateScratch> =
+        std::cell::RefCell::new(DeflateScratch::default());
+}
+
+/// The shuffled bytes of the chunk being compressed, and a libdeflate encoder of the last
+/// level used (allocating one costs more than compressing a small chunk).
+#[derive(Default)]
+struct DeflateScratch {
+    shuffled: Vec<u8>,
+    encoder: Option<(u32, libdeflater::Compressor)>,
+}
+
+impl DeflateScratch {
+    /// HDF5 shuffle (element size 4) then deflate (zlib stream) of one chunk: `values`
+    /// padded with zeros to `chunk_values`.
+    fn shuffle_deflate(&mut self, values: &[f32], chunk_values: usize, level: u32) -> Vec<u8> {
+        // Shuffle: byte k of every value, for k = 0..4 (little-endian, the stored order).
+        self.shuffled.clear();
+        self.shuffled.resize(chunk_values * 4, 0);
+        let (b0, rest) = self.shuffled.split_at_mut(chunk_values);
+        let (b1, rest) = rest.split_at_mut(chunk_values);
+        let (b2, b3) = rest.split_at_mut(chunk_values);
+        for (i, v) in values.iter().enumerate() {
+            [b0[i], b1[i], b2[i], b3[i]] = v.to_le_bytes();
+        }
+        if level == 1 {
+            return apply_filters(&FilterPipeline::deflate(1), &self.shuffled)
+                .expect("deflate cannot fail on a whole chunk");
+        }
+        let encoder = match &mut self.encoder {
+            Some((l, e)) if *l == level => e,
+            slot => {
+                let lvl = libdeflater::CompressionLvl::new(level as i32)
+                    .expect("levels 0-9 are libdeflate levels");
+                &mut slot.insert((level, libdeflater::Compressor::new(lvl))).1
+            }
+        };
+        let mut out = vec![0u8; encoder.zlib_compress_bound(self.shuffled.len())];
+        let n = encoder
+            .zlib_compress(&self.shuffled, &mut out)
+            .expect("the output holds the compress bound");
+        out.truncate(n);
+        out
     }
 }
 
@@ -2276,8 +2411,12 @@ mod tests {
 
     #[test]
     fn chunk_holds_whole_profiles_of_one_row() {
-        // 256 KiB / (4 bytes * 1024 bins) = 64 pixels per chunk.
-        assert_eq!(chunk_rows(4 * 1024, 1000), 64);
+        // 256 KiB / (4 bytes * 1024 bins) = at most 64 pixels per chunk; 1000 pixels need 16
+        // chunks, balanced to 63 pixels (16 * 63 = 1008: 8 padded, not 24).
+        assert_eq!(chunk_rows(4 * 1024, 1000), 63);
+        // The seed's capture: 672 pixels of 512 bins, at most 128 per chunk: 6 chunks of 112.
+        assert_eq!(chunk_rows(4 * 512, 672), 112);
+        assert_eq!(chunk_rows(4 * 1024, 128), 64);
         // Never wider than the row, never empty.
         assert_eq!(chunk_rows(4 * 16, 10), 10);
         assert_eq!(chunk_rows(4 << 20, 10), 1);
@@ -2308,8 +2447,9 @@ mod tests {
 
     #[test]
     fn compressed_rows_read_back_like_plain_rows() {
-        // nx = 70 with nt = 1024 gives 64-pixel chunks: one full chunk and a padded edge chunk.
-        let (nx, ny, nt) = (70usize, 3usize, 1024usize);
+        // nx = 69 with nt = 1024 gives two 35-pixel chunks (at most 64 per chunk): one full
+        // chunk and an edge chunk padded by one pixel.
+        let (nx, ny, nt) = (69usize, 3usize, 1024usize);
         let axis = TimeAxis {
             t0_ps: -3.0,
             dt_ps: 0.5,
@@ -2353,8 +2493,10 @@ mod tests {
             }
         }
 
-        // Uncompressed and fast-deflate cubes read back the same.
-        for compression in [CubeCompression::None, CubeCompression::Deflate(1)] {
+        // Uncompressed cubes and every deflate level (miniz_oxide at 1, libdeflate at the
+        // others) read back the same, from borrowed and from owned rows.
+        let levels = (0..=9).map(CubeCompression::Deflate);
+        for compression in std::iter::once(CubeCompression::None).chain(levels) {
             let p = dir.path().join("d.h5");
             let mut w = CubeWriter::create_with(
                 &p,
@@ -2374,7 +2516,16 @@ mod tests {
             let c = w.row_compressor();
             for y in 0..ny {
                 let row: Vec<f32> = (0..nx * nt).map(|i| value(y, i)).collect();
-                w.write_compressed_row(y, &c.compress(&row)).unwrap();
+                let packed = if y == 1 {
+                    c.compress(&row)
+                } else {
+                    c.compress_owned(row.clone())
+                };
+                w.write_compressed_row(y, &packed).unwrap();
+                if y != 1 || compression == CubeCompression::None {
+                    // The buffer comes back for the next row.
+                    assert_eq!(packed.into_buffer().len(), nx * nt);
+                }
             }
             w.finish().unwrap();
             assert_eq!(read_cube(&p).unwrap().data, back.data, "{compression:?}");

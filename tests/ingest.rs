@@ -429,6 +429,68 @@ fn glob_printf_and_manifest_inputs_agree() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("dt_ps = 2.5 disagrees"));
 }
 
+/// The 16-bit PNG fast path (samples decoded as integers, scaled and transposed in one pass)
+/// and every storage of the cube (uncompressed; shuffle + deflate 1 by miniz_oxide; level 4
+/// by libdeflate) give exactly the values of the generic reader: `read_streak` of each file
+/// times the value per count, transposed here by a plain loop; files stored transposed
+/// (time across, `--transpose`) too.
+#[test]
+fn png_fast_path_and_every_storage_give_the_generic_readers_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let paths = write_capture(dir.path(), NY, &Flaws::default(), Fmt::Png16, true, 5);
+    let nt = AXIS.nt;
+    let tdir = dir.path().join("transposed");
+    std::fs::create_dir_all(&tdir).unwrap();
+    let mut want = vec![0.0f32; NY * NX * nt];
+    for (y, p) in paths.iter().enumerate() {
+        let img = femto::formats::read_streak(p, false).unwrap();
+        let mut counts_xt = vec![0.0f32; NX * nt];
+        for t in 0..nt {
+            for x in 0..NX {
+                counts_xt[x * nt + t] = img.data[t * NX + x];
+                want[(y * NX + x) * nt + t] = img.data[t * NX + x] * VPC as f32;
+            }
+        }
+        let transposed = StreakImage::new(nt, NX, counts_xt);
+        raster::write_png16(&tdir.join(format!("t_{y:04}.png")), &transposed, 1.0).unwrap();
+    }
+    let (dt, t0, vpc, rows) = (
+        AXIS.dt_ps.to_string(),
+        AXIS.t0_ps.to_string(),
+        VPC.to_string(),
+        NY.to_string(),
+    );
+    let pattern = format!("{}/t_%04d.png", s(&tdir));
+    for compression in ["none", "1", "4"] {
+        let a = dir.path().join(format!("a{compression}.h5"));
+        ingest_ok(&[s(dir.path()), "-o", s(&a), "--compression", compression]);
+        assert_eq!(
+            container::read_cube(&a).unwrap().data,
+            want,
+            "{compression}"
+        );
+        let b = dir.path().join(format!("b{compression}.h5"));
+        ingest_ok(&[
+            &pattern,
+            "--rows",
+            &rows,
+            "--transpose",
+            "-o",
+            s(&b),
+            "--dt-ps",
+            &dt,
+            "--t0-ps",
+            &t0,
+            "--value-scale",
+            &vpc,
+            "--compression",
+            compression,
+        ]);
+        let got = container::read_cube(&b).unwrap().data;
+        assert_eq!(got, want, "transposed, {compression}");
+    }
+}
+
 #[test]
 fn hdf5_stack_input_in_both_layouts() {
     let dir = tempfile::tempdir().unwrap();

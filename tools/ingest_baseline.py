@@ -26,7 +26,9 @@ def main():
     stack = np.stack(images).astype(np.float32) * np.float32(scale)  # (ny, nt, nx)
     cube = np.ascontiguousarray(stack.transpose(0, 2, 1))  # (ny, nx, nt)
     ny, nx, nt = cube.shape
-    cx = max(1, min(nx, 262144 // (4 * nt)))
+    # femto's chunk width: at most 256 KiB per chunk, balanced over the row.
+    most = max(1, min(nx, 262144 // (4 * nt)))
+    cx = -(-nx // -(-nx // most))
     with h5py.File(out, "w") as f:
         d = f.create_dataset(
             "cube", data=cube, chunks=(1, cx, nt), shuffle=True, compression="gzip",

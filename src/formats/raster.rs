@@ -136,6 +136,33 @@ pub fn read_png(path: &Path) -> Result<RasterPixels, FormatError> {
     })
 }
 
+/// Decode a 16-bit single-channel (grey) PNG into `samples` (caller-owned, reused between
+/// calls: resized, never shrunk), row-major as stored; returns `(width, height)`, or `None`
+/// when the file is a PNG of another layout (8-bit, alpha, colour), which [`read_png`] reads.
+///
+/// The fast path of ingest: it skips [`read_png`]'s `f32` copy and its allocations, so a
+/// caller converting to `f32` (with a scale, into its own layout) does so in one pass.
+pub fn read_png_grey16_into(
+    path: &Path,
+    samples: &mut Vec<u16>,
+) -> Result<Option<(usize, usize)>, FormatError> {
+    use image::ImageDecoder;
+    let file = std::fs::File::open(path).map_err(io_err(path))?;
+    let decoder = image::codecs::png::PngDecoder::new(BufReader::with_capacity(1 << 16, file))
+        .map_err(|e| decode_err(path, e))?;
+    if decoder.color_type() != image::ColorType::L16 {
+        return Ok(None);
+    }
+    let (w, h) = decoder.dimensions();
+    let (width, height) = (w as usize, h as usize);
+    samples.resize(width * height, 0);
+    // `read_image` writes native-endian samples.
+    decoder
+        .read_image(bytemuck::cast_slice_mut(&mut samples[..]))
+        .map_err(|e| decode_err(path, e))?;
+    Ok(Some((width, height)))
+}
+
 /// Read the first (and only) image of a TIFF: grey or grey+alpha of any integer or float
 /// sample type, RGB(A) integer with equal channels, or RGB(A) float (mean of R, G, B).
 pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {

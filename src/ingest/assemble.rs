@@ -55,13 +55,15 @@ use super::corrections::{
     saturation_mask, subtract_dark, Dark,
 };
 use super::plan::{
-    stack_image, to_row_layout, DarkCorrection, IngestPlan, PowerCorrection, RowSource,
+    stack_image, to_row_layout, to_row_layout_u16, DarkCorrection, IngestPlan, PowerCorrection,
+    RowSource,
 };
 use super::row_offsets::{estimate_row_offsets, pixel_log_integrals, pixel_pulse_times};
 use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
-use crate::formats::read_streak;
+use crate::formats::raster::read_png_grey16_into;
+use crate::formats::{read_streak, StreakImage};
 
 /// Which pass a progress report is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -152,12 +154,14 @@ pub fn ingest(
         if matches!(plan.power, Some(PowerCorrection::Auto(_))) {
             log_integrals = vec![None; ny * nx];
         }
+        let pool = RowPool::new(nx * plan.nt_recorded);
         let work = |y: usize| -> Result<Option<Prepared>, IngestError> {
-            Ok(load_row(plan, y)?.map(|raw| prepare(plan, y, raw)))
+            Ok(load_row(plan, y, &pool)?.map(|raw| prepare(plan, y, raw)))
         };
         ordered_pipeline(ny, &work, &mut |y, prepared| {
             if let Some(p) = prepared {
                 scratch.write_row(y, &p.row)?;
+                pool.give(p.row);
                 mask[y * nx..(y + 1) * nx].copy_from_slice(&p.mask);
                 factors[y] = p.power_factor.unwrap_or(f64::NAN);
                 if let Some(e) = &p.edges_ps {
@@ -215,16 +219,19 @@ pub fn ingest(
         globals: &globals,
         scratch: scratch.as_ref(),
         pass1_mask: scratch.is_some().then_some(&mask[..]),
+        pool: RowPool::new(nx * plan.nt_recorded),
     };
     let mut stored_bytes = 0u64;
     let mut final_mask = vec![1u8; ny * nx];
     let work = |y: usize| -> Result<(crate::container::CompressedRow, Finished), IngestError> {
-        let f = final_row(&ctx, y)?;
-        Ok((compressor.compress(&f.row), f))
+        let mut f = final_row(&ctx, y)?;
+        let row = std::mem::take(&mut f.row);
+        Ok((compressor.compress_owned(row), f))
     };
     ordered_pipeline(ny, &work, &mut |y, (compressed, f)| {
         writer.write_compressed_row(y, &compressed)?;
         stored_bytes += compressed.stored_bytes() as u64;
+        ctx.pool.give(compressed.into_buffer());
         final_mask[y * nx..(y + 1) * nx].copy_from_slice(&f.mask);
         if ctx.scratch.is_none() {
             bytes_read += f.bytes;
@@ -275,10 +282,13 @@ pub fn decode_only(
     };
     let work = |y: usize| -> Result<(u64, u64), IngestError> {
         match &files[y] {
-            Some(path) => {
-                let img = read_streak(path, plan.transpose)?;
-                Ok((file_size(path), img.data.len() as u64))
-            }
+            Some(path) => SAMPLES.with_borrow_mut(|samples| {
+                let values = match decode_file(path, plan.transpose, samples)? {
+                    Decoded::Grey16 { nx, nt } => nx * nt,
+                    Decoded::Image(img) => img.data.len(),
+                };
+                Ok((file_size(path), values as u64))
+            }),
             None => Ok((0, 0)),
         }
     };
@@ -412,17 +422,107 @@ struct RawRow {
     bytes: u64,
 }
 
-/// Read scanline `y` (`None` when it is missing), checking its size, its time table and its
-/// values.
-fn load_row(plan: &IngestPlan, y: usize) -> Result<Option<RawRow>, IngestError> {
+thread_local! {
+    /// Samples of the scanline file being decoded on this thread (reused: one allocation per
+    /// worker, not one per scanline).
+    static SAMPLES: std::cell::RefCell<Vec<u16>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A decoded scanline file.
+enum Decoded {
+    /// A 16-bit grey PNG, its samples in the caller's buffer: `[t][x]`, or `[x][t]` (the
+    /// cube's row layout already) when the plan transposes.
+    Grey16 { nx: usize, nt: usize },
+    /// Any other file, read by [`read_streak`].
+    Image(Box<StreakImage>),
+}
+
+/// Decode the scanline file `path`: 16-bit grey PNG into `samples` (ingest's fast path, no
+/// `f32` copy), everything else through [`read_streak`].
+fn decode_file(
+    path: &Path,
+    transpose: bool,
+    samples: &mut Vec<u16>,
+) -> Result<Decoded, IngestError> {
+    let is_png = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        if let Some((width, height)) = read_png_grey16_into(path, samples)? {
+            let (nx, nt) = if transpose {
+                (height, width)
+            } else {
+                (width, height)
+            };
+            return Ok(Decoded::Grey16 { nx, nt });
+        }
+    }
+    Ok(Decoded::Image(Box::new(read_streak(path, transpose)?)))
+}
+
+/// A scanline file after [`decode_row`].
+enum Loaded {
+    /// Converted into the row layout, scaled (16-bit grey PNG).
+    Row(Vec<f32>),
+    /// Read by [`read_streak`], for [`load_row`] to check and convert.
+    Image(Box<StreakImage>),
+}
+
+/// Decode scanline file `path`; a 16-bit grey PNG goes from this thread's sample buffer
+/// straight into a row of `pool` (scaled, in the row layout: one pass, no `f32` image).
+fn decode_row(plan: &IngestPlan, path: &Path, pool: &RowPool) -> Result<Loaded, IngestError> {
     let (nx, nt) = (plan.nx, plan.nt_recorded);
-    let mut values_xt = vec![0.0f32; nx * nt];
+    SAMPLES.with_borrow_mut(
+        |samples| match decode_file(path, plan.transpose, samples)? {
+            Decoded::Grey16 {
+                nx: found_nx,
+                nt: found_nt,
+            } => {
+                if (found_nx, found_nt) != (nx, nt) {
+                    return Err(IngestError::SizeMismatch {
+                        path: path.to_path_buf(),
+                        what: "scanline".into(),
+                        found_nx,
+                        found_nt,
+                        nx,
+                        nt,
+                        reference: plan.reference.clone(),
+                    });
+                }
+                let scale = plan.value_scale;
+                let mut values_xt = pool.take();
+                if plan.transpose {
+                    for (v, &s) in values_xt.iter_mut().zip(samples.iter()) {
+                        *v = f32::from(s) * scale;
+                    }
+                } else {
+                    to_row_layout_u16(samples, nx, nt, scale, &mut values_xt);
+                }
+                Ok(Loaded::Row(values_xt))
+            }
+            Decoded::Image(img) => Ok(Loaded::Image(img)),
+        },
+    )
+}
+
+/// Read scanline `y` (`None` when it is missing) into a row of `pool`, checking its size, its
+/// time table and its values.
+fn load_row(plan: &IngestPlan, y: usize, pool: &RowPool) -> Result<Option<RawRow>, IngestError> {
+    let (nx, nt) = (plan.nx, plan.nt_recorded);
     match &plan.source {
         RowSource::Files(files) => {
             let Some(path) = &files[y] else {
                 return Ok(None);
             };
-            let img = read_streak(path, plan.transpose)?;
+            let img = match decode_row(plan, path, pool)? {
+                Loaded::Row(values_xt) => {
+                    return Ok(Some(RawRow {
+                        values_xt,
+                        bytes: file_size(path),
+                    }))
+                }
+                Loaded::Image(img) => img,
+            };
             if (img.nx, img.nt) != (nx, nt) {
                 return Err(IngestError::SizeMismatch {
                     path: path.clone(),
@@ -446,6 +546,7 @@ fn load_row(plan: &IngestPlan, y: usize) -> Result<Option<RawRow>, IngestError> 
                     });
                 }
             }
+            let mut values_xt = pool.take();
             to_row_layout(&img.data, nx, nt, plan.value_scale, &mut values_xt).map_err(
                 |(x, t, value)| IngestError::NonFinite {
                     path: path.clone(),
@@ -461,6 +562,7 @@ fn load_row(plan: &IngestPlan, y: usize) -> Result<Option<RawRow>, IngestError> 
         }
         RowSource::Stack { values, .. } => {
             let image = stack_image(values, y, nx, nt, plan.transpose);
+            let mut values_xt = pool.take();
             to_row_layout(&image, nx, nt, plan.value_scale, &mut values_xt)
                 .expect("stack values checked finite when the plan was made");
             Ok(Some(RawRow {
@@ -544,6 +646,8 @@ struct Context<'a> {
     scratch: Option<&'a Scratch>,
     /// Masks from pass 1 (`ny x nx`), when there was one.
     pass1_mask: Option<&'a [u8]>,
+    /// Buffers of decoded rows.
+    pool: RowPool,
 }
 
 /// Row `y` of the cube: a present row finished, or a missing one interpolated.
@@ -585,7 +689,7 @@ fn finished_present(ctx: &Context, y: usize) -> Result<Finished, IngestError> {
             (scratch.read_row(y)?, mask, 0, 0)
         }
         None => {
-            let raw = load_row(plan, y)?.expect("present row");
+            let raw = load_row(plan, y, &ctx.pool)?.expect("present row");
             let p = prepare(plan, y, raw);
             (p.row, p.mask, p.saturated, p.bytes)
         }
@@ -609,6 +713,46 @@ fn finished_present(ctx: &Context, y: usize) -> Result<Finished, IngestError> {
         saturated,
         bytes,
     })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Row buffers.
+
+/// Row buffers handed back after a row is written, for the next rows to decode into: so
+/// streaming allocates (and the kernel zero-fills) a few rows per thread, not one per
+/// scanline.
+struct RowPool {
+    free: Mutex<Vec<Vec<f32>>>,
+    row_len: usize,
+}
+
+impl RowPool {
+    fn new(row_len: usize) -> RowPool {
+        RowPool {
+            free: Mutex::new(Vec::new()),
+            row_len,
+        }
+    }
+
+    /// A buffer of `row_len` values (contents unspecified: the caller overwrites them all).
+    fn take(&self) -> Vec<f32> {
+        let mut row = self
+            .free
+            .lock()
+            .expect("pool lock")
+            .pop()
+            .unwrap_or_default();
+        row.resize(self.row_len, 0.0);
+        row
+    }
+
+    /// Keep `row` for a later [`RowPool::take`] (at most a window's worth are kept).
+    fn give(&self, row: Vec<f32>) {
+        let mut free = self.free.lock().expect("pool lock");
+        if row.capacity() >= self.row_len && free.len() < 64 {
+            free.push(row);
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
