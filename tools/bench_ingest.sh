@@ -4,13 +4,15 @@
 # Generates N scanlines with examples/bench_ingest_capture.rs (release), then times, each
 # REPS times with the files in the page cache (one untimed warm-up read first):
 #   - decode only: `femto ingest --decode-only` (the same parallel reader, no output);
-#   - femto ingest at the default compression (deflate level 1), and with --compression 4
-#     (femto's usual level, h5py's gzip default, what the script writes) and none;
+#   - femto ingest at the default compression (shuffle + deflate level 1, miniz_oxide), and
+#     with --compression 4 (femto's usual level, h5py's gzip default, what the script writes;
+#     libdeflate) and none (no filter);
 #   - the plain Python script tools/ingest_baseline.py (numpy + imageio + h5py);
 #   - femto ingest of the first N/4 scanlines, to show that peak memory does not grow
 #     with the number of scanlines.
 # and checks that femto's cube equals the script's. Wall seconds, MB/s of PNG data read, CPU
-# seconds and peak RSS (from /usr/bin/time -v) go to stdout and to tools/bench_ingest_results.md.
+# seconds, peak RSS (from /usr/bin/time -v) and the size of the file written go to stdout and
+# to tools/bench_ingest_results.md (inserted after its header: newest entry first).
 #
 # Usage: tools/bench_ingest.sh [N=600] [REPS=3] [WORKDIR=target/bench_ingest]
 set -euo pipefail
@@ -40,8 +42,9 @@ AXIS=(--dt-ps 1.9 --t0-ps 0)
 # Warm the page cache so every run reads the same way.
 "$FEMTO" ingest "$PATTERN" --rows "$N" "${AXIS[@]}" --decode-only > /dev/null
 
-# run LABEL BYTES CMD...: time CMD REPS times; print "LABEL wall_s MB/s cpu_s rss_MB" per run
-# (CPU seconds, user + system, are disturbed less than wall time by other load).
+# run LABEL BYTES CMD...: time CMD REPS times; print "LABEL wall_s MB/s cpu_s rss_MB out_MB"
+# per run (CPU seconds, user + system, are disturbed less than wall time by other load; out_MB
+# is the size of the file written under $WORK, if any).
 run() {
     local label=$1 bytes=$2
     shift 2
@@ -53,8 +56,12 @@ run() {
             for (i = 1; i <= n; i++) s = s * 60 + p[i]; print s}' "$WORK/$label.time")
         rss=$(awk -F': ' '/Maximum resident set size/ {printf "%.1f", $2 / 1024}' "$WORK/$label.time")
         cpu=$(awk -F': ' '/(User|System) time \(seconds\)/ {s += $2} END {printf "%.2f", s}' "$WORK/$label.time")
-        printf "%-24s %8.2f s %8.1f MB/s %8.2f s CPU %8.1f MB RSS\n" "$label" "$wall" \
-            "$(echo "$bytes / 1000000 / $wall" | bc -l)" "$cpu" "$rss"
+        local out_mb=-
+        for f in "$WORK"/out_*.h5; do
+            [ -f "$f" ] && out_mb=$(stat -c %s "$f" | awk '{printf "%.1f", $1 / 1e6}')
+        done
+        printf "%-24s %8.2f s %8.1f MB/s %8.2f s CPU %8.1f MB RSS %8s MB out\n" "$label" "$wall" \
+            "$(echo "$bytes / 1000000 / $wall" | bc -l)" "$cpu" "$rss" "$out_mb"
     done
 }
 
@@ -85,4 +92,11 @@ same = a.shape == b.shape and all(np.array_equal(a[y], b[y]) for y in range(a.sh
 print(f"femto and python cubes {'identical' if same else 'DIFFER'}: {a.shape}")
 PY
 echo >> "$WORK/results.txt"
-cat "$WORK/results.txt" >> "$RESULTS"
+# Newest first: the entry goes before the first "## " heading (after the file's header).
+python3 - "$RESULTS" "$WORK/results.txt" <<'PY'
+import sys
+results, entry = sys.argv[1], open(sys.argv[2]).read()
+lines = open(results).read().splitlines(keepends=True)
+at = next((i for i, l in enumerate(lines) if l.startswith("## ")), len(lines))
+open(results, "w").write("".join(lines[:at]) + entry + "".join(lines[at:]))
+PY
