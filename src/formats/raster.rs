@@ -482,3 +482,36 @@ pub fn write_exr_f32(path: &Path, img: &StreakImage) -> Result<(), FormatError> 
         image.write().to_file(tmp).map_err(|e| encode_err(path, e))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grey16_fast_path_reads_what_read_png_reads_and_declines_other_layouts() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (13usize, 7usize);
+        let counts: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 65_536) as f32).collect();
+        let p16 = dir.path().join("a.png");
+        write_png16(&p16, &StreakImage::new(w, h, counts.clone()), 1.0).unwrap();
+        let mut samples = vec![9u16; 3];
+        assert_eq!(
+            read_png_grey16_into(&p16, &mut samples).unwrap(),
+            Some((w, h))
+        );
+        let as_f32: Vec<f32> = samples.iter().map(|&v| f32::from(v)).collect();
+        assert_eq!(as_f32, counts);
+        assert_eq!(as_f32, read_png(&p16).unwrap().data);
+        // 8-bit grey: not this path's layout.
+        let p8 = dir.path().join("b.png");
+        image::GrayImage::from_fn(w as u32, h as u32, |x, y| image::Luma([(x + y) as u8]))
+            .save(&p8)
+            .unwrap();
+        assert_eq!(read_png_grey16_into(&p8, &mut samples).unwrap(), None);
+        // A file that is not a PNG is a decode error naming it.
+        let bad = dir.path().join("c.png");
+        std::fs::write(&bad, b"not a png").unwrap();
+        let e = read_png_grey16_into(&bad, &mut samples).unwrap_err();
+        assert!(e.to_string().contains("c.png"), "{e}");
+    }
+}

@@ -26,8 +26,12 @@
 //!
 //! Streaming. Rows are decoded, corrected and compressed on worker threads, at most
 //! `2 x threads + 2` rows in flight, and written in order by the calling thread through
-//! [`CubeWriter`], so the memory in use is a few rows per thread whatever the number of
-//! scanlines (plus the `ny x nx` byte mask). Steps 4 and 6 need every row before any row can
+//! [`CubeWriter`] (so writing overlaps the decoding of the next rows), so the memory in use
+//! is a few rows per thread whatever the number of scanlines (plus the `ny x nx` byte mask).
+//! Row buffers go back to a pool once written and decoding reuses a per-thread sample
+//! buffer, so streaming allocates a few rows, not one per scanline; a 16-bit PNG is scaled
+//! and transposed into the row in one pass; an uncompressed row goes to the file from its
+//! own buffer. Steps 4 and 6 need every row before any row can
 //! be finished (the median power, the neighbouring rows). For those, ingest makes two passes
 //! and keeps the rows on disk, not in memory: pass 1 decodes and applies steps 1-3 and 5,
 //! records each row's power factor or each pixel's integral and pulse time (`ny x nx`
@@ -263,7 +267,9 @@ pub fn ingest(
 }
 
 /// Decode every scanline file of `plan` and nothing else (no corrections, no output), with
-/// the same parallel, bounded streaming as [`ingest`]: the baseline of the benchmark.
+/// the same decoder (16-bit grey PNG into integer samples, other files through
+/// [`read_streak`]) and the same parallel, bounded streaming as [`ingest`]: the baseline of
+/// the benchmark.
 pub fn decode_only(
     plan: &IngestPlan,
     progress: &dyn Fn(usize),
