@@ -67,10 +67,12 @@ pub struct IngestArgs {
     /// PNG scanlines, else 1).
     #[arg(long)]
     pub value_scale: Option<f64>,
-    /// Compression of the cube: a deflate level 0-9 (with shuffle) or 'none'. The default, 1,
-    /// compresses camera data about 2.5 times faster than level 4 (femto's other writers,
-    /// h5py's gzip default) for about 4 % more bytes; 'none' is fastest, about three times
-    /// the bytes.
+    /// Compression of the cube: shuffle + deflate at a level 0-9, or 'none'. The default, 1,
+    /// is the fastest level: real Hamamatsu streak data shrinks 2.1x (a signal capture) to
+    /// 3.5x (a focus frame), the simulated benchmark 3.0x. Level 4 (femto's other writers,
+    /// h5py's gzip default) is about 8 % smaller for about 1.5x the CPU time. 'none' is
+    /// fastest, about 1.4x the time of decoding the images alone, for 2-3.5x the bytes (see
+    /// docs/ingest.md).
     #[arg(long, default_value = "1", value_parser = parse_compression)]
     pub compression: CubeCompression,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
