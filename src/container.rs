@@ -703,7 +703,12 @@ impl CubeSink {
             cube, file, path, ..
         } = self;
         drop(cube);
-        file.close().map_err(h5(&path))
+        // No fsync, as for every other output of femto (`atomic::write_atomically`) and as
+        // the HDF5 library and h5py close files: the file is complete and renamed atomically
+        // for other processes, and the operating system writes it to disk in its own time.
+        // The fsync of `close` made the caller wait for the disk: 0.5 s or more of wall time
+        // for a 825 MB cube on the benchmark machine (tools/bench_ingest_results.md).
+        file.close_no_sync().map_err(h5(&path))
     }
 }
 
