@@ -50,6 +50,9 @@ run() {
     shift 2
     for r in $(seq 1 "$REPS"); do
         rm -f "$WORK"/out_*.h5
+        # Untimed: write out what earlier runs left dirty, so no run pays for another's
+        # output (each run writes up to 825 MB; femto and h5py close files without fsync).
+        sync
         /usr/bin/time -v "$@" > "$WORK/$label.out" 2> "$WORK/$label.time"
         local wall rss
         wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, p, ":"); s = 0;
