@@ -71,7 +71,7 @@ pub struct IngestArgs {
     /// is the fastest level: real Hamamatsu streak data shrinks 2.1x (a signal capture) to
     /// 3.5x (a focus frame), the simulated benchmark 3.0x. Level 4 (femto's other writers,
     /// h5py's gzip default) is about 8 % smaller for about 1.5x the CPU time. 'none' is
-    /// fastest, about 1.4x the time of decoding the images alone, for 2-3.5x the bytes (see
+    /// fastest, about 1.7x the time of decoding the images alone, for 2-3.5x the bytes (see
     /// docs/ingest.md).
     #[arg(long, default_value = "1", value_parser = parse_compression)]
     pub compression: CubeCompression,
