@@ -3,8 +3,8 @@
 //! `P(t_e + dtau / D) - P(t_e)`), stored in the cube's file or in a side file that holds this
 //! group only.
 //!
-//! [`write_pyramid`] streams the cube by row slabs through [`prefix_rows`] and
-//! [`mip_halve_rows`], so peak memory is one slab whatever the cube's size;
+//! [`write_pyramid`] streams the cube by row slabs through [`pyramid_rows`], so peak memory
+//! is one slab whatever the cube's size;
 //! [`read_pyramid`] loads a stored pyramid whole, as the renderer needs it, instead of
 //! rebuilding it from the cube.
 //!
@@ -25,7 +25,7 @@ use crate::container::{
     GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
-use crate::pyramid::{level_nt, mip_halve_rows, prefix_rows, top_level, Level, Pyramid};
+use crate::pyramid::{level_nt, pyramid_rows, top_level, Level, Pyramid};
 use std::path::Path;
 
 /// Name of the group.
@@ -213,30 +213,32 @@ fn write_pyramid_slabs(
     // One set of slab buffers for the whole cube (page faults and allocation once): the
     // source rows, the prefix and each level, resized (down, for the last slab) in place.
     let mut src = vec![0.0f32; rows_per_slab * nx * nt];
-    let mut prefix = DataBuf::F64(vec![0.0f64; rows_per_slab * nx * (nt + 1)]);
-    let mut level_bufs: Vec<DataBuf> = (1..=levels)
-        .map(|k| DataBuf::F32(vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)]))
+    let mut prefix = vec![0.0f64; rows_per_slab * nx * (nt + 1)];
+    let mut level_bufs: Vec<Vec<f32>> = (1..=levels)
+        .map(|k| vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)])
         .collect();
     for y0 in (0..ny).step_by(rows_per_slab) {
         let n = rows_per_slab.min(ny - y0);
         let src = &mut src[..n * nx * nt];
         reader.read_rows_into(y0, src)?;
-        if let DataBuf::F64(p) = &mut prefix {
-            p.truncate(n * nx * (nt + 1));
-            prefix_rows(src, nt, p);
+        prefix.truncate(n * nx * (nt + 1));
+        for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
+            l.truncate(n * nx * level_nt(nt, k));
         }
-        out.write_group_rows(GROUP, "prefix", y0, &prefix)?;
-        for k in 1..=levels {
-            let (below, this) = level_bufs.split_at_mut(k - 1);
-            let prev: &[f32] = match below.last() {
-                Some(DataBuf::F32(v)) => v,
-                _ => src,
-            };
-            if let DataBuf::F32(dst) = &mut this[0] {
-                dst.truncate(n * nx * level_nt(nt, k));
-                mip_halve_rows(prev, level_nt(nt, k - 1), dst);
+        let mut outs: Vec<&mut [f32]> = level_bufs.iter_mut().map(|l| &mut l[..]).collect();
+        pyramid_rows(src, nt, &mut prefix, &mut outs);
+        // The buffers are moved into a `DataBuf` for the write and back out after it.
+        let written = DataBuf::F64(std::mem::take(&mut prefix));
+        out.write_group_rows(GROUP, "prefix", y0, &written)?;
+        if let DataBuf::F64(p) = written {
+            prefix = p;
+        }
+        for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
+            let written = DataBuf::F32(std::mem::take(l));
+            out.write_group_rows(GROUP, &level_name(k), y0, &written)?;
+            if let DataBuf::F32(v) = written {
+                *l = v;
             }
-            out.write_group_rows(GROUP, &level_name(k), y0, &this[0])?;
         }
         on_rows(y0 + n);
     }
