@@ -93,24 +93,32 @@ pub fn pyramid_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64], levels: &mu
         .zip(&level_nts)
         .map(|(l, &n)| l.chunks_mut(BLOCK_PIXELS * n))
         .collect();
-    let tasks: Vec<(&[f32], &mut [f64], Vec<&mut [f32]>)> = src_rows
+    let blocks: Vec<Block> = src_rows
         .chunks(BLOCK_PIXELS * nt)
         .zip(prefix.chunks_mut(BLOCK_PIXELS * (nt + 1)))
-        .map(|(s, p)| {
-            let ls = level_blocks
+        .map(|(src, prefix)| Block {
+            src,
+            prefix,
+            levels: level_blocks
                 .iter_mut()
                 .map(|c| c.next().expect("levels are sized like the source"))
-                .collect();
-            (s, p, ls)
+                .collect(),
         })
         .collect();
-    tasks.into_par_iter().for_each_init(
+    blocks.into_par_iter().for_each_init(
         || vec![0.0f32; scratch_len],
-        |scratch, (src, prefix, mut levels)| {
-            block_pyramid(src, nt, prefix, &level_nts, scratch, &mut levels);
+        |scratch, mut b| {
+            block_pyramid(b.src, nt, b.prefix, &level_nts, scratch, &mut b.levels);
             stream::fence();
         },
     );
+}
+
+/// One block of pixels of [`pyramid_rows`]: its source profiles and its part of each output.
+struct Block<'a> {
+    src: &'a [f32],
+    prefix: &'a mut [f64],
+    levels: Vec<&'a mut [f32]>,
 }
 
 /// [`pyramid_rows`] for one block of pixels. The prefix is written as it is summed; level 1
