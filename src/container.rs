@@ -20,6 +20,7 @@
 
 use crate::atomic::write_atomically;
 use crate::cube::{self, Cube, TimeAxis, TimeFrame};
+use rayon::prelude::*;
 use rust_hdf5::format::messages::filter::apply_filters;
 use rust_hdf5::{
     DatatypeMessage, FilterPipeline, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode,
@@ -627,7 +628,9 @@ impl CubeSink {
         })
     }
 
-    fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+    /// Number of whole rows in `rows`, to be written from row `y0`; an error when they are
+    /// not whole rows or run past the cube.
+    fn check_rows(&self, y0: usize, rows: &[f32]) -> Result<usize> {
         let row_len = self.nx * self.nt;
         if rows.is_empty() || !rows.len().is_multiple_of(row_len) {
             return Err(invalid(
@@ -647,6 +650,11 @@ impl CubeSink {
                 format!("rows {y0}..{} past the cube's {} rows", y0 + n, self.ny),
             ));
         }
+        Ok(n)
+    }
+
+    fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+        let n = self.check_rows(y0, rows)?;
         self.cube
             .write_slice(&[y0, 0, 0], &[n, self.nx, self.nt], rows)
             .map_err(h5(&self.path))?;
@@ -828,8 +836,20 @@ impl CubeWriter {
     }
 
     /// Write rows `y0 .. y0 + n` from `rows` (`n * nx * nt` values, layout `[y][x][t]`).
+    ///
+    /// The rows are compressed in parallel on rayon's threads (see [`RowCompressor`]) and
+    /// appended as they are.
     pub fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
-        self.sink.write_rows(y0, rows)
+        self.sink.check_rows(y0, rows)?;
+        let compressor = self.row_compressor();
+        let compressed: Vec<CompressedRow> = rows
+            .par_chunks(compressor.row_len())
+            .map(|row| compressor.compress(row))
+            .collect();
+        for (i, row) in compressed.iter().enumerate() {
+            self.write_compressed_row(y0 + i, row)?;
+        }
+        Ok(())
     }
 
     /// Write the validity mask (`ny * nx` bytes, `[y][x]`, 1 = valid). At most once.
@@ -1737,7 +1757,23 @@ fn check_group_layout(
     Ok(())
 }
 
-/// Create a chunked, compressed dataset of `elem` in `group`.
+/// Deflate level of the datasets of extra groups: derived data (the pyramid, the
+/// registration), rebuilt by a command in seconds, so written at the fastest level.
+const GROUP_DEFLATE_LEVEL: u32 = 1;
+
+/// The filters of a group dataset of `elem`: shuffle (for values wider than a byte), then
+/// deflate.
+fn group_pipeline(elem: Elem) -> FilterPipeline {
+    if elem.size() > 1 {
+        FilterPipeline::shuffle_deflate(elem.size() as u32, GROUP_DEFLATE_LEVEL)
+    } else {
+        FilterPipeline::deflate(GROUP_DEFLATE_LEVEL)
+    }
+}
+
+/// Create a chunked, compressed dataset of `elem` in `group`, one row (index of the first
+/// axis) per chunk, so that rows are compressed independently, in parallel
+/// ([`write_group_rows`]).
 fn create_group_dataset(
     group: &H5Group,
     name: &str,
@@ -1752,14 +1788,13 @@ fn create_group_dataset(
     ) -> rust_hdf5::Result<H5Dataset> {
         let b = group.new_dataset::<T>().shape(shape).chunk(chunk);
         if T::element_size() > 1 {
-            b.shuffle_deflate(DEFLATE_LEVEL).create(name)
+            b.shuffle_deflate(GROUP_DEFLATE_LEVEL).create(name)
         } else {
-            b.deflate(DEFLATE_LEVEL).create(name)
+            b.deflate(GROUP_DEFLATE_LEVEL).create(name)
         }
     }
-    let row_elems: usize = shape[1..].iter().product();
     let mut chunk = shape.to_vec();
-    chunk[0] = chunk_rows(row_elems * elem.size(), shape[0]);
+    chunk[0] = 1;
     match elem {
         Elem::F64 => make::<f64>(group, name, shape, &chunk),
         Elem::U8 => make::<u8>(group, name, shape, &chunk),
@@ -1769,7 +1804,20 @@ fn create_group_dataset(
     }
 }
 
-/// Write `buf` as rows `r0 ..` of a group dataset of shape `shape`.
+/// Little-endian bytes of elements `range` of `buf`.
+fn buf_le_bytes(buf: &DataBuf, range: std::ops::Range<usize>) -> Vec<u8> {
+    match buf {
+        DataBuf::F32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::F64(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::U8(v) => v[range].to_vec(),
+        DataBuf::U32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::I32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+    }
+}
+
+/// Write `buf` as rows `r0 ..` of a group dataset of shape `shape` (made by
+/// [`create_group_dataset`]): each row is one chunk, compressed on rayon's threads and
+/// stored as it is.
 fn write_group_rows(
     ds: &H5Dataset,
     shape: &[usize],
@@ -1777,17 +1825,23 @@ fn write_group_rows(
     buf: &DataBuf,
 ) -> rust_hdf5::Result<()> {
     let row_elems: usize = shape[1..].iter().product();
-    let mut starts = vec![0; shape.len()];
-    starts[0] = r0;
-    let mut counts = shape.to_vec();
-    counts[0] = buf.len() / row_elems;
-    match buf {
-        DataBuf::F32(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::F64(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::U8(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::U32(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::I32(v) => ds.write_slice(&starts, &counts, v),
+    let pipeline = group_pipeline(buf.elem());
+    let chunks: Vec<Vec<u8>> = (0..buf.len() / row_elems)
+        .into_par_iter()
+        .map(|i| {
+            apply_filters(
+                &pipeline,
+                &buf_le_bytes(buf, i * row_elems..(i + 1) * row_elems),
+            )
+            .expect("shuffle and deflate cannot fail on a whole chunk")
+        })
+        .collect();
+    let mut coords = vec![0; shape.len()];
+    for (i, bytes) in chunks.iter().enumerate() {
+        coords[0] = r0 + i;
+        ds.write_chunk_raw_at(&coords, bytes, 0)?;
     }
+    Ok(())
 }
 
 fn write_group_attrs(group: &H5Group, attrs: &[(String, AttrValue)]) -> rust_hdf5::Result<()> {
