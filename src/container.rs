@@ -21,7 +21,7 @@
 use crate::atomic::write_atomically;
 use crate::cube::{self, Cube, TimeAxis, TimeFrame};
 use rayon::prelude::*;
-use rust_hdf5::format::messages::filter::apply_filters;
+use rust_hdf5::format::messages::filter::{apply_filters, FILTER_DEFLATE, FILTER_SHUFFLE};
 use rust_hdf5::{
     DatatypeMessage, FilterPipeline, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode,
 };
@@ -653,12 +653,80 @@ impl CubeSink {
         Ok(n)
     }
 
+    /// Write whole rows from row `y0`, compressed in parallel on rayon's threads (see
+    /// [`RowCompressor`]) and appended as they are.
     fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
-        let n = self.check_rows(y0, rows)?;
-        self.cube
-            .write_slice(&[y0, 0, 0], &[n, self.nx, self.nt], rows)
-            .map_err(h5(&self.path))?;
-        self.rows_written[y0..y0 + n].fill(true);
+        self.check_rows(y0, rows)?;
+        let compressor = self.row_compressor();
+        let compressed: Vec<CompressedRow> = rows
+            .par_chunks(compressor.row_len())
+            .map(|row| compressor.compress(row))
+            .collect();
+        for (i, row) in compressed.iter().enumerate() {
+            self.write_compressed_row(y0 + i, row)?;
+        }
+        Ok(())
+    }
+
+    /// A compressor for this cube's rows (see [`RowCompressor`]).
+    fn row_compressor(&self) -> RowCompressor {
+        RowCompressor {
+            nx: self.nx,
+            nt: self.nt,
+            cx: chunk_rows(self.nt * 4, self.nx),
+            pipeline: match self.compression {
+                CubeCompression::Deflate(level) => Some(FilterPipeline::shuffle_deflate(4, level)),
+                CubeCompression::None => None,
+            },
+        }
+    }
+
+    /// Write row `y` from chunks compressed by this sink's [`RowCompressor`], as they are.
+    fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
+        let s = self;
+        let cx = chunk_rows(s.nt * 4, s.nx);
+        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx) {
+            return Err(invalid(
+                &s.path,
+                format!(
+                    "compressed row {y} ({} x {} values in {} chunks) does not fit the cube's \
+                     {} rows of {} x {}",
+                    row.nx,
+                    row.nt,
+                    row.chunks.len(),
+                    s.ny,
+                    s.nx,
+                    s.nt
+                ),
+            ));
+        }
+        if row.filtered != matches!(s.compression, CubeCompression::Deflate(_)) {
+            return Err(invalid(
+                &s.path,
+                "compressed row made by another writer's compressor",
+            ));
+        }
+        for (c, bytes) in row.chunks.iter().enumerate() {
+            if row.filtered {
+                s.cube.write_chunk_raw_at(&[y, c, 0], bytes, 0)
+            } else {
+                s.cube.write_chunk_at(&[y, c, 0], bytes)
+            }
+            .map_err(h5(&s.path))?;
+        }
+        s.rows_written[y] = true;
+        Ok(())
+    }
+
+    /// Store row `y` from chunks already filtered by this sink's pipeline (bytes and filter
+    /// mask of each, as [`CubeReader::read_raw_row`] gives them).
+    fn write_raw_row(&mut self, y: usize, chunks: &[(Vec<u8>, u32)]) -> Result<()> {
+        for (c, (bytes, mask)) in chunks.iter().enumerate() {
+            self.cube
+                .write_chunk_raw_at(&[y, c, 0], bytes, *mask)
+                .map_err(h5(&self.path))?;
+        }
+        self.rows_written[y] = true;
         Ok(())
     }
 
@@ -840,16 +908,7 @@ impl CubeWriter {
     /// The rows are compressed in parallel on rayon's threads (see [`RowCompressor`]) and
     /// appended as they are.
     pub fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
-        self.sink.check_rows(y0, rows)?;
-        let compressor = self.row_compressor();
-        let compressed: Vec<CompressedRow> = rows
-            .par_chunks(compressor.row_len())
-            .map(|row| compressor.compress(row))
-            .collect();
-        for (i, row) in compressed.iter().enumerate() {
-            self.write_compressed_row(y0 + i, row)?;
-        }
-        Ok(())
+        self.sink.write_rows(y0, rows)
     }
 
     /// Write the validity mask (`ny * nx` bytes, `[y][x]`, 1 = valid). At most once.
@@ -888,53 +947,13 @@ impl CubeWriter {
 
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
     pub fn row_compressor(&self) -> RowCompressor {
-        RowCompressor {
-            nx: self.sink.nx,
-            nt: self.sink.nt,
-            cx: chunk_rows(self.sink.nt * 4, self.sink.nx),
-            pipeline: match self.sink.compression {
-                CubeCompression::Deflate(level) => Some(FilterPipeline::shuffle_deflate(4, level)),
-                CubeCompression::None => None,
-            },
-        }
+        self.sink.row_compressor()
     }
 
     /// Write row `y` from chunks compressed by this writer's [`RowCompressor`]: the bytes are
     /// stored as they are, so the writer's thread does no compression.
     pub fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
-        let s = &mut self.sink;
-        let cx = chunk_rows(s.nt * 4, s.nx);
-        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || row.chunks.len() != s.nx.div_ceil(cx) {
-            return Err(invalid(
-                &s.path,
-                format!(
-                    "compressed row {y} ({} x {} values in {} chunks) does not fit the cube's \
-                     {} rows of {} x {}",
-                    row.nx,
-                    row.nt,
-                    row.chunks.len(),
-                    s.ny,
-                    s.nx,
-                    s.nt
-                ),
-            ));
-        }
-        if row.filtered != matches!(s.compression, CubeCompression::Deflate(_)) {
-            return Err(invalid(
-                &s.path,
-                "compressed row made by another writer's compressor",
-            ));
-        }
-        for (c, bytes) in row.chunks.iter().enumerate() {
-            if row.filtered {
-                s.cube.write_chunk_raw_at(&[y, c, 0], bytes, 0)
-            } else {
-                s.cube.write_chunk_at(&[y, c, 0], bytes)
-            }
-            .map_err(h5(&s.path))?;
-        }
-        s.rows_written[y] = true;
-        Ok(())
+        self.sink.write_compressed_row(y, row)
     }
 
     /// Check every row (of the cube and of every group) was written, close the file and
@@ -1241,6 +1260,33 @@ impl CubeReader {
         self.cube
             .read_slice_into(out, &[y0, 0, 0], &[n, self.meta.nx, self.meta.axis.nt])
             .map_err(h5(&self.path))
+    }
+
+    /// Whether `/cube` is stored as femto's writer stores it (chunks `(1, cx, nt)`, shuffle
+    /// of 4-byte values then deflate at any level), so that its chunks can be copied as
+    /// they are into a new cube of chunk width `cx` ([`GroupUpdate::open`]).
+    fn stored_as_written(&self, cx: usize) -> bool {
+        let nt = self.meta.axis.nt;
+        if self.cube.chunk_dims() != Some(vec![1, cx, nt]) {
+            return false;
+        }
+        match self.cube.filters() {
+            Ok(f) => {
+                f.len() == 2
+                    && f[0].id == FILTER_SHUFFLE
+                    && matches!(f[0].cd_values.first(), None | Some(4))
+                    && f[1].id == FILTER_DEFLATE
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// The stored (filtered) bytes and filter mask of the `n_chunks` chunks of row `y`, or
+    /// `None` if one of them cannot be read raw (never written, for example).
+    fn read_raw_row(&self, y: usize, n_chunks: usize) -> Option<Vec<(Vec<u8>, u32)>> {
+        (0..n_chunks)
+            .map(|c| self.cube.read_chunk_raw_at(&[y, c, 0]).ok())
+            .collect()
     }
 
     /// The validity mask (`ny * nx` bytes, `[y][x]`), if the file has one.
@@ -2181,12 +2227,33 @@ impl GroupUpdate {
         };
         let mut sink = CubeSink::create(&tmp, cube_path, meta.nx, meta.ny, &attrs)?;
         let row_len = meta.row_len();
+        // Chunks stored as this sink stores them are copied as they are (no decompression
+        // and recompression); other rows are decoded and written.
+        let cx = chunk_rows(meta.axis.nt * 4, meta.nx);
+        let raw =
+            matches!(sink.compression, CubeCompression::Deflate(_)) && reader.stored_as_written(cx);
         let rows = slab_rows(row_len * 4, meta.ny);
         let mut buf = vec![0.0f32; rows * row_len];
         for y0 in (0..meta.ny).step_by(rows) {
             let n = rows.min(meta.ny - y0);
-            reader.read_rows_into(y0, &mut buf[..n * row_len])?;
-            sink.write_rows(y0, &buf[..n * row_len])?;
+            let copied = raw
+                .then(|| {
+                    (y0..y0 + n)
+                        .map(|y| reader.read_raw_row(y, meta.nx.div_ceil(cx)))
+                        .collect::<Option<Vec<_>>>()
+                })
+                .flatten();
+            match copied {
+                Some(slab) => {
+                    for (y, chunks) in (y0..).zip(&slab) {
+                        sink.write_raw_row(y, chunks)?;
+                    }
+                }
+                None => {
+                    reader.read_rows_into(y0, &mut buf[..n * row_len])?;
+                    sink.write_rows(y0, &buf[..n * row_len])?;
+                }
+            }
         }
         drop(buf);
         if let Some(mask) = reader.read_mask()? {
@@ -2444,6 +2511,56 @@ mod tests {
             CubeCompression::Deflate(10),
         )
         .is_err());
+    }
+
+    /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
+    /// made it (deflate at any level), decoded and recompressed otherwise (an uncompressed
+    /// cube); the cube and its mask come back unchanged either way, and `stored_as_written`
+    /// tells the two apart.
+    #[test]
+    fn group_update_copies_the_cube_raw_or_decoded() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nt) = (300, 3, 512);
+        let axis = TimeAxis {
+            t0_ps: 1.0,
+            dt_ps: 2.0,
+            nt,
+        };
+        let data: Vec<f32> = (0..nx * ny * nt).map(|i| (i % 97) as f32 - 3.5).collect();
+        let mask: Vec<u8> = (0..nx * ny).map(|i| u8::from(i % 4 != 0)).collect();
+        for (compression, raw) in [
+            (CubeCompression::Deflate(6), true),
+            (CubeCompression::None, false),
+        ] {
+            let p = dir.path().join(format!("{compression:?}.h5"));
+            let mut w = CubeWriter::create_with(
+                &p,
+                nx,
+                ny,
+                axis,
+                TimeFrame::Camera,
+                DEFAULT_UNITS,
+                &Provenance::new("test"),
+                compression,
+            )
+            .unwrap();
+            w.write_rows(0, &data).unwrap();
+            w.write_mask(&mask).unwrap();
+            w.finish().unwrap();
+            let cx = chunk_rows(nt * 4, nx);
+            assert!(cx < nx, "the test needs several chunks per row");
+            assert_eq!(CubeReader::open(&p).unwrap().stored_as_written(cx), raw);
+            let mut u = GroupUpdate::open(&p).unwrap();
+            u.begin_group("g", &[], &[DatasetSpec::new("d", &[2, 3], GroupElem::F64)])
+                .unwrap();
+            u.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0; 6]))
+                .unwrap();
+            u.finish().unwrap();
+            let back = read_cube(&p).unwrap();
+            assert_eq!(back.data, data, "{compression:?}");
+            assert_eq!(back.mask.as_deref(), Some(&mask[..]));
+            assert!(CubeReader::open(&p).unwrap().stored_as_written(cx));
+        }
     }
 
     #[test]
