@@ -21,7 +21,9 @@
 use crate::atomic::write_atomically;
 use crate::cube::{self, Cube, TimeAxis, TimeFrame};
 use rayon::prelude::*;
-use rust_hdf5::format::messages::filter::{apply_filters, FILTER_DEFLATE, FILTER_SHUFFLE};
+use rust_hdf5::format::messages::filter::{
+    apply_filters, reverse_filters_masked_bounded, FILTER_DEFLATE, FILTER_SHUFFLE,
+};
 use rust_hdf5::{
     DatatypeMessage, FilterPipeline, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode,
 };
@@ -1052,6 +1054,9 @@ pub struct CubeReader {
     cube: H5Dataset,
     path: PathBuf,
     meta: CubeMeta,
+    /// Chunk width `cx` and filters of a cube chunked `(1, cx, nt)` through a filter
+    /// pipeline: its rows are decoded chunk by chunk on rayon's threads.
+    row_chunks: Option<(usize, FilterPipeline)>,
 }
 
 fn read_f64_attr(ds: &H5Dataset, path: &Path, object: &str, name: &str) -> Result<f64> {
@@ -1206,12 +1211,61 @@ impl CubeReader {
             groups,
             has_mask,
         };
+        let row_chunks = match (cube.chunk_dims(), cube.filters()) {
+            (Some(d), Ok(filters))
+                if d.len() == 3 && d[0] == 1 && d[2] == meta.axis.nt && !filters.is_empty() =>
+            {
+                Some((d[1], FilterPipeline { filters }))
+            }
+            _ => None,
+        };
         Ok(CubeReader {
             file,
             cube,
             path: path.to_path_buf(),
             meta,
+            row_chunks,
         })
+    }
+
+    /// Rows `y0 ..` into `out` (whole rows) from the stored chunks of a cube chunked
+    /// `(1, cx, nt)`: read one by one, decoded in parallel. `None` when a chunk cannot be
+    /// read or decoded this way (the caller then reads through the HDF5 library, which
+    /// reports the fault).
+    fn read_rows_by_chunks(&self, y0: usize, out: &mut [f32]) -> Option<()> {
+        let (cx, pipeline) = self.row_chunks.as_ref()?;
+        let (nx, nt) = (self.meta.nx, self.meta.axis.nt);
+        let row_len = nx * nt;
+        let n_chunks = nx.div_ceil(*cx);
+        let stored: Vec<(Vec<u8>, u32)> = (0..out.len() / row_len)
+            .flat_map(|r| (0..n_chunks).map(move |c| (y0 + r, c)))
+            .map(|(y, c)| self.cube.read_chunk_raw_at(&[y, c, 0]).ok())
+            .collect::<Option<_>>()?;
+        let chunk_values = cx * nt;
+        let ok = out
+            .par_chunks_mut(row_len)
+            .zip(stored.par_chunks(n_chunks))
+            .all(|(row, chunks)| {
+                row.chunks_mut(chunk_values)
+                    .zip(chunks)
+                    .all(|(dst, (bytes, mask))| {
+                        match reverse_filters_masked_bounded(
+                            pipeline,
+                            bytes,
+                            *mask,
+                            chunk_values * 4,
+                        ) {
+                            Ok(raw) if raw.len() == chunk_values * 4 => {
+                                for (v, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
+                                    *v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                                }
+                                true
+                            }
+                            _ => false,
+                        }
+                    })
+            });
+        ok.then_some(())
     }
 
     /// The cube's metadata.
@@ -1254,7 +1308,7 @@ impl CubeReader {
         }
         let n = out.len() / row_len;
         self.check_rows(y0, n)?;
-        if n == 0 {
+        if n == 0 || self.read_rows_by_chunks(y0, out).is_some() {
             return Ok(());
         }
         self.cube
@@ -1803,50 +1857,56 @@ fn check_group_layout(
     Ok(())
 }
 
-/// Deflate level of the datasets of extra groups: derived data (the pyramid, the
-/// registration), rebuilt by a command in seconds, so written at the fastest level.
+/// Deflate level of the datasets of extra groups unless their [`DatasetSpec`] says
+/// otherwise: derived data (the pyramid, the registration), rebuilt by a command in seconds,
+/// so written at the fastest level.
 const GROUP_DEFLATE_LEVEL: u32 = 1;
 
 /// The filters of a group dataset of `elem`: shuffle (for values wider than a byte), then
-/// deflate.
-fn group_pipeline(elem: Elem) -> FilterPipeline {
-    if elem.size() > 1 {
-        FilterPipeline::shuffle_deflate(elem.size() as u32, GROUP_DEFLATE_LEVEL)
-    } else {
-        FilterPipeline::deflate(GROUP_DEFLATE_LEVEL)
+/// deflate; `None` for an uncompressed one.
+fn group_pipeline(elem: Elem, compression: CubeCompression) -> Option<FilterPipeline> {
+    match compression {
+        CubeCompression::Deflate(level) if elem.size() > 1 => {
+            Some(FilterPipeline::shuffle_deflate(elem.size() as u32, level))
+        }
+        CubeCompression::Deflate(level) => Some(FilterPipeline::deflate(level)),
+        CubeCompression::None => None,
     }
 }
 
-/// Create a chunked, compressed dataset of `elem` in `group`, one row (index of the first
-/// axis) per chunk, so that rows are compressed independently, in parallel
-/// ([`write_group_rows`]).
+/// Create a chunked dataset of `elem` in `group`, one row (index of the first axis) per
+/// chunk, so that rows are compressed independently, in parallel ([`write_group_rows`]).
 fn create_group_dataset(
     group: &H5Group,
     name: &str,
     elem: Elem,
     shape: &[usize],
+    compression: CubeCompression,
 ) -> rust_hdf5::Result<H5Dataset> {
     fn make<T: H5Type>(
         group: &H5Group,
         name: &str,
         shape: &[usize],
         chunk: &[usize],
+        compression: CubeCompression,
     ) -> rust_hdf5::Result<H5Dataset> {
         let b = group.new_dataset::<T>().shape(shape).chunk(chunk);
-        if T::element_size() > 1 {
-            b.shuffle_deflate(GROUP_DEFLATE_LEVEL).create(name)
-        } else {
-            b.deflate(GROUP_DEFLATE_LEVEL).create(name)
+        match compression {
+            CubeCompression::Deflate(level) if T::element_size() > 1 => {
+                b.shuffle_deflate(level).create(name)
+            }
+            CubeCompression::Deflate(level) => b.deflate(level).create(name),
+            CubeCompression::None => b.create(name),
         }
     }
     let mut chunk = shape.to_vec();
     chunk[0] = 1;
     match elem {
-        Elem::F64 => make::<f64>(group, name, shape, &chunk),
-        Elem::U8 => make::<u8>(group, name, shape, &chunk),
-        Elem::U32 => make::<u32>(group, name, shape, &chunk),
-        Elem::I32 => make::<i32>(group, name, shape, &chunk),
-        _ => make::<f32>(group, name, shape, &chunk),
+        Elem::F64 => make::<f64>(group, name, shape, &chunk, compression),
+        Elem::U8 => make::<u8>(group, name, shape, &chunk, compression),
+        Elem::U32 => make::<u32>(group, name, shape, &chunk, compression),
+        Elem::I32 => make::<i32>(group, name, shape, &chunk, compression),
+        _ => make::<f32>(group, name, shape, &chunk, compression),
     }
 }
 
@@ -1867,25 +1927,31 @@ fn buf_le_bytes(buf: &DataBuf, range: std::ops::Range<usize>) -> Vec<u8> {
 fn write_group_rows(
     ds: &H5Dataset,
     shape: &[usize],
+    compression: CubeCompression,
     r0: usize,
     buf: &DataBuf,
 ) -> rust_hdf5::Result<()> {
     let row_elems: usize = shape[1..].iter().product();
-    let pipeline = group_pipeline(buf.elem());
+    let pipeline = group_pipeline(buf.elem(), compression);
     let chunks: Vec<Vec<u8>> = (0..buf.len() / row_elems)
         .into_par_iter()
         .map(|i| {
-            apply_filters(
-                &pipeline,
-                &buf_le_bytes(buf, i * row_elems..(i + 1) * row_elems),
-            )
-            .expect("shuffle and deflate cannot fail on a whole chunk")
+            let raw = buf_le_bytes(buf, i * row_elems..(i + 1) * row_elems);
+            match &pipeline {
+                Some(p) => apply_filters(p, &raw)
+                    .expect("shuffle and deflate cannot fail on a whole chunk"),
+                None => raw,
+            }
         })
         .collect();
     let mut coords = vec![0; shape.len()];
     for (i, bytes) in chunks.iter().enumerate() {
         coords[0] = r0 + i;
-        ds.write_chunk_raw_at(&coords, bytes, 0)?;
+        if pipeline.is_some() {
+            ds.write_chunk_raw_at(&coords, bytes, 0)?;
+        } else {
+            ds.write_chunk_at(&coords, bytes)?;
+        }
     }
     Ok(())
 }
@@ -1927,14 +1993,31 @@ fn copy_group(reader: &CubeReader, file: &H5File, name: &str) -> Result<()> {
     for ds_name in dataset_names_in(&src, path, name)? {
         let (shape, _) = reader.group_dataset_shape(name, &ds_name)?;
         let full = format!("{name}/{ds_name}");
-        let elem = group_elem(&open_dataset(&reader.file, path, &full)?, path, &full)?;
-        let ds = create_group_dataset(&dst, &ds_name, elem, &shape).map_err(&e)?;
+        let src_ds = open_dataset(&reader.file, path, &full)?;
+        let elem = group_elem(&src_ds, path, &full)?;
+        // Stored as it was: uncompressed, or deflated at its level.
+        let compression = match src_ds
+            .filters()
+            .map_err(&e)?
+            .iter()
+            .find(|f| f.id == FILTER_DEFLATE)
+        {
+            Some(f) => CubeCompression::Deflate(
+                f.cd_values
+                    .first()
+                    .copied()
+                    .unwrap_or(GROUP_DEFLATE_LEVEL)
+                    .min(9),
+            ),
+            None => CubeCompression::None,
+        };
+        let ds = create_group_dataset(&dst, &ds_name, elem, &shape, compression).map_err(&e)?;
         let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
         let step = slab_rows(row_bytes, shape[0]);
         for r0 in (0..shape[0]).step_by(step) {
             let n = step.min(shape[0] - r0);
             let slab = reader.read_group_rows(name, &ds_name, r0, n)?;
-            write_group_rows(&ds, &shape, r0, &slab).map_err(&e)?;
+            write_group_rows(&ds, &shape, compression, r0, &slab).map_err(&e)?;
         }
     }
     Ok(())
@@ -1992,6 +2075,9 @@ pub struct DatasetSpec {
     /// Shape, C order; slabs are cut along the first axis.
     pub shape: Vec<usize>,
     pub elem: GroupElem,
+    /// Filters of the stored rows: shuffle (for values wider than a byte) + deflate at the
+    /// given level, or none. Default: deflate level 1.
+    pub compression: CubeCompression,
 }
 
 impl DatasetSpec {
@@ -2000,7 +2086,14 @@ impl DatasetSpec {
             name: name.into(),
             shape: shape.to_vec(),
             elem,
+            compression: CubeCompression::Deflate(GROUP_DEFLATE_LEVEL),
         }
+    }
+
+    /// The same dataset stored with `compression`.
+    pub fn with_compression(mut self, compression: CubeCompression) -> DatasetSpec {
+        self.compression = compression;
+        self
     }
 }
 
@@ -2011,6 +2104,7 @@ struct OpenGroupDataset {
     ds: H5Dataset,
     shape: Vec<usize>,
     elem: Elem,
+    compression: CubeCompression,
     rows_written: Vec<bool>,
 }
 
@@ -2043,13 +2137,15 @@ impl GroupSinks {
         let group = file.create_group(name).map_err(&e)?;
         write_group_attrs(&group, attrs).map_err(&e)?;
         for d in specs {
-            let ds = create_group_dataset(&group, &d.name, d.elem.elem(), &d.shape).map_err(&e)?;
+            let ds = create_group_dataset(&group, &d.name, d.elem.elem(), &d.shape, d.compression)
+                .map_err(&e)?;
             self.datasets.push(OpenGroupDataset {
                 group: name.to_string(),
                 name: d.name.clone(),
                 ds,
                 shape: d.shape.clone(),
                 elem: d.elem.elem(),
+                compression: d.compression,
                 rows_written: vec![false; d.shape[0]],
             });
         }
@@ -2106,7 +2202,7 @@ impl GroupSinks {
                 ),
             ));
         }
-        write_group_rows(&d.ds, &d.shape, r0, rows).map_err(h5(path))?;
+        write_group_rows(&d.ds, &d.shape, d.compression, r0, rows).map_err(h5(path))?;
         d.rows_written[r0..r0 + n].fill(true);
         Ok(())
     }

@@ -6,7 +6,8 @@
 # 2 bounces: photon noise, dark noise and the other flaws make it dense, like real data), then
 # `femto ingest` with no corrections (the dark offset and its noise stay: every bin holds a
 # noisy value, the worst case for compression). unwarp casts the capture's own calibration
-# through its scene.glb; pyramid runs into a side file and in place (on a copy of the cube).
+# through its scene.glb; pyramid runs into a side file and in place (on a copy of the cube);
+# each at the compressions a user would pick.
 # The in-memory kernels alone are timed by tools/bench_cubeops.sh.
 #
 # Usage: tools/bench_commands.sh [REPS=2] [WORKDIR=target/bench_commands]
@@ -38,12 +39,17 @@ run() {
         if [ "$out" = "$WORK/inplace.h5" ]; then cp "$CUBE" "$out"; fi
         /usr/bin/time -f "%e %U %S %M" -o "$WORK/time.txt" "$@" >/dev/null
         read -r wall user sys rss <"$WORK/time.txt"
-        printf "%-22s %6.2f s wall %6.2f CPU s %7.0f MB RSS %7.1f MB written\n" "$name" "$wall" \
+        printf "%-32s %6.2f s wall %6.2f CPU s %7.0f MB RSS %7.1f MB written\n" "$name" "$wall" \
             "$(echo "$user + $sys" | bc)" "$(echo "$rss / 1024" | bc)" "$(echo "$(stat -c %s "$out") / 1000000" | bc -l)"
     done
 }
 
-run "unwarp (to world)" "$WORK/world.h5" "$FEMTO" unwarp "$CUBE" --calibration "$CAP/calibration.toml" \
-    --mesh "$CAP/scene.glb" --out "$WORK/world.h5"
-run "pyramid (side file)" "$WORK/pyramid.h5" "$FEMTO" pyramid "$CUBE" --side-file "$WORK/pyramid.h5"
-run "pyramid (in place)" "$WORK/inplace.h5" "$FEMTO" pyramid "$WORK/inplace.h5"
+for c in 1 4 none; do
+    run "unwarp --compression $c" "$WORK/world.h5" "$FEMTO" unwarp "$CUBE" --calibration "$CAP/calibration.toml" \
+        --mesh "$CAP/scene.glb" --compression "$c" --out "$WORK/world.h5"
+done
+for c in none 1; do
+    run "pyramid side --compression $c" "$WORK/pyramid.h5" "$FEMTO" pyramid "$CUBE" --compression "$c" \
+        --side-file "$WORK/pyramid.h5"
+    run "pyramid in place, $c" "$WORK/inplace.h5" "$FEMTO" pyramid "$WORK/inplace.h5" --compression "$c"
+done

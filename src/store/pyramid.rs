@@ -21,8 +21,8 @@
 
 use super::{attr, GroupView, StoreError};
 use crate::container::{
-    AttrValue, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem, GroupReader,
-    GroupUpdate,
+    AttrValue, CubeCompression, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem,
+    GroupReader, GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
 use crate::pyramid::{level_nt, pyramid_rows, top_level, Level, Pyramid};
@@ -143,11 +143,20 @@ pub fn write_pyramid(
     out: &mut GroupUpdate,
     levels: usize,
     source: &str,
+    compression: CubeCompression,
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
     let meta = reader.meta();
     let rows_per_slab = SLAB_TARGET_BYTES / (meta.nx * (meta.axis.nt + 1) * 8);
-    write_pyramid_slabs(reader, out, levels, source, rows_per_slab, on_rows)
+    write_pyramid_slabs(
+        reader,
+        out,
+        levels,
+        source,
+        compression,
+        rows_per_slab,
+        on_rows,
+    )
 }
 
 /// [`write_pyramid`] with a given number of rows per slab (at least 1, at most all).
@@ -156,6 +165,7 @@ fn write_pyramid_slabs(
     out: &mut GroupUpdate,
     levels: usize,
     source: &str,
+    compression: CubeCompression,
     rows_per_slab: usize,
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
@@ -190,17 +200,14 @@ fn write_pyramid_slabs(
         attr("source", AttrValue::Str(source.to_string())),
     ];
     let mask = reader.read_mask()?;
-    let mut specs = vec![DatasetSpec::new(
-        "prefix",
-        &[ny, nx, nt + 1],
-        GroupElem::F64,
-    )];
+    let mut specs = vec![
+        DatasetSpec::new("prefix", &[ny, nx, nt + 1], GroupElem::F64).with_compression(compression),
+    ];
     for (k, &nt_k) in (1..=levels).zip(&info.level_nts()) {
-        specs.push(DatasetSpec::new(
-            level_name(k),
-            &[ny, nx, nt_k],
-            GroupElem::F32,
-        ));
+        specs.push(
+            DatasetSpec::new(level_name(k), &[ny, nx, nt_k], GroupElem::F32)
+                .with_compression(compression),
+        );
     }
     if mask.is_some() {
         specs.push(DatasetSpec::new("mask", &[ny, nx], GroupElem::U8));
@@ -326,10 +333,16 @@ mod tests {
     use crate::container::{write_cube, Provenance};
     use crate::cube::Cube;
 
-    /// Streams of 2 rows (chunk boundaries of the datasets fall inside slabs) give the
-    /// prefix sums and box sums computed here directly from the cube's values.
+    /// Streams of 2 rows give the prefix sums and box sums computed here directly from the
+    /// cube's values, stored compressed or not.
     #[test]
     fn slabs_of_rows_give_the_brute_force_pyramid() {
+        for compression in [CubeCompression::Deflate(1), CubeCompression::None] {
+            slabs_of_rows_give_the_brute_force_pyramid_with(compression);
+        }
+    }
+
+    fn slabs_of_rows_give_the_brute_force_pyramid_with(compression: CubeCompression) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.h5");
         let axis = TimeAxis {
@@ -346,7 +359,8 @@ mod tests {
         write_cube(&path, &cube, &Provenance::new("test")).unwrap();
         let reader = CubeReader::open(&path).unwrap();
         let mut up = GroupUpdate::open(&path).unwrap();
-        let info = write_pyramid_slabs(&reader, &mut up, 3, "c.h5", 2, &|_| {}).unwrap();
+        let info =
+            write_pyramid_slabs(&reader, &mut up, 3, "c.h5", compression, 2, &|_| {}).unwrap();
         drop(reader);
         up.finish().unwrap();
         assert_eq!(info.level_nts(), vec![6, 3, 2]);
@@ -378,7 +392,7 @@ mod tests {
         // Too many levels for 11 bins (at most 4).
         let reader = CubeReader::open(&path).unwrap();
         let mut up = GroupUpdate::open(&path).unwrap();
-        let e = write_pyramid(&reader, &mut up, 5, "c.h5", &|_| {}).unwrap_err();
+        let e = write_pyramid(&reader, &mut up, 5, "c.h5", compression, &|_| {}).unwrap_err();
         assert!(e.to_string().contains("at most 4"), "{e}");
     }
 }
