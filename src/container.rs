@@ -2535,16 +2535,7 @@ mod tests {
         let value = |y: usize, i: usize| ((y * 7919 + i * 104_729) % 10_007) as f32 * 0.25 - 9.0;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.h5");
-        let mut w = CubeWriter::create(
-            &path,
-            nx,
-            ny,
-            axis,
-            TimeFrame::Camera,
-            DEFAULT_UNITS,
-            &Provenance::new("test"),
-        )
-        .unwrap();
+        let mut w = camera_writer(&path, nx, ny, axis, CubeCompression::default());
         let compressor = w.row_compressor();
         assert_eq!(compressor.row_len(), nx * nt);
         for y in [2, 0] {
@@ -2573,17 +2564,7 @@ mod tests {
         // Uncompressed and fast-deflate cubes read back the same.
         for compression in [CubeCompression::None, CubeCompression::Deflate(1)] {
             let p = dir.path().join("d.h5");
-            let mut w = CubeWriter::create_with(
-                &p,
-                nx,
-                ny,
-                axis,
-                TimeFrame::Camera,
-                DEFAULT_UNITS,
-                &Provenance::new("test"),
-                compression,
-            )
-            .unwrap();
+            let mut w = camera_writer(&p, nx, ny, axis, compression);
             let row0: Vec<f32> = (0..nx * nt).map(|i| value(0, i)).collect();
             // Deflated chunks decode whatever their level; raw ones only fit an unfiltered cube.
             let foreign = w.write_compressed_row(0, &compressor.compress(&row0));
@@ -2609,6 +2590,27 @@ mod tests {
         .is_err());
     }
 
+    /// A writer of a camera-time test cube at `p`.
+    fn camera_writer(
+        p: &Path,
+        nx: usize,
+        ny: usize,
+        axis: TimeAxis,
+        compression: CubeCompression,
+    ) -> CubeWriter {
+        CubeWriter::create_with(
+            p,
+            nx,
+            ny,
+            axis,
+            TimeFrame::Camera,
+            DEFAULT_UNITS,
+            &Provenance::new("test"),
+            compression,
+        )
+        .unwrap()
+    }
+
     /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
     /// made it (deflate at any level), decoded and recompressed otherwise (an uncompressed
     /// cube); the cube and its mask come back unchanged either way, and `stored_as_written`
@@ -2629,17 +2631,7 @@ mod tests {
             (CubeCompression::None, false),
         ] {
             let p = dir.path().join(format!("{compression:?}.h5"));
-            let mut w = CubeWriter::create_with(
-                &p,
-                nx,
-                ny,
-                axis,
-                TimeFrame::Camera,
-                DEFAULT_UNITS,
-                &Provenance::new("test"),
-                compression,
-            )
-            .unwrap();
+            let mut w = camera_writer(&p, nx, ny, axis, compression);
             w.write_rows(0, &data).unwrap();
             w.write_mask(&mask).unwrap();
             w.finish().unwrap();

@@ -122,7 +122,8 @@ struct Block<'a> {
 }
 
 /// [`pyramid_rows`] for one block of pixels. The prefix is written as it is summed; level 1
-/// comes out of the same loop, and each level above it from the one below, into `scratch`
+/// is summed from the same profile while it is in the L1 cache, and each level above it from
+/// the one below, into `scratch`
 /// (a block's levels fit in the L2 cache); then each level, a contiguous stretch of its
 /// output, is streamed out.
 fn block_pyramid(
@@ -141,7 +142,8 @@ fn block_pyramid(
     let n_pix = src.len() / nt;
     let n1 = level_nts[0];
     for ((s, p), l1) in profiles.zip(scratch.chunks_exact_mut(n1)) {
-        prefix_and_pairs(s, p, l1);
+        halve(s, l1);
+        prefix_one(s, p);
     }
     // `scratch[below]` holds the block's level below the one being built.
     let mut below = 0..n_pix * n1;
@@ -168,10 +170,10 @@ fn block_pyramid(
     }
 }
 
-/// One profile's prefix sum. Bins are taken in pairs so that the dependent chain of
-/// additions is half as long (the pair sum is independent of the running total). Measured
-/// against a plain running sum and against four pixels summed in lock-step: this one was
-/// the fastest of the three and runs at copy bandwidth (see tools/bench_cubeops.sh).
+/// One profile's prefix sum. Bins are taken four at a time so that the dependent chain of
+/// additions through the running total is one addition per four bins (the partial sums
+/// within the four are independent of it); measured against a pairwise version and a plain
+/// running sum, this one was the fastest (tools/bench_cubeops_results.md).
 #[inline]
 fn prefix_one(src: &[f32], prefix: &mut [f64]) {
     prefix[0] = 0.0;
@@ -194,38 +196,6 @@ fn prefix_one(src: &[f32], prefix: &mut [f64]) {
         acc += v as f64;
         prefix[n + i + 1] = acc;
     }
-}
-
-/// [`prefix_one`] that also writes the pair sums of `src` (mip level 1 of the profile) into
-/// `pairs` (`ceil(src.len() / 2)` values) in the same loop.
-#[inline]
-fn prefix_and_pairs(src: &[f32], prefix: &mut [f64], pairs: &mut [f32]) {
-    prefix[0] = 0.0;
-    let mut acc = 0.0f64;
-    let quads = src.chunks_exact(4);
-    let tail = quads.remainder();
-    for ((q, out), l1) in quads
-        .zip(prefix[1..].chunks_exact_mut(4))
-        .zip(pairs.chunks_exact_mut(2))
-    {
-        l1[0] = q[0] + q[1];
-        l1[1] = q[2] + q[3];
-        let (a, b, c, d) = (q[0] as f64, q[1] as f64, q[2] as f64, q[3] as f64);
-        let ab = a + b;
-        let abcd = ab + (c + d);
-        out[0] = acc + a;
-        let acc_ab = acc + ab;
-        out[1] = acc_ab;
-        out[2] = acc_ab + c;
-        acc += abcd;
-        out[3] = acc;
-    }
-    let n = src.len() - tail.len();
-    for (i, &v) in tail.iter().enumerate() {
-        acc += v as f64;
-        prefix[n + i + 1] = acc;
-    }
-    halve(tail, &mut pairs[n / 2..]);
 }
 
 /// `dst[j] = src[2 j] + src[2 j + 1]`, and the last sample alone when `src.len()` is odd
