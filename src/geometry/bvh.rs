@@ -1,26 +1,37 @@
 //! Ray-mesh intersection: the public API every caster uses.
 //!
-//! A bounding volume hierarchy built with the binned surface area heuristic (SAH; Wald 2007,
-//! "On fast construction of SAH-based bounding volume hierarchies"), stored as a flat array of
-//! 32-byte nodes whose two children share one 64-byte cache line. Traversal tests both children,
-//! visits the nearer first and culls subtrees that start beyond the current closest hit. The
-//! ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances scaled by
-//! `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that holds a hit
-//! is ever skipped.
+//! A four-wide bounding volume hierarchy (BVH4; Wald, Benthin and Boulos 2008, "Getting rid of
+//! packets"; Embree's default layout on SSE machines). It is built as a binary tree with the
+//! binned surface area heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding
+//! volume hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed:
+//! each wide node takes the two children of a binary node and keeps opening its largest
+//! interior child until it has four. A node stores its four child boxes lane by lane (128
+//! bytes, two cache lines), so one slab test of four-lane vectors ([`simd`](super::simd): SSE2
+//! on x86_64, plain arrays elsewhere) tests all four boxes; the hit children are visited
+//! nearest first and subtrees that start beyond the current closest hit are culled. Leaves hold
+//! packets of four triangles, also stored lane by lane and tested against the ray at once.
 //!
-//! femto keeps its own tree rather than a crate's after measuring against `obvhs` 0.4 (BVH8,
-//! SIMD traversal) with the same triangle test: on the bunny this tree was about 20 % faster for
-//! coherent camera rays and within about 5 % for random rays (`cargo bench --bench bvh`), and
-//! its box test is provably conservative for axis-parallel rays.
+//! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
+//! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
+//! holds a hit is ever skipped.
 //!
 //! The ray-triangle test is the watertight algorithm of Woop, Benthin and Wald (2013,
 //! "Watertight ray/triangle intersection", JCGT 2(1)): vertices are moved into a ray-aligned
 //! sheared frame and the three 2D edge functions are evaluated there, falling back to double
 //! precision when one of them is exactly zero. A ray that passes through a shared edge or vertex
 //! of a closed mesh hits at least one of the triangles, whatever rounding does. Both faces of a
-//! triangle are hit. Triangles of zero area are left out of the hierarchy, so they never report
-//! a hit.
+//! triangle are hit. Each lane of the four-wide test performs exactly the scalar test's
+//! operations (no fused multiply-add; the double-precision fallback per lane), so the wide test
+//! is bit for bit the scalar one and keeps its watertightness. Triangles of zero area are left
+//! out of the hierarchy, so they never report a hit.
+//!
+//! femto keeps its own tree rather than a crate's: the binary version of this tree already
+//! matched `obvhs` 0.4 (BVH8, SIMD traversal) with the same triangle test on the bunny
+//! (`cargo bench --bench bvh`), and its box test is provably conservative for axis-parallel
+//! rays; the wide version is what the transient tracer's speed needed
+//! (`benches/tracer_results.md`).
 
+use super::simd::{Native, F4};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use nalgebra::{Point3, Vector3};
 use std::mem::MaybeUninit;
@@ -29,48 +40,81 @@ use std::mem::MaybeUninit;
 const BINS: usize = 16;
 /// Leaves never hold more triangles than this (the SAH may still choose smaller leaves).
 const MAX_LEAF: usize = 8;
+/// Triangles per leaf packet (the SIMD width).
+const PACKET: usize = 4;
 /// Below this depth the SAH picks the split; deeper nodes split at the centroid median, which
 /// halves the count at every level and so bounds the depth of any tree by `SAH_DEPTH + 32`.
 const SAH_DEPTH: u32 = 64;
-/// Traversal stack size: one entry per level, so it must exceed `SAH_DEPTH + 32`.
-const STACK: usize = 128;
-/// Relative cost of one node visit (two box tests) against one triangle test, for the SAH.
+/// Traversal stack size: a wide node pushes at most three entries, and the wide tree is no
+/// deeper than the binary one (`SAH_DEPTH + 32` levels), so it must exceed `3 * 97`.
+const STACK: usize = 320;
+/// Relative cost of one node visit against one test of a packet of triangles, for the SAH.
 const COST_TRAVERSAL: f32 = 1.0;
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24` (pbrt-v3, Eq. 3.9): scaling
 /// the far slab distance by this makes the f32 slab test conservative.
 const SLAB_FAR_SCALE: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// One node of the flattened tree.
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-struct Node {
-    /// Box corners: `min` x, y, z then `max` x, y, z.
-    bounds: [f32; 6],
-    /// Leaf: first entry of `Bvh::tris`. Interior: index of its children in `Bvh::pairs`.
-    first: u32,
-    /// Number of triangles of a leaf; 0 for an interior node.
-    count: u32,
-}
+/// A child reference with this bit set is a leaf: bits 28..31 hold its number of packets and
+/// bits 0..28 its first packet. Otherwise it is the index of an interior node.
+const LEAF: u32 = 1 << 31;
+const LEAF_COUNT_SHIFT: u32 = 28;
+const LEAF_FIRST_MASK: u32 = (1 << LEAF_COUNT_SHIFT) - 1;
+/// An empty child slot: a leaf of no packets (never visited: its box is empty).
+const EMPTY_CHILD: u32 = LEAF;
 
-/// The two children of an interior node, sharing one 64-byte cache line.
+/// One node of the wide tree: four child boxes, lane by lane.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-struct NodePair([Node; 2]);
+struct Node4 {
+    /// `lo[axis][child]`, `hi[axis][child]`: box corners. Empty slots have `lo = +inf`,
+    /// `hi = -inf`, which the slab test never enters.
+    lo: [[f32; 4]; 3],
+    hi: [[f32; 4]; 3],
+    /// Child references (see [`LEAF`]).
+    child: [u32; 4],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        lo: [[f32::INFINITY; 4]; 3],
+        hi: [[f32::NEG_INFINITY; 4]; 3],
+        child: [EMPTY_CHILD; 4],
+    };
+}
+
+/// Four triangles, lane by lane: `v[corner][axis][lane]`. Unused lanes hold NaN corners,
+/// whose edge functions are NaN and never report a hit.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct TriPacket {
+    v: [[[f32; 4]; 3]; 3],
+}
+
+impl TriPacket {
+    /// Corners of lane `j`.
+    #[cfg(test)]
+    fn corners(&self, j: usize) -> [[f32; 3]; 3] {
+        self.v.map(|c| [c[0][j], c[1][j], c[2][j]])
+    }
+}
 
 /// An acceleration structure that owns its mesh.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     mesh: TriangleMesh,
     bounds: Aabb,
-    /// Root node; `None` when the mesh has no triangle of non-zero area.
-    root: Option<Node>,
-    /// Children of interior nodes: an interior node's `first` indexes this array.
-    pairs: Vec<NodePair>,
-    /// Triangle corners in leaf order, copied from the mesh for locality.
-    tris: Vec<[[f32; 3]; 3]>,
-    /// Mesh triangle index of each entry of `tris`.
-    ids: Vec<u32>,
+    /// Reference to the root (see [`LEAF`]); an empty leaf when the mesh has no triangle of
+    /// non-zero area.
+    root: u32,
+    /// Interior nodes; the root, when interior, is node 0.
+    nodes: Vec<Node4>,
+    /// Leaf triangles in packets of four.
+    packets: Vec<TriPacket>,
+    /// Mesh triangle index of each lane of `packets` (`u32::MAX` for unused lanes).
+    packet_ids: Vec<[u32; 4]>,
+    /// Unit geometric normal of each mesh triangle (zero for those of zero area).
+    normals: Vec<Vector3<f32>>,
 }
 
 impl Bvh {
@@ -79,26 +123,46 @@ impl Bvh {
     /// Every index in `mesh.triangles` must be a valid position index (the loaders check this).
     pub fn new(mesh: TriangleMesh) -> Bvh {
         let bounds = mesh.bounds();
-        let (nodes, order) = build(&mesh);
-        // `build` pushes children in pairs after the root: nodes 2k+1 and 2k+2 form pair k.
-        let root = nodes.first().map(|&root| relink(root));
-        let pairs = nodes
-            .get(1..)
-            .unwrap_or_default()
-            .chunks_exact(2)
-            .map(|c| NodePair([relink(c[0]), relink(c[1])]))
-            .collect();
-        let tris = order
-            .iter()
-            .map(|&i| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]))
+        let (binary, order) = build(&mesh);
+        let corners = |i: u32| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]);
+        let mut wide = Collapse {
+            binary: &binary,
+            order: &order,
+            corners: &corners,
+            nodes: Vec::with_capacity(binary.len() / 3 + 1),
+            packets: Vec::with_capacity(order.len() / 2 + 1),
+            packet_ids: Vec::with_capacity(order.len() / 2 + 1),
+        };
+        let root = if binary.is_empty() {
+            EMPTY_CHILD
+        } else {
+            wide.emit(0)
+        };
+        let Collapse {
+            nodes,
+            packets,
+            packet_ids,
+            ..
+        } = wide;
+        let normals = (0..mesh.triangle_count())
+            .map(|i| {
+                let c = corners(i as u32);
+                let n = cross_f64(&c);
+                if n.norm_squared() > 0.0 && n.norm_squared().is_finite() {
+                    geometric_normal(&c)
+                } else {
+                    Vector3::zeros()
+                }
+            })
             .collect();
         Bvh {
             mesh,
             bounds,
             root,
-            pairs,
-            tris,
-            ids: order,
+            nodes,
+            packets,
+            packet_ids,
+            normals,
         }
     }
 
@@ -112,90 +176,117 @@ impl Bvh {
 
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let mut best: Option<(usize, TriHit)> = None;
-        let mut t_best = t_max;
-        self.traverse(ray, t_min, t_max, |slot, pre, t_far| {
-            if let Some(h) = intersect_triangle(&self.tris[slot], pre, t_min, t_far) {
-                t_best = h.t;
-                best = Some((slot, h));
-            }
-            (t_best, false)
-        });
-        best.map(|(slot, h)| Hit {
-            t: h.t,
-            triangle: self.ids[slot],
-            normal: geometric_normal(&self.tris[slot]),
-            u: h.u,
-            v: h.v,
-        })
+        self.intersect_with::<Native>(ray, t_min, t_max)
     }
 
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        self.occluded_with::<Native>(ray, t_min, t_max)
+    }
+
+    /// [`Bvh::intersect`] on the lanes `V`.
+    #[inline(always)]
+    fn intersect_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        // (packet, lane, t, u, v) of the closest hit so far.
+        let mut best: Option<(usize, usize, f32, f32, f32)> = None;
+        self.traverse::<V, _>(ray, t_min, t_max, |pk, pre, t_far| {
+            let h = packet_test::<V>(&self.packets[pk], pre, t_min, t_far);
+            let mut t_best = t_far;
+            let mut m = h.mask;
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if h.t[j] < t_best {
+                    t_best = h.t[j];
+                    best = Some((pk, j, h.t[j], h.u[j], h.v[j]));
+                }
+            }
+            (t_best, false)
+        });
+        best.map(|(pk, j, t, u, v)| {
+            let triangle = self.packet_ids[pk][j];
+            Hit {
+                t,
+                triangle,
+                normal: self.normals[triangle as usize],
+                u,
+                v,
+            }
+        })
+    }
+
+    /// [`Bvh::occluded`] on the lanes `V`.
+    #[inline(always)]
+    fn occluded_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        self.traverse(ray, t_min, t_max, |slot, pre, t_far| {
-            hit = intersect_triangle(&self.tris[slot], pre, t_min, t_far).is_some();
+        self.traverse::<V, _>(ray, t_min, t_max, |pk, pre, t_far| {
+            hit = packet_test::<V>(&self.packets[pk], pre, t_min, t_far).mask != 0;
             (t_far, hit)
         });
         hit
     }
 
-    /// Walk the tree front to back, calling `visit(slot, ray, t_far)` for each triangle slot in
-    /// a leaf whose box the ray enters before `t_far`. `visit` returns the new `t_far` and
+    /// Walk the tree front to back, calling `visit(packet, ray, t_far)` for each packet of a
+    /// leaf whose box the ray enters before `t_far`. `visit` returns the new `t_far` and
     /// whether to stop.
     #[inline(always)]
-    fn traverse<F>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
+    fn traverse<V: F4, F>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
     where
-        F: FnMut(usize, &PreparedRay, f32) -> (f32, bool),
+        F: FnMut(usize, &PreparedRay<V>, f32) -> (f32, bool),
     {
-        let Some(root) = self.root else {
-            return;
-        };
         if t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
             return;
         }
-        let pre = PreparedRay::new(ray);
+        let pre = PreparedRay::<V>::new(ray);
+        let t_min_v = V::splat(t_min);
         let mut t_far = t_max;
-        if slab(&root, &pre, t_min, t_far).is_none() {
-            return;
-        }
-        // Entries: (2 * pair + child, entry distance). Left uninitialised: zeroing 1 KiB for
+        // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
         // every ray cost a few per cent of a short ray's traversal.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut sp = 0usize;
-        let mut n = root;
+        let mut cur = self.root;
         loop {
-            if n.count > 0 {
-                let first = n.first as usize;
-                for slot in first..first + n.count as usize {
-                    let (t, stop) = visit(slot, &pre, t_far);
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, t_enter) = slab4(node, &pre, t_min_v, V::splat(t_far));
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    // Two to four children: sort by entry distance, push all but the nearest
+                    // (farthest first) and descend into the nearest.
+                    let mut hits = [(0u32, 0f32); 4];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let j = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let e = (node.child[j], t_enter[j]);
+                        let mut k = n;
+                        while k > 0 && hits[k - 1].1 > e.1 {
+                            hits[k] = hits[k - 1];
+                            k -= 1;
+                        }
+                        hits[k] = e;
+                        n += 1;
+                    }
+                    for &e in hits[1..n].iter().rev() {
+                        stack[sp].write(e);
+                        sp += 1;
+                    }
+                    cur = hits[0].0;
+                    continue;
+                }
+            } else {
+                let first = (cur & LEAF_FIRST_MASK) as usize;
+                let count = ((cur & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+                for pk in first..first + count {
+                    let (t, stop) = visit(pk, &pre, t_far);
                     if stop {
                         return;
                     }
                     t_far = t;
-                }
-            } else {
-                let pair = &self.pairs[n.first as usize].0;
-                let ta = slab(&pair[0], &pre, t_min, t_far);
-                let tb = slab(&pair[1], &pre, t_min, t_far);
-                match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, t_enter_far) =
-                            if ta <= tb { (0, 1, tb) } else { (1, 0, ta) };
-                        stack[sp].write((2 * n.first + far, t_enter_far));
-                        sp += 1;
-                        n = pair[near as usize];
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        n = pair[0];
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        n = pair[1];
-                        continue;
-                    }
-                    (None, None) => {}
                 }
             }
             // Pop the next subtree that still starts before the closest hit.
@@ -209,7 +300,7 @@ impl Bvh {
                 // (this one included) was written by this traversal.
                 let (next, t_enter) = unsafe { stack[sp].assume_init() };
                 if t_enter < t_far {
-                    n = self.pairs[next as usize / 2].0[next as usize % 2];
+                    cur = next;
                     break;
                 }
             }
@@ -217,36 +308,121 @@ impl Bvh {
     }
 }
 
-/// Map an interior node's child index in the build array (2k+1) to its pair index (k).
-fn relink(mut n: Node) -> Node {
-    if n.count == 0 {
-        n.first = (n.first - 1) / 2;
-    }
-    n
+/// Builds the wide tree from the binary one.
+struct Collapse<'a, C: Fn(u32) -> [[f32; 3]; 3]> {
+    binary: &'a [Node],
+    order: &'a [u32],
+    corners: &'a C,
+    nodes: Vec<Node4>,
+    packets: Vec<TriPacket>,
+    packet_ids: Vec<[u32; 4]>,
 }
 
-/// Per-ray constants of the slab and watertight triangle tests.
-struct PreparedRay {
+impl<C: Fn(u32) -> [[f32; 3]; 3]> Collapse<'_, C> {
+    /// Emit binary node `ni` and its subtree; returns its child reference.
+    fn emit(&mut self, ni: usize) -> u32 {
+        let n = self.binary[ni];
+        if n.count > 0 {
+            return self.leaf(n.first as usize, n.count as usize);
+        }
+        // Open the interior child of largest area until there are four.
+        let mut kids = vec![n.first as usize, n.first as usize + 1];
+        while kids.len() < 4 {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| self.binary[k].count == 0)
+                .max_by(|a, b| {
+                    half_area(&self.binary[*a.1]).total_cmp(&half_area(&self.binary[*b.1]))
+                });
+            let Some((i, &k)) = widest else {
+                break;
+            };
+            let first = self.binary[k].first as usize;
+            kids[i] = first;
+            kids.push(first + 1);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        for (lane, &k) in kids.iter().enumerate() {
+            let b = self.binary[k].bounds;
+            let child = self.emit(k);
+            let node = &mut self.nodes[index];
+            for a in 0..3 {
+                node.lo[a][lane] = b[a];
+                node.hi[a][lane] = b[3 + a];
+            }
+            node.child[lane] = child;
+        }
+        index as u32
+    }
+
+    /// Pack leaf slots `first .. first + count` of the build order into packets.
+    fn leaf(&mut self, first: usize, count: usize) -> u32 {
+        let first_packet = self.packets.len();
+        for chunk in self.order[first..first + count].chunks(PACKET) {
+            let mut p = TriPacket {
+                v: [[[f32::NAN; 4]; 3]; 3],
+            };
+            let mut ids = [u32::MAX; 4];
+            for (j, &tri) in chunk.iter().enumerate() {
+                let c = (self.corners)(tri);
+                for (k, corner) in c.iter().enumerate() {
+                    for a in 0..3 {
+                        p.v[k][a][j] = corner[a];
+                    }
+                }
+                ids[j] = tri;
+            }
+            self.packets.push(p);
+            self.packet_ids.push(ids);
+        }
+        let n_packets = self.packets.len() - first_packet;
+        assert!(
+            first_packet <= LEAF_FIRST_MASK as usize && n_packets < 8,
+            "BVH leaf reference overflow: {first_packet} packets"
+        );
+        LEAF | ((n_packets as u32) << LEAF_COUNT_SHIFT) | first_packet as u32
+    }
+}
+
+/// Half the surface area of a binary node's box.
+fn half_area(n: &Node) -> f32 {
+    let d = [0, 1, 2].map(|a| (n.bounds[3 + a] - n.bounds[a]).max(0.0));
+    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+}
+
+/// Per-ray constants of the slab and watertight triangle tests, scalar and splatted.
+struct PreparedRay<V> {
+    /// Scalar origin and shear constants (for the scalar reference test).
+    #[cfg(test)]
     origin: [f32; 3],
-    inv_dir: [f32; 3],
-    /// Index into `Node::bounds` of the near and far plane on each axis (the max plane is
-    /// the near one when the direction component is negative, including -0).
-    near: [usize; 3],
-    far: [usize; 3],
+    /// Whether the direction component is negative (including -0): the max plane is then
+    /// the near one.
+    neg: [bool; 3],
     /// Axis of the largest direction component (`kz`) and the two others, ordered so that the
     /// sheared frame keeps the triangles' winding.
     kx: usize,
     ky: usize,
     kz: usize,
     /// Shear constants of Woop et al.: `S = (d_kx / d_kz, d_ky / d_kz, 1 / d_kz)`.
+    #[cfg(test)]
     sx: f32,
+    #[cfg(test)]
     sy: f32,
+    #[cfg(test)]
     sz: f32,
+    /// Splatted origin and reciprocal direction per axis, and splatted shear constants.
+    o_v: [V; 3],
+    inv_v: [V; 3],
+    sx_v: V,
+    sy_v: V,
+    sz_v: V,
 }
 
-impl PreparedRay {
+impl<V: F4> PreparedRay<V> {
     #[inline(always)]
-    fn new(ray: &Ray) -> PreparedRay {
+    fn new(ray: &Ray) -> PreparedRay<V> {
         let d = [ray.dir.x, ray.dir.y, ray.dir.z];
         let inv_dir = d.map(|c| 1.0 / c);
         let kz = if d[0].abs() >= d[1].abs() {
@@ -265,44 +441,138 @@ impl PreparedRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let neg = inv_dir.map(|c| c.is_sign_negative() as usize);
+        let origin = [ray.origin.x, ray.origin.y, ray.origin.z];
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
         PreparedRay {
-            origin: [ray.origin.x, ray.origin.y, ray.origin.z],
-            inv_dir,
-            near: [3 * neg[0], 1 + 3 * neg[1], 2 + 3 * neg[2]],
-            far: [3 - 3 * neg[0], 4 - 3 * neg[1], 5 - 3 * neg[2]],
+            #[cfg(test)]
+            origin,
+            neg: inv_dir.map(|c| c.is_sign_negative()),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            #[cfg(test)]
+            sx,
+            #[cfg(test)]
+            sy,
+            #[cfg(test)]
+            sz,
+            o_v: origin.map(V::splat),
+            inv_v: inv_dir.map(V::splat),
+            sx_v: V::splat(sx),
+            sy_v: V::splat(sy),
+            sz_v: V::splat(sz),
         }
     }
 }
 
-/// Conservative slab test: the entry distance when the ray meets the box within
-/// `(t_min, t_max)`, else `None`.
+/// Conservative slab test of the four boxes of `n`: a bit per child whose box the ray meets
+/// within `(t_min, t_far)`, and the entry distances.
 #[inline(always)]
-fn slab(n: &Node, r: &PreparedRay, t_min: f32, t_max: f32) -> Option<f32> {
+fn slab4<V: F4>(n: &Node4, r: &PreparedRay<V>, t_min: V, t_far: V) -> (u32, [f32; 4]) {
     let mut t0 = t_min;
-    let mut t1 = t_max;
+    let mut t1 = t_far;
+    let scale = V::splat(SLAB_FAR_SCALE);
     for a in 0..3 {
-        let near = (n.bounds[r.near[a]] - r.origin[a]) * r.inv_dir[a];
-        let far = (n.bounds[r.far[a]] - r.origin[a]) * r.inv_dir[a] * SLAB_FAR_SCALE;
-        // Written so that a NaN (0 * inf: the origin on the slab plane of a parallel ray)
-        // leaves the interval unchanged.
-        if near > t0 {
-            t0 = near;
-        }
-        if far < t1 {
-            t1 = far;
-        }
+        let (near, far) = if r.neg[a] {
+            (&n.hi[a], &n.lo[a])
+        } else {
+            (&n.lo[a], &n.hi[a])
+        };
+        let near = V::load(near).sub(r.o_v[a]).mul(r.inv_v[a]);
+        let far = V::load(far).sub(r.o_v[a]).mul(r.inv_v[a]).mul(scale);
+        // `max`/`min` keep the running bound when `near`/`far` is NaN (0 * inf: the origin on
+        // the slab plane of a parallel ray), leaving the interval unchanged.
+        t0 = near.max(t0);
+        t1 = far.min(t1);
     }
-    (t0 <= t1).then_some(t0)
+    (t0.le(t1).bits(), t0.to_array())
+}
+
+/// Result of [`packet_test`]: a bit per lane that hits, and each lane's distance and
+/// barycentrics (meaningful where the bit is set).
+struct PacketHits {
+    mask: u32,
+    t: [f32; 4],
+    u: [f32; 4],
+    v: [f32; 4],
+}
+
+/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the four triangles
+/// of `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
+/// would (see the module doc).
+#[inline(always)]
+fn packet_test<V: F4>(p: &TriPacket, r: &PreparedRay<V>, t_min: f32, t_max: f32) -> PacketHits {
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let o = &r.o_v;
+    // Corner k relative to the origin, sheared and scaled into the ray's frame (the ray
+    // becomes the +z axis).
+    let corner = |k: usize| {
+        let pz = V::load(&p.v[k][kz]).sub(o[kz]);
+        let px = V::load(&p.v[k][kx]).sub(o[kx]).sub(r.sx_v.mul(pz));
+        let py = V::load(&p.v[k][ky]).sub(o[ky]).sub(r.sy_v.mul(pz));
+        (px, py, pz)
+    };
+    let (ax, ay, az) = corner(0);
+    let (bx, by, bz) = corner(1);
+    let (cx, cy, cz) = corner(2);
+    // Scaled barycentric coordinates (2D edge functions).
+    let mut u = cx.mul(by).sub(cy.mul(bx));
+    let mut v = ax.mul(cy).sub(ay.mul(cx));
+    let mut w = bx.mul(ay).sub(by.mul(ax));
+    let zero = V::splat(0.0);
+    let on_edge = u.eq(zero).or(v.eq(zero)).or(w.eq(zero)).bits();
+    if on_edge != 0 {
+        // Exactly zero in f32: recompute those lanes in f64, where the products are exact.
+        let f = |p: f32, q: f32, s: f32, t: f32| (p as f64 * q as f64 - s as f64 * t as f64) as f32;
+        let (ax, ay, bx, by, cx, cy) = (
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        );
+        let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
+        for j in 0..4 {
+            if on_edge & (1 << j) != 0 {
+                ua[j] = f(cx[j], by[j], cy[j], bx[j]);
+                va[j] = f(ax[j], cy[j], ay[j], cx[j]);
+                wa[j] = f(bx[j], ay[j], by[j], ax[j]);
+            }
+        }
+        (u, v, w) = (V::load(&ua), V::load(&va), V::load(&wa));
+    }
+    // Two-sided: reject only when the signs differ.
+    let neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
+    let pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
+    let det = u.add(v).add(w);
+    let t_scaled = u
+        .mul(r.sz_v.mul(az))
+        .add(v.mul(r.sz_v.mul(bz)))
+        .add(w.mul(r.sz_v.mul(cz)));
+    let inv_det = V::splat(1.0).div(det);
+    let t = t_scaled.mul(inv_det);
+    // A NaN `t` (degenerate ray, unused lane) fails both comparisons.
+    let in_range = t.gt(V::splat(t_min)).and(t.lt(V::splat(t_max)));
+    let mask = neg.and(pos).or(det.eq(zero)).andnot(in_range).bits();
+    if mask == 0 {
+        return PacketHits {
+            mask,
+            t: [0.0; 4],
+            u: [0.0; 4],
+            v: [0.0; 4],
+        };
+    }
+    PacketHits {
+        mask,
+        t: t.to_array(),
+        u: v.mul(inv_det).to_array(),
+        v: w.mul(inv_det).to_array(),
+    }
 }
 
 /// Distance and barycentrics of a triangle hit.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 struct TriHit {
     t: f32,
@@ -311,11 +581,12 @@ struct TriHit {
 }
 
 /// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013), hits with
-/// `t_min < t < t_max` only.
-#[inline(always)]
-fn intersect_triangle(
+/// `t_min < t < t_max` only: the scalar reference that each lane of [`packet_test`] must
+/// reproduce bit for bit.
+#[cfg(test)]
+fn intersect_triangle<V: F4>(
     tri: &[[f32; 3]; 3],
-    r: &PreparedRay,
+    r: &PreparedRay<V>,
     t_min: f32,
     t_max: f32,
 ) -> Option<TriHit> {
@@ -376,6 +647,18 @@ fn geometric_normal(tri: &[[f32; 3]; 3]) -> Vector3<f32> {
 fn cross_f64(tri: &[[f32; 3]; 3]) -> Vector3<f64> {
     let p = tri.map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64));
     (p[1] - p[0]).cross(&(p[2] - p[0]))
+}
+
+/// One node of the binary build tree.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    /// Box corners: `min` x, y, z then `max` x, y, z.
+    bounds: [f32; 6],
+    /// Leaf: first entry of the build order. Interior: index of its first child (the second
+    /// follows it).
+    first: u32,
+    /// Number of triangles of a leaf; 0 for an interior node.
+    count: u32,
 }
 
 /// Build record of one triangle.
@@ -565,7 +848,8 @@ fn split(
             if acc.count == 0 || right_count[k] == 0 {
                 continue;
             }
-            let cost = acc.half_area() * acc.count as f32 + right_area[k] * right_count[k] as f32;
+            let cost = acc.half_area() * blocks(acc.count as usize)
+                + right_area[k] * blocks(right_count[k] as usize);
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, a, k));
             }
@@ -576,7 +860,7 @@ fn split(
     };
     let parent_area = bounds.half_area();
     let split_cost = COST_TRAVERSAL + cost / parent_area;
-    if split_cost >= count as f32 && count <= MAX_LEAF {
+    if split_cost >= blocks(count) && count <= MAX_LEAF {
         return None;
     }
     let scale = BINS as f32 / extent[a];
@@ -592,6 +876,11 @@ fn split(
         return median(idx);
     }
     Some(left)
+}
+
+/// SAH cost of testing `n` triangles: the number of packets they fill.
+fn blocks(n: usize) -> f32 {
+    n.div_ceil(PACKET) as f32
 }
 
 #[inline]
@@ -649,8 +938,231 @@ mod tests {
         let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
         let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
         assert!((hit.t - 1.0).abs() < 1e-6);
-        let nodes = bvh.pairs.iter().flat_map(|p| p.0);
-        assert!(nodes.chain(bvh.root).all(|n| n.count as usize <= MAX_LEAF));
+        // Every leaf holds at most MAX_LEAF triangles, in at most ceil(MAX_LEAF / 4) packets.
+        let refs = bvh.nodes.iter().flat_map(|n| n.child).chain([bvh.root]);
+        for r in refs.filter(|r| r & LEAF != 0) {
+            let packets = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+            assert!(packets <= MAX_LEAF.div_ceil(PACKET));
+            let first = (r & LEAF_FIRST_MASK) as usize;
+            let tris = bvh.packet_ids[first..first + packets]
+                .iter()
+                .flatten()
+                .filter(|&&id| id != u32::MAX)
+                .count();
+            assert!(tris <= MAX_LEAF);
+        }
+        // All 1000 triangles are in the tree exactly once.
+        let mut ids: Vec<u32> = bvh.packet_ids.iter().flatten().copied().collect();
+        ids.retain(|&id| id != u32::MAX);
+        ids.sort_unstable();
+        assert_eq!(ids, (0..1000).collect::<Vec<u32>>());
+    }
+
+    /// A splitmix64 stream of uniforms in [0, 1) (no dependence on the code under test).
+    struct Uniforms(u64);
+
+    impl Uniforms {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.next()
+        }
+    }
+
+    /// A soup of random triangles of very different sizes, a grid of quads on integer
+    /// coordinates (rays along the axes through their shared edges and corners make edge
+    /// functions exactly zero) and a few triangles of zero area.
+    fn test_mesh(rng: &mut Uniforms) -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        let push = |mesh: &mut TriangleMesh, c: [[f32; 3]; 3]| {
+            let base = mesh.positions.len() as u32;
+            mesh.positions
+                .extend(c.iter().map(|p| Point3::new(p[0], p[1], p[2])));
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.material.push(0);
+        };
+        for k in 0..300 {
+            let size = if k % 10 == 0 { 3.0 } else { 0.2 };
+            let o = [0, 1, 2].map(|_| rng.range(-2.0, 2.0));
+            let c = [0, 1, 2].map(|_| [0, 1, 2].map(|a| o[a] + rng.range(-size, size)));
+            push(&mut mesh, c);
+        }
+        for i in -2..2 {
+            for j in -2..2 {
+                let (x, y, z) = (i as f32, j as f32, 0.5);
+                push(
+                    &mut mesh,
+                    [[x, y, z], [x + 1.0, y, z], [x + 1.0, y + 1.0, z]],
+                );
+                push(
+                    &mut mesh,
+                    [[x, y, z], [x + 1.0, y + 1.0, z], [x, y + 1.0, z]],
+                );
+            }
+        }
+        push(&mut mesh, [[0.1, 0.1, 0.0]; 3]);
+        push(
+            &mut mesh,
+            [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]],
+        );
+        mesh
+    }
+
+    fn test_rays(rng: &mut Uniforms, n: usize) -> Vec<(Ray, f32)> {
+        let mut rays = Vec::new();
+        for k in 0..n {
+            let o = Point3::new(
+                rng.range(-4.0, 4.0),
+                rng.range(-4.0, 4.0),
+                rng.range(-4.0, 4.0),
+            );
+            let dir = match k % 4 {
+                // Axis-aligned (through grid edges and corners when the origin is on one).
+                0 => {
+                    let o = Point3::new(o.x.round() * 0.5, o.y.round() * 0.5, -3.0);
+                    rays.push((Ray::new(o, Vector3::new(0.0, 0.0, 1.0)), f32::INFINITY));
+                    continue;
+                }
+                // Towards a random point of the soup's region.
+                _ => {
+                    let target = Vector3::new(
+                        rng.range(-2.0, 2.0),
+                        rng.range(-2.0, 2.0),
+                        rng.range(-2.0, 2.0),
+                    );
+                    (target - o.coords).normalize()
+                }
+            };
+            let t_max = if k % 3 == 0 {
+                rng.range(0.5, 6.0)
+            } else {
+                f32::INFINITY
+            };
+            rays.push((Ray::new(o, dir), t_max));
+        }
+        rays
+    }
+
+    /// Brute force with the scalar watertight test: the nearest hit `(t, triangle, u, v)`
+    /// over all triangles of non-zero area (the first triangle on a tie of `t`).
+    fn brute_force<V: F4>(
+        mesh: &TriangleMesh,
+        ray: &Ray,
+        t_max: f32,
+    ) -> Option<(f32, u32, f32, f32)> {
+        let pre = PreparedRay::<V>::new(ray);
+        let mut best: Option<(f32, u32, f32, f32)> = None;
+        for i in 0..mesh.triangle_count() {
+            let c = mesh.corners(i).map(|p| [p.x, p.y, p.z]);
+            if !(cross_f64(&c).norm_squared() > 0.0) {
+                continue;
+            }
+            if let Some(h) = intersect_triangle(&c, &pre, 0.0, t_max) {
+                if best.is_none_or(|b| h.t < b.0) {
+                    best = Some((h.t, i as u32, h.u, h.v));
+                }
+            }
+        }
+        best
+    }
+
+    /// The tree on lanes `V` finds what brute force finds: the same distance bit for bit, the
+    /// same triangle (or, on a tie of distance, one at the same distance), the same
+    /// barycentrics and normal; `occluded` agrees.
+    fn agrees_with_brute_force<V: F4>() {
+        let mut rng = Uniforms(11);
+        let mesh = test_mesh(&mut rng);
+        let bvh = Bvh::new(mesh.clone());
+        let mut hits = 0;
+        for (k, (ray, t_max)) in test_rays(&mut rng, 3000).iter().enumerate() {
+            let expected = brute_force::<V>(&mesh, ray, *t_max);
+            let got = bvh.intersect_with::<V>(ray, 0.0, *t_max);
+            assert_eq!(
+                bvh.occluded_with::<V>(ray, 0.0, *t_max),
+                expected.is_some(),
+                "ray {k}"
+            );
+            match (expected, got) {
+                (None, None) => {}
+                (Some((t, tri, u, v)), Some(h)) => {
+                    hits += 1;
+                    assert_eq!(h.t.to_bits(), t.to_bits(), "ray {k}");
+                    if h.triangle == tri {
+                        assert_eq!((h.u, h.v), (u, v), "ray {k}");
+                    } else {
+                        // A tie: the other triangle must hit at exactly the same distance.
+                        let c = mesh.corners(h.triangle as usize).map(|p| [p.x, p.y, p.z]);
+                        let pre = PreparedRay::<V>::new(ray);
+                        let other = intersect_triangle(&c, &pre, 0.0, f32::INFINITY).unwrap();
+                        assert_eq!(other.t.to_bits(), t.to_bits(), "ray {k}");
+                    }
+                    let c = mesh.corners(h.triangle as usize).map(|p| [p.x, p.y, p.z]);
+                    assert_eq!(h.normal, geometric_normal(&c));
+                }
+                (e, g) => panic!("ray {k}: brute force {e:?}, BVH {g:?}"),
+            }
+        }
+        assert!(hits > 1000, "only {hits} rays hit");
+    }
+
+    #[test]
+    fn wide_tree_agrees_with_brute_force_native() {
+        agrees_with_brute_force::<Native>();
+    }
+
+    #[test]
+    fn wide_tree_agrees_with_brute_force_portable() {
+        agrees_with_brute_force::<crate::geometry::simd::Portable>();
+    }
+
+    /// Each lane of the packet test is the scalar test, bit for bit, including lanes that
+    /// take the double-precision fallback (rays through shared edges and corners).
+    fn packet_lanes_are_the_scalar_test<V: F4>() {
+        let mut rng = Uniforms(12);
+        let mesh = test_mesh(&mut rng);
+        let bvh = Bvh::new(mesh);
+        let mut compared = 0;
+        for (ray, t_max) in test_rays(&mut rng, 400) {
+            let pre = PreparedRay::<V>::new(&ray);
+            for (p, ids) in bvh.packets.iter().zip(&bvh.packet_ids) {
+                let h = packet_test::<V>(p, &pre, 0.0, t_max);
+                for j in 0..4 {
+                    let scalar = if ids[j] == u32::MAX {
+                        None
+                    } else {
+                        intersect_triangle(&p.corners(j), &pre, 0.0, t_max)
+                    };
+                    match scalar {
+                        None => assert_eq!(h.mask & (1 << j), 0),
+                        Some(s) => {
+                            compared += 1;
+                            assert_ne!(h.mask & (1 << j), 0);
+                            assert_eq!(
+                                (h.t[j].to_bits(), h.u[j].to_bits(), h.v[j].to_bits()),
+                                (s.t.to_bits(), s.u.to_bits(), s.v.to_bits())
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 400, "{compared}");
+    }
+
+    #[test]
+    fn packet_lanes_are_the_scalar_test_native() {
+        packet_lanes_are_the_scalar_test::<Native>();
+    }
+
+    #[test]
+    fn packet_lanes_are_the_scalar_test_portable() {
+        packet_lanes_are_the_scalar_test::<crate::geometry::simd::Portable>();
     }
 
     #[test]
