@@ -67,18 +67,23 @@ const EMPTY_CHILD: u32 = LEAF;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Node4 {
-    /// `lo[axis][child]`, `hi[axis][child]`: box corners. Empty slots have `lo = +inf`,
-    /// `hi = -inf`, which the slab test never enters.
-    lo: [[f32; 4]; 3],
-    hi: [[f32; 4]; 3],
+    /// `bounds[plane][child]`: planes `min` x, y, z then `max` x, y, z. Empty slots have
+    /// `min = +inf`, `max = -inf`, which the slab test never enters.
+    bounds: [[f32; 4]; 6],
     /// Child references (see [`LEAF`]).
     child: [u32; 4],
 }
 
 impl Node4 {
     const EMPTY: Node4 = Node4 {
-        lo: [[f32::INFINITY; 4]; 3],
-        hi: [[f32::NEG_INFINITY; 4]; 3],
+        bounds: [
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+        ],
         child: [EMPTY_CHILD; 4],
     };
 }
@@ -189,7 +194,7 @@ impl Bvh {
     fn intersect_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         // (packet, lane, t, u, v) of the closest hit so far.
         let mut best: Option<(usize, usize, f32, f32, f32)> = None;
-        self.traverse::<V, _>(ray, t_min, t_max, |pk, pre, t_far| {
+        self.traverse::<V, _, true>(ray, t_min, t_max, |pk, pre, t_far| {
             let h = packet_test::<V>(&self.packets[pk], pre, t_min, t_far);
             let mut t_best = t_far;
             let mut m = h.mask;
@@ -219,18 +224,19 @@ impl Bvh {
     #[inline(always)]
     fn occluded_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        self.traverse::<V, _>(ray, t_min, t_max, |pk, pre, t_far| {
+        self.traverse::<V, _, false>(ray, t_min, t_max, |pk, pre, t_far| {
             hit = packet_test::<V>(&self.packets[pk], pre, t_min, t_far).mask != 0;
             (t_far, hit)
         });
         hit
     }
 
-    /// Walk the tree front to back, calling `visit(packet, ray, t_far)` for each packet of a
-    /// leaf whose box the ray enters before `t_far`. `visit` returns the new `t_far` and
-    /// whether to stop.
+    /// Walk the tree, calling `visit(packet, ray, t_far)` for each packet of a leaf whose box
+    /// the ray enters before `t_far`. `visit` returns the new `t_far` and whether to stop.
+    /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
+    /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    fn traverse<V: F4, F>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
+    fn traverse<V: F4, F, const ORDERED: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
     where
         F: FnMut(usize, &PreparedRay<V>, f32) -> (f32, bool),
     {
@@ -251,6 +257,18 @@ impl Bvh {
                 let (mask, t_enter) = slab4(node, &pre, t_min_v, V::splat(t_far));
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    if !ORDERED {
+                        // Push all but the first and descend into it.
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let j = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            stack[sp].write((node.child[j], t_enter[j]));
+                            sp += 1;
+                        }
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
                     }
@@ -348,9 +366,8 @@ impl<C: Fn(u32) -> [[f32; 3]; 3]> Collapse<'_, C> {
             let b = self.binary[k].bounds;
             let child = self.emit(k);
             let node = &mut self.nodes[index];
-            for a in 0..3 {
-                node.lo[a][lane] = b[a];
-                node.hi[a][lane] = b[3 + a];
+            for (plane, &x) in b.iter().enumerate() {
+                node.bounds[plane][lane] = x;
             }
             node.child[lane] = child;
         }
@@ -397,9 +414,10 @@ struct PreparedRay<V> {
     /// Scalar origin and shear constants (for the scalar reference test).
     #[cfg(test)]
     origin: [f32; 3],
-    /// Whether the direction component is negative (including -0): the max plane is then
-    /// the near one.
-    neg: [bool; 3],
+    /// Index into `Node4::bounds` of the near and far plane on each axis (the max plane is
+    /// the near one when the direction component is negative, including -0).
+    near: [usize; 3],
+    far: [usize; 3],
     /// Axis of the largest direction component (`kz`) and the two others, ordered so that the
     /// sheared frame keeps the triangles' winding.
     kx: usize,
@@ -424,29 +442,30 @@ impl<V: F4> PreparedRay<V> {
     #[inline(always)]
     fn new(ray: &Ray) -> PreparedRay<V> {
         let d = [ray.dir.x, ray.dir.y, ray.dir.z];
-        let inv_dir = d.map(|c| 1.0 / c);
-        let kz = if d[0].abs() >= d[1].abs() {
-            if d[0].abs() >= d[2].abs() {
-                0
-            } else {
-                2
-            }
-        } else if d[1].abs() >= d[2].abs() {
-            1
+        // Written without branches: the axis order of random directions is unpredictable.
+        let a = d.map(f32::abs);
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
         } else {
-            2
+            2 - (a[1] >= a[2]) as usize
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // Swap kx and ky when d_kz < 0 to keep the winding.
+        let flip = (d[kz] < 0.0) as usize;
+        let kx = (kz + 1 + flip) % 3;
+        let ky = (kz + 2 - flip) % 3;
         let origin = [ray.origin.x, ray.origin.y, ray.origin.z];
-        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        // The five quotients in two vector divisions (each lane exactly the scalar quotient).
+        let inv_dir = V::splat(1.0).div(V::load(&[d[0], d[1], d[2], 1.0])).to_array();
+        let [sx, sy, ..] = V::load(&[d[kx], d[ky], 1.0, 1.0])
+            .div(V::load(&[d[kz], d[kz], 1.0, 1.0]))
+            .to_array();
+        let sz = inv_dir[kz];
+        let inv_dir = [inv_dir[0], inv_dir[1], inv_dir[2]];
         PreparedRay {
             #[cfg(test)]
             origin,
-            neg: inv_dir.map(|c| c.is_sign_negative()),
+            near: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_negative() as usize),
+            far: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_positive() as usize),
             kx,
             ky,
             kz,
@@ -473,13 +492,8 @@ fn slab4<V: F4>(n: &Node4, r: &PreparedRay<V>, t_min: V, t_far: V) -> (u32, [f32
     let mut t1 = t_far;
     let scale = V::splat(SLAB_FAR_SCALE);
     for a in 0..3 {
-        let (near, far) = if r.neg[a] {
-            (&n.hi[a], &n.lo[a])
-        } else {
-            (&n.lo[a], &n.hi[a])
-        };
-        let near = V::load(near).sub(r.o_v[a]).mul(r.inv_v[a]);
-        let far = V::load(far).sub(r.o_v[a]).mul(r.inv_v[a]).mul(scale);
+        let near = V::load(&n.bounds[r.near[a]]).sub(r.o_v[a]).mul(r.inv_v[a]);
+        let far = V::load(&n.bounds[r.far[a]]).sub(r.o_v[a]).mul(r.inv_v[a]).mul(scale);
         // `max`/`min` keep the running bound when `near`/`far` is NaN (0 * inf: the origin on
         // the slab plane of a parallel ray), leaving the interval unchanged.
         t0 = near.max(t0);
