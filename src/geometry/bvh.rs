@@ -236,8 +236,13 @@ impl Bvh {
     /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
     /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    fn traverse<V: F4, F, const ORDERED: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
-    where
+    fn traverse<V: F4, F, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut visit: F,
+    ) where
         F: FnMut(usize, &PreparedRay<V>, f32) -> (f32, bool),
     {
         if t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
@@ -455,7 +460,9 @@ impl<V: F4> PreparedRay<V> {
         let ky = (kz + 2 - flip) % 3;
         let origin = [ray.origin.x, ray.origin.y, ray.origin.z];
         // The five quotients in two vector divisions (each lane exactly the scalar quotient).
-        let inv_dir = V::splat(1.0).div(V::load(&[d[0], d[1], d[2], 1.0])).to_array();
+        let inv_dir = V::splat(1.0)
+            .div(V::load(&[d[0], d[1], d[2], 1.0]))
+            .to_array();
         let [sx, sy, ..] = V::load(&[d[kx], d[ky], 1.0, 1.0])
             .div(V::load(&[d[kz], d[kz], 1.0, 1.0]))
             .to_array();
@@ -493,7 +500,10 @@ fn slab4<V: F4>(n: &Node4, r: &PreparedRay<V>, t_min: V, t_far: V) -> (u32, [f32
     let scale = V::splat(SLAB_FAR_SCALE);
     for a in 0..3 {
         let near = V::load(&n.bounds[r.near[a]]).sub(r.o_v[a]).mul(r.inv_v[a]);
-        let far = V::load(&n.bounds[r.far[a]]).sub(r.o_v[a]).mul(r.inv_v[a]).mul(scale);
+        let far = V::load(&n.bounds[r.far[a]])
+            .sub(r.o_v[a])
+            .mul(r.inv_v[a])
+            .mul(scale);
         // `max`/`min` keep the running bound when `near`/`far` is NaN (0 * inf: the origin on
         // the slab plane of a parallel ray), leaving the interval unchanged.
         t0 = near.max(t0);
