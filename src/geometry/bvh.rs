@@ -1,15 +1,16 @@
 //! Ray-mesh intersection: the public API every caster uses.
 //!
-//! A four-wide bounding volume hierarchy (BVH4; Wald, Benthin and Boulos 2008, "Getting rid of
-//! packets"; Embree's default layout on SSE machines). It is built as a binary tree with the
-//! binned surface area heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding
-//! volume hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed:
-//! each wide node takes the two children of a binary node and keeps opening its largest
-//! interior child until it has four. A node stores its four child boxes lane by lane (128
-//! bytes, two cache lines), so one slab test of four-lane vectors ([`simd`](super::simd): SSE2
-//! on x86_64, plain arrays elsewhere) tests all four boxes; the hit children are visited
-//! nearest first and subtrees that start beyond the current closest hit are culled. Leaves hold
-//! packets of four triangles, also stored lane by lane and tested against the ray at once.
+//! A wide bounding volume hierarchy (Wald, Benthin and Boulos 2008, "Getting rid of packets";
+//! Embree's layouts): four children per node (BVH4) with SSE2 on x86_64 and on other
+//! architectures, eight (BVH8) where the CPU has AVX (detected at run time with
+//! `is_x86_feature_detected!`). It is built as a binary tree with the binned surface area
+//! heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding volume
+//! hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed: each
+//! wide node takes the two children of a binary node and keeps opening its largest interior
+//! child until it has four (or eight). A node stores its child boxes lane by lane, so one slab
+//! test of vectors ([`simd`](super::simd)) tests all of them; the hit children are visited
+//! nearest first and subtrees that start beyond the current closest hit are culled. Leaves
+//! hold packets of four triangles, also stored lane by lane and tested against the ray at once.
 //!
 //! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
 //! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
@@ -20,10 +21,11 @@
 //! sheared frame and the three 2D edge functions are evaluated there, falling back to double
 //! precision when one of them is exactly zero. A ray that passes through a shared edge or vertex
 //! of a closed mesh hits at least one of the triangles, whatever rounding does. Both faces of a
-//! triangle are hit. Each lane of the four-wide test performs exactly the scalar test's
-//! operations (no fused multiply-add; the double-precision fallback per lane), so the wide test
-//! is bit for bit the scalar one and keeps its watertightness. Triangles of zero area are left
-//! out of the hierarchy, so they never report a hit.
+//! triangle are hit. Each lane of the wide test performs exactly the scalar test's operations
+//! (no fused multiply-add; the double-precision fallback per lane), so the wide test is bit for
+//! bit the scalar one and keeps its watertightness; the four- and eight-wide trees therefore
+//! return the same hits. Triangles of zero area are left out of the hierarchy, so they never
+//! report a hit.
 //!
 //! femto keeps its own tree rather than a crate's: the binary version of this tree already
 //! matched `obvhs` 0.4 (BVH8, SIMD traversal) with the same triangle test on the bunny
@@ -31,7 +33,11 @@
 //! rays; the wide version is what the transient tracer's speed needed
 //! (`benches/tracer_results.md`).
 
-use super::simd::{Native, F4};
+#[cfg(target_arch = "x86_64")]
+use super::simd::Avx;
+#[cfg(any(test, not(target_arch = "x86_64")))]
+use super::simd::Portable;
+use super::simd::{Lanes, Native};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use nalgebra::{Point3, Vector3};
 use std::mem::MaybeUninit;
@@ -40,14 +46,14 @@ use std::mem::MaybeUninit;
 const BINS: usize = 16;
 /// Leaves never hold more triangles than this (the SAH may still choose smaller leaves).
 const MAX_LEAF: usize = 8;
-/// Triangles per leaf packet (the SIMD width).
+/// Triangles per leaf packet (the SIMD width of the triangle test).
 const PACKET: usize = 4;
 /// Below this depth the SAH picks the split; deeper nodes split at the centroid median, which
 /// halves the count at every level and so bounds the depth of any tree by `SAH_DEPTH + 32`.
 const SAH_DEPTH: u32 = 64;
-/// Traversal stack size: a wide node pushes at most three entries, and the wide tree is no
-/// deeper than the binary one (`SAH_DEPTH + 32` levels), so it must exceed `3 * 97`.
-const STACK: usize = 320;
+/// Traversal stack size: a wide node pushes at most `N - 1 <= 7` entries, and the wide tree
+/// is no deeper than the binary one (`SAH_DEPTH + 32` levels), so it must exceed `7 * 97`.
+const STACK: usize = 704;
 /// Relative cost of one node visit against one test of a packet of triangles, for the SAH.
 const COST_TRAVERSAL: f32 = 1.0;
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24` (pbrt-v3, Eq. 3.9): scaling
@@ -63,28 +69,28 @@ const LEAF_FIRST_MASK: u32 = (1 << LEAF_COUNT_SHIFT) - 1;
 /// An empty child slot: a leaf of no packets (never visited: its box is empty).
 const EMPTY_CHILD: u32 = LEAF;
 
-/// One node of the wide tree: four child boxes, lane by lane.
+/// One node of a wide tree: `N` child boxes, lane by lane.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-struct Node4 {
+struct Node<const N: usize> {
     /// `bounds[plane][child]`: planes `min` x, y, z then `max` x, y, z. Empty slots have
     /// `min = +inf`, `max = -inf`, which the slab test never enters.
-    bounds: [[f32; 4]; 6],
+    bounds: [[f32; N]; 6],
     /// Child references (see [`LEAF`]).
-    child: [u32; 4],
+    child: [u32; N],
 }
 
-impl Node4 {
-    const EMPTY: Node4 = Node4 {
+impl<const N: usize> Node<N> {
+    const EMPTY: Node<N> = Node {
         bounds: [
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
+            [f32::INFINITY; N],
+            [f32::INFINITY; N],
+            [f32::INFINITY; N],
+            [f32::NEG_INFINITY; N],
+            [f32::NEG_INFINITY; N],
+            [f32::NEG_INFINITY; N],
         ],
-        child: [EMPTY_CHILD; 4],
+        child: [EMPTY_CHILD; N],
     };
 }
 
@@ -93,7 +99,7 @@ impl Node4 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 struct TriPacket {
-    v: [[[f32; 4]; 3]; 3],
+    v: [[[f32; PACKET]; 3]; 3],
 }
 
 impl TriPacket {
@@ -104,22 +110,49 @@ impl TriPacket {
     }
 }
 
+/// A wide tree of `N` children per node over packets of triangles.
+#[derive(Clone, Debug)]
+struct Wide<const N: usize> {
+    /// Reference to the root (see [`LEAF`]); an empty leaf when the mesh has no triangle of
+    /// non-zero area.
+    root: u32,
+    /// Interior nodes; the root, when interior, is node 0.
+    nodes: Vec<Node<N>>,
+    /// Leaf triangles in packets.
+    packets: Vec<TriPacket>,
+    /// Mesh triangle index of each lane of `packets` (`u32::MAX` for unused lanes).
+    packet_ids: Vec<[u32; PACKET]>,
+}
+
+/// The tree a [`Bvh`] traverses.
+#[derive(Clone, Debug)]
+enum Tree {
+    /// Four children per node (SSE2, or plain arrays off x86_64).
+    Four(Wide<4>),
+    /// Eight children per node, traversed with AVX (only built where the CPU has it).
+    Eight(Wide<8>),
+}
+
 /// An acceleration structure that owns its mesh.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     mesh: TriangleMesh,
     bounds: Aabb,
-    /// Reference to the root (see [`LEAF`]); an empty leaf when the mesh has no triangle of
-    /// non-zero area.
-    root: u32,
-    /// Interior nodes; the root, when interior, is node 0.
-    nodes: Vec<Node4>,
-    /// Leaf triangles in packets of four.
-    packets: Vec<TriPacket>,
-    /// Mesh triangle index of each lane of `packets` (`u32::MAX` for unused lanes).
-    packet_ids: Vec<[u32; 4]>,
+    tree: Tree,
     /// Unit geometric normal of each mesh triangle (zero for those of zero area).
     normals: Vec<Vector3<f32>>,
+}
+
+/// Whether this CPU runs the eight-wide traversal (AVX).
+fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 impl Bvh {
@@ -127,28 +160,19 @@ impl Bvh {
     ///
     /// Every index in `mesh.triangles` must be a valid position index (the loaders check this).
     pub fn new(mesh: TriangleMesh) -> Bvh {
+        Bvh::with_width(mesh, if has_avx() { 8 } else { 4 })
+    }
+
+    /// Build with `width` (4 or 8) children per node; 8 only where [`has_avx`].
+    fn with_width(mesh: TriangleMesh, width: usize) -> Bvh {
         let bounds = mesh.bounds();
         let (binary, order) = build(&mesh);
         let corners = |i: u32| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]);
-        let mut wide = Collapse {
-            binary: &binary,
-            order: &order,
-            corners: &corners,
-            nodes: Vec::with_capacity(binary.len() / 3 + 1),
-            packets: Vec::with_capacity(order.len() / 2 + 1),
-            packet_ids: Vec::with_capacity(order.len() / 2 + 1),
-        };
-        let root = if binary.is_empty() {
-            EMPTY_CHILD
+        let tree = if width == 8 {
+            Tree::Eight(Wide::collapse(&binary, &order, &corners))
         } else {
-            wide.emit(0)
+            Tree::Four(Wide::collapse(&binary, &order, &corners))
         };
-        let Collapse {
-            nodes,
-            packets,
-            packet_ids,
-            ..
-        } = wide;
         let normals = (0..mesh.triangle_count())
             .map(|i| {
                 let c = corners(i as u32);
@@ -163,10 +187,7 @@ impl Bvh {
         Bvh {
             mesh,
             bounds,
-            root,
-            nodes,
-            packets,
-            packet_ids,
+            tree,
             normals,
         }
     }
@@ -181,21 +202,83 @@ impl Bvh {
 
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        self.intersect_with::<Native>(ray, t_min, t_max)
+        let found = match &self.tree {
+            Tree::Four(w) => w.intersect::<Native, Native>(ray, t_min, t_max),
+            Tree::Eight(w) => intersect_eight(w, ray, t_min, t_max),
+        };
+        found.map(|(triangle, t, u, v)| Hit {
+            t,
+            triangle,
+            normal: self.normals[triangle as usize],
+            u,
+            v,
+        })
     }
 
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        self.occluded_with::<Native>(ray, t_min, t_max)
+        match &self.tree {
+            Tree::Four(w) => w.occluded::<Native, Native>(ray, t_min, t_max),
+            Tree::Eight(w) => occluded_eight(w, ray, t_min, t_max),
+        }
     }
+}
 
-    /// [`Bvh::intersect`] on the lanes `V`.
+/// [`Wide::intersect`] of an eight-wide tree: AVX on x86_64 (a tree of eight is only built
+/// where the CPU has it), plain arrays elsewhere.
+#[inline]
+fn intersect_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `Tree::Eight` is only built by `Bvh::new` when `has_avx()`; tests that build
+        // one directly check for AVX first.
+        unsafe { intersect_avx(w, ray, t_min, t_max) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        w.intersect::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+    }
+}
+
+/// [`Wide::occluded`] of an eight-wide tree (see [`intersect_eight`]).
+#[inline]
+fn occluded_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: as in `intersect_eight`.
+        unsafe { occluded_avx(w, ray, t_min, t_max) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        w.occluded::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn intersect_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+    w.intersect::<Avx, Native>(ray, t_min, t_max)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    w.occluded::<Avx, Native>(ray, t_min, t_max)
+}
+
+impl<const N: usize> Wide<N> {
+    /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and packet lanes `T`.
     #[inline(always)]
-    fn intersect_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    fn intersect<V: Lanes<N>, T: Lanes<PACKET>>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(u32, f32, f32, f32)> {
         // (packet, lane, t, u, v) of the closest hit so far.
         let mut best: Option<(usize, usize, f32, f32, f32)> = None;
-        self.traverse::<V, _, true>(ray, t_min, t_max, |pk, pre, t_far| {
-            let h = packet_test::<V>(&self.packets[pk], pre, t_min, t_far);
+        self.traverse::<V, T, _, true>(ray, t_min, t_max, |pk, tri_ray, t_far| {
+            let h = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far);
             let mut t_best = t_far;
             let mut m = h.mask;
             while m != 0 {
@@ -208,24 +291,15 @@ impl Bvh {
             }
             (t_best, false)
         });
-        best.map(|(pk, j, t, u, v)| {
-            let triangle = self.packet_ids[pk][j];
-            Hit {
-                t,
-                triangle,
-                normal: self.normals[triangle as usize],
-                u,
-                v,
-            }
-        })
+        best.map(|(pk, j, t, u, v)| (self.packet_ids[pk][j], t, u, v))
     }
 
-    /// [`Bvh::occluded`] on the lanes `V`.
+    /// Whether anything lies on the ray, with node lanes `V` and packet lanes `T`.
     #[inline(always)]
-    fn occluded_with<V: F4>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    fn occluded<V: Lanes<N>, T: Lanes<PACKET>>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        self.traverse::<V, _, false>(ray, t_min, t_max, |pk, pre, t_far| {
-            hit = packet_test::<V>(&self.packets[pk], pre, t_min, t_far).mask != 0;
+        self.traverse::<V, T, _, false>(ray, t_min, t_max, |pk, tri_ray, t_far| {
+            hit = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far).mask != 0;
             (t_far, hit)
         });
         hit
@@ -236,19 +310,21 @@ impl Bvh {
     /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
     /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    fn traverse<V: F4, F, const ORDERED: bool>(
+    fn traverse<V: Lanes<N>, T: Lanes<PACKET>, F, const ORDERED: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
         mut visit: F,
     ) where
-        F: FnMut(usize, &PreparedRay<V>, f32) -> (f32, bool),
+        F: FnMut(usize, &TriRay<T>, f32) -> (f32, bool),
     {
         if t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
             return;
         }
-        let pre = PreparedRay::<V>::new(ray);
+        let consts = RayConsts::new(ray);
+        let node_ray = NodeRay::<V, N>::new(&consts);
+        let tri_ray = TriRay::<T>::new(&consts);
         let t_min_v = V::splat(t_min);
         let mut t_far = t_max;
         // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
@@ -259,7 +335,7 @@ impl Bvh {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, t_enter) = slab4(node, &pre, t_min_v, V::splat(t_far));
+                let (mask, t_enter) = slab::<V, N>(node, &node_ray, t_min_v, V::splat(t_far));
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
                         cur = node.child[mask.trailing_zeros() as usize];
@@ -277,9 +353,9 @@ impl Bvh {
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
                     }
-                    // Two to four children: sort by entry distance, push all but the nearest
+                    // Two or more children: sort by entry distance, push all but the nearest
                     // (farthest first) and descend into the nearest.
-                    let mut hits = [(0u32, 0f32); 4];
+                    let mut hits = [(0u32, 0f32); N];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
@@ -305,7 +381,7 @@ impl Bvh {
                 let first = (cur & LEAF_FIRST_MASK) as usize;
                 let count = ((cur & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
                 for pk in first..first + count {
-                    let (t, stop) = visit(pk, &pre, t_far);
+                    let (t, stop) = visit(pk, &tri_ray, t_far);
                     if stop {
                         return;
                     }
@@ -329,47 +405,57 @@ impl Bvh {
             }
         }
     }
-}
 
-/// Builds the wide tree from the binary one.
-struct Collapse<'a, C: Fn(u32) -> [[f32; 3]; 3]> {
-    binary: &'a [Node],
-    order: &'a [u32],
-    corners: &'a C,
-    nodes: Vec<Node4>,
-    packets: Vec<TriPacket>,
-    packet_ids: Vec<[u32; 4]>,
-}
-
-impl<C: Fn(u32) -> [[f32; 3]; 3]> Collapse<'_, C> {
-    /// Emit binary node `ni` and its subtree; returns its child reference.
-    fn emit(&mut self, ni: usize) -> u32 {
-        let n = self.binary[ni];
-        if n.count > 0 {
-            return self.leaf(n.first as usize, n.count as usize);
+    /// Collapse the binary tree `binary` (leaves index the build `order`) into a wide one.
+    fn collapse(
+        binary: &[BuildNode],
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+    ) -> Wide<N> {
+        let mut wide = Wide {
+            root: EMPTY_CHILD,
+            nodes: Vec::with_capacity(binary.len() / (N - 1) + 1),
+            packets: Vec::with_capacity(order.len() / 2 + 1),
+            packet_ids: Vec::with_capacity(order.len() / 2 + 1),
+        };
+        if !binary.is_empty() {
+            wide.root = wide.emit(binary, order, corners, 0);
         }
-        // Open the interior child of largest area until there are four.
+        wide
+    }
+
+    /// Emit binary node `ni` and its subtree; returns its child reference.
+    fn emit(
+        &mut self,
+        binary: &[BuildNode],
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+        ni: usize,
+    ) -> u32 {
+        let n = &binary[ni];
+        if n.count > 0 {
+            return self.leaf(order, corners, n.first as usize, n.count as usize);
+        }
+        // Open the interior child of largest area until there are N.
         let mut kids = vec![n.first as usize, n.first as usize + 1];
-        while kids.len() < 4 {
+        while kids.len() < N {
             let widest = kids
                 .iter()
                 .enumerate()
-                .filter(|(_, &k)| self.binary[k].count == 0)
-                .max_by(|a, b| {
-                    half_area(&self.binary[*a.1]).total_cmp(&half_area(&self.binary[*b.1]))
-                });
+                .filter(|(_, &k)| binary[k].count == 0)
+                .max_by(|a, b| half_area(&binary[*a.1]).total_cmp(&half_area(&binary[*b.1])));
             let Some((i, &k)) = widest else {
                 break;
             };
-            let first = self.binary[k].first as usize;
+            let first = binary[k].first as usize;
             kids[i] = first;
             kids.push(first + 1);
         }
         let index = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
+        self.nodes.push(Node::EMPTY);
         for (lane, &k) in kids.iter().enumerate() {
-            let b = self.binary[k].bounds;
-            let child = self.emit(k);
+            let b = binary[k].bounds;
+            let child = self.emit(binary, order, corners, k);
             let node = &mut self.nodes[index];
             for (plane, &x) in b.iter().enumerate() {
                 node.bounds[plane][lane] = x;
@@ -380,16 +466,21 @@ impl<C: Fn(u32) -> [[f32; 3]; 3]> Collapse<'_, C> {
     }
 
     /// Pack leaf slots `first .. first + count` of the build order into packets.
-    fn leaf(&mut self, first: usize, count: usize) -> u32 {
+    fn leaf(
+        &mut self,
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+        first: usize,
+        count: usize,
+    ) -> u32 {
         let first_packet = self.packets.len();
-        for chunk in self.order[first..first + count].chunks(PACKET) {
+        for chunk in order[first..first + count].chunks(PACKET) {
             let mut p = TriPacket {
-                v: [[[f32::NAN; 4]; 3]; 3],
+                v: [[[f32::NAN; PACKET]; 3]; 3],
             };
-            let mut ids = [u32::MAX; 4];
+            let mut ids = [u32::MAX; PACKET];
             for (j, &tri) in chunk.iter().enumerate() {
-                let c = (self.corners)(tri);
-                for (k, corner) in c.iter().enumerate() {
+                for (k, corner) in corners(tri).iter().enumerate() {
                     for a in 0..3 {
                         p.v[k][a][j] = corner[a];
                     }
@@ -409,17 +500,16 @@ impl<C: Fn(u32) -> [[f32; 3]; 3]> Collapse<'_, C> {
 }
 
 /// Half the surface area of a binary node's box.
-fn half_area(n: &Node) -> f32 {
+fn half_area(n: &BuildNode) -> f32 {
     let d = [0, 1, 2].map(|a| (n.bounds[3 + a] - n.bounds[a]).max(0.0));
     d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 }
 
-/// Per-ray constants of the slab and watertight triangle tests, scalar and splatted.
-struct PreparedRay<V> {
-    /// Scalar origin and shear constants (for the scalar reference test).
-    #[cfg(test)]
+/// Per-ray constants of the slab and watertight triangle tests.
+struct RayConsts {
     origin: [f32; 3],
-    /// Index into `Node4::bounds` of the near and far plane on each axis (the max plane is
+    inv_dir: [f32; 3],
+    /// Index into `Node::bounds` of the near and far plane on each axis (the max plane is
     /// the near one when the direction component is negative, including -0).
     near: [usize; 3],
     far: [usize; 3],
@@ -429,23 +519,14 @@ struct PreparedRay<V> {
     ky: usize,
     kz: usize,
     /// Shear constants of Woop et al.: `S = (d_kx / d_kz, d_ky / d_kz, 1 / d_kz)`.
-    #[cfg(test)]
     sx: f32,
-    #[cfg(test)]
     sy: f32,
-    #[cfg(test)]
     sz: f32,
-    /// Splatted origin and reciprocal direction per axis, and splatted shear constants.
-    o_v: [V; 3],
-    inv_v: [V; 3],
-    sx_v: V,
-    sy_v: V,
-    sz_v: V,
 }
 
-impl<V: F4> PreparedRay<V> {
+impl RayConsts {
     #[inline(always)]
-    fn new(ray: &Ray) -> PreparedRay<V> {
+    fn new(ray: &Ray) -> RayConsts {
         let d = [ray.dir.x, ray.dir.y, ray.dir.z];
         // Written without branches: the axis order of random directions is unpredictable.
         let a = d.map(f32::abs);
@@ -458,51 +539,92 @@ impl<V: F4> PreparedRay<V> {
         let flip = (d[kz] < 0.0) as usize;
         let kx = (kz + 1 + flip) % 3;
         let ky = (kz + 2 - flip) % 3;
-        let origin = [ray.origin.x, ray.origin.y, ray.origin.z];
         // The five quotients in two vector divisions (each lane exactly the scalar quotient).
-        let inv_dir = V::splat(1.0)
-            .div(V::load(&[d[0], d[1], d[2], 1.0]))
+        let inv = Native::splat(1.0)
+            .div(Native::load(&[d[0], d[1], d[2], 1.0]))
             .to_array();
-        let [sx, sy, ..] = V::load(&[d[kx], d[ky], 1.0, 1.0])
-            .div(V::load(&[d[kz], d[kz], 1.0, 1.0]))
+        let [sx, sy, ..] = Native::load(&[d[kx], d[ky], 1.0, 1.0])
+            .div(Native::load(&[d[kz], d[kz], 1.0, 1.0]))
             .to_array();
-        let sz = inv_dir[kz];
-        let inv_dir = [inv_dir[0], inv_dir[1], inv_dir[2]];
-        PreparedRay {
-            #[cfg(test)]
-            origin,
+        let inv_dir = [inv[0], inv[1], inv[2]];
+        RayConsts {
+            origin: [ray.origin.x, ray.origin.y, ray.origin.z],
+            inv_dir,
             near: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_negative() as usize),
             far: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_positive() as usize),
             kx,
             ky,
             kz,
-            #[cfg(test)]
             sx,
-            #[cfg(test)]
             sy,
-            #[cfg(test)]
-            sz,
-            o_v: origin.map(V::splat),
-            inv_v: inv_dir.map(V::splat),
-            sx_v: V::splat(sx),
-            sy_v: V::splat(sy),
-            sz_v: V::splat(sz),
+            sz: inv_dir[kz],
         }
     }
 }
 
-/// Conservative slab test of the four boxes of `n`: a bit per child whose box the ray meets
+/// The ray splatted for the slab test of `N` boxes.
+struct NodeRay<V, const N: usize> {
+    o: [V; 3],
+    inv: [V; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl<V: Lanes<N>, const N: usize> NodeRay<V, N> {
+    #[inline(always)]
+    fn new(c: &RayConsts) -> Self {
+        NodeRay {
+            o: c.origin.map(V::splat),
+            inv: c.inv_dir.map(V::splat),
+            near: c.near,
+            far: c.far,
+        }
+    }
+}
+
+/// The ray splatted for the triangle test of a packet.
+struct TriRay<T> {
+    o: [T; 3],
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: T,
+    sy: T,
+    sz: T,
+}
+
+impl<T: Lanes<PACKET>> TriRay<T> {
+    #[inline(always)]
+    fn new(c: &RayConsts) -> Self {
+        TriRay {
+            o: c.origin.map(T::splat),
+            kx: c.kx,
+            ky: c.ky,
+            kz: c.kz,
+            sx: T::splat(c.sx),
+            sy: T::splat(c.sy),
+            sz: T::splat(c.sz),
+        }
+    }
+}
+
+/// Conservative slab test of the `N` boxes of `n`: a bit per child whose box the ray meets
 /// within `(t_min, t_far)`, and the entry distances.
 #[inline(always)]
-fn slab4<V: F4>(n: &Node4, r: &PreparedRay<V>, t_min: V, t_far: V) -> (u32, [f32; 4]) {
+fn slab<V: Lanes<N>, const N: usize>(
+    n: &Node<N>,
+    r: &NodeRay<V, N>,
+    t_min: V,
+    t_far: V,
+) -> (u32, [f32; N]) {
     let mut t0 = t_min;
     let mut t1 = t_far;
     let scale = V::splat(SLAB_FAR_SCALE);
     for a in 0..3 {
-        let near = V::load(&n.bounds[r.near[a]]).sub(r.o_v[a]).mul(r.inv_v[a]);
+        let near = V::load(&n.bounds[r.near[a]]).sub(r.o[a]).mul(r.inv[a]);
         let far = V::load(&n.bounds[r.far[a]])
-            .sub(r.o_v[a])
-            .mul(r.inv_v[a])
+            .sub(r.o[a])
+            .mul(r.inv[a])
             .mul(scale);
         // `max`/`min` keep the running bound when `near`/`far` is NaN (0 * inf: the origin on
         // the slab plane of a parallel ray), leaving the interval unchanged.
@@ -516,24 +638,29 @@ fn slab4<V: F4>(n: &Node4, r: &PreparedRay<V>, t_min: V, t_far: V) -> (u32, [f32
 /// barycentrics (meaningful where the bit is set).
 struct PacketHits {
     mask: u32,
-    t: [f32; 4],
-    u: [f32; 4],
-    v: [f32; 4],
+    t: [f32; PACKET],
+    u: [f32; PACKET],
+    v: [f32; PACKET],
 }
 
-/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the four triangles
-/// of `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
+/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the triangles of
+/// `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
 /// would (see the module doc).
 #[inline(always)]
-fn packet_test<V: F4>(p: &TriPacket, r: &PreparedRay<V>, t_min: f32, t_max: f32) -> PacketHits {
+fn packet_test<T: Lanes<PACKET>>(
+    p: &TriPacket,
+    r: &TriRay<T>,
+    t_min: f32,
+    t_max: f32,
+) -> PacketHits {
     let (kx, ky, kz) = (r.kx, r.ky, r.kz);
-    let o = &r.o_v;
+    let o = &r.o;
     // Corner k relative to the origin, sheared and scaled into the ray's frame (the ray
     // becomes the +z axis).
     let corner = |k: usize| {
-        let pz = V::load(&p.v[k][kz]).sub(o[kz]);
-        let px = V::load(&p.v[k][kx]).sub(o[kx]).sub(r.sx_v.mul(pz));
-        let py = V::load(&p.v[k][ky]).sub(o[ky]).sub(r.sy_v.mul(pz));
+        let pz = T::load(&p.v[k][kz]).sub(o[kz]);
+        let px = T::load(&p.v[k][kx]).sub(o[kx]).sub(r.sx.mul(pz));
+        let py = T::load(&p.v[k][ky]).sub(o[ky]).sub(r.sy.mul(pz));
         (px, py, pz)
     };
     let (ax, ay, az) = corner(0);
@@ -543,7 +670,7 @@ fn packet_test<V: F4>(p: &TriPacket, r: &PreparedRay<V>, t_min: f32, t_max: f32)
     let mut u = cx.mul(by).sub(cy.mul(bx));
     let mut v = ax.mul(cy).sub(ay.mul(cx));
     let mut w = bx.mul(ay).sub(by.mul(ax));
-    let zero = V::splat(0.0);
+    let zero = T::splat(0.0);
     let on_edge = u.eq(zero).or(v.eq(zero)).or(w.eq(zero)).bits();
     if on_edge != 0 {
         // Exactly zero in f32: recompute those lanes in f64, where the products are exact.
@@ -557,34 +684,34 @@ fn packet_test<V: F4>(p: &TriPacket, r: &PreparedRay<V>, t_min: f32, t_max: f32)
             cy.to_array(),
         );
         let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-        for j in 0..4 {
+        for j in 0..PACKET {
             if on_edge & (1 << j) != 0 {
                 ua[j] = f(cx[j], by[j], cy[j], bx[j]);
                 va[j] = f(ax[j], cy[j], ay[j], cx[j]);
                 wa[j] = f(bx[j], ay[j], by[j], ax[j]);
             }
         }
-        (u, v, w) = (V::load(&ua), V::load(&va), V::load(&wa));
+        (u, v, w) = (T::load(&ua), T::load(&va), T::load(&wa));
     }
     // Two-sided: reject only when the signs differ.
     let neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
     let pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
     let det = u.add(v).add(w);
     let t_scaled = u
-        .mul(r.sz_v.mul(az))
-        .add(v.mul(r.sz_v.mul(bz)))
-        .add(w.mul(r.sz_v.mul(cz)));
-    let inv_det = V::splat(1.0).div(det);
+        .mul(r.sz.mul(az))
+        .add(v.mul(r.sz.mul(bz)))
+        .add(w.mul(r.sz.mul(cz)));
+    let inv_det = T::splat(1.0).div(det);
     let t = t_scaled.mul(inv_det);
     // A NaN `t` (degenerate ray, unused lane) fails both comparisons.
-    let in_range = t.gt(V::splat(t_min)).and(t.lt(V::splat(t_max)));
+    let in_range = t.gt(T::splat(t_min)).and(t.lt(T::splat(t_max)));
     let mask = neg.and(pos).or(det.eq(zero)).andnot(in_range).bits();
     if mask == 0 {
         return PacketHits {
             mask,
-            t: [0.0; 4],
-            u: [0.0; 4],
-            v: [0.0; 4],
+            t: [0.0; PACKET],
+            u: [0.0; PACKET],
+            v: [0.0; PACKET],
         };
     }
     PacketHits {
@@ -608,9 +735,9 @@ struct TriHit {
 /// `t_min < t < t_max` only: the scalar reference that each lane of [`packet_test`] must
 /// reproduce bit for bit.
 #[cfg(test)]
-fn intersect_triangle<V: F4>(
+fn intersect_triangle(
     tri: &[[f32; 3]; 3],
-    r: &PreparedRay<V>,
+    r: &RayConsts,
     t_min: f32,
     t_max: f32,
 ) -> Option<TriHit> {
@@ -675,7 +802,7 @@ fn cross_f64(tri: &[[f32; 3]; 3]) -> Vector3<f64> {
 
 /// One node of the binary build tree.
 #[derive(Clone, Copy, Debug)]
-struct Node {
+struct BuildNode {
     /// Box corners: `min` x, y, z then `max` x, y, z.
     bounds: [f32; 6],
     /// Leaf: first entry of the build order. Interior: index of its first child (the second
@@ -734,7 +861,7 @@ impl Bin {
 }
 
 /// Build the flattened tree; returns the nodes and the mesh triangle index of each leaf slot.
-fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
+fn build(mesh: &TriangleMesh) -> (Vec<BuildNode>, Vec<u32>) {
     let mut prims = Vec::with_capacity(mesh.triangle_count());
     let mut order = Vec::with_capacity(mesh.triangle_count());
     for i in 0..mesh.triangle_count() {
@@ -756,7 +883,7 @@ fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
     }
     let mut idx: Vec<u32> = (0..prims.len() as u32).collect();
     nodes.reserve(2 * prims.len());
-    nodes.push(Node {
+    nodes.push(BuildNode {
         bounds: [0.0; 6],
         first: 0,
         count: 0,
@@ -792,7 +919,7 @@ fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
             }
             Some(mid) => {
                 let l = nodes.len();
-                let child = Node {
+                let child = BuildNode {
                     bounds: [0.0; 6],
                     first: 0,
                     count: 0,
@@ -958,28 +1085,39 @@ mod tests {
         };
         mesh.triangles = vec![[0, 1, 2]; 1000];
         mesh.material = vec![0; 1000];
-        let bvh = Bvh::new(mesh);
-        let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
-        let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
-        assert!((hit.t - 1.0).abs() < 1e-6);
-        // Every leaf holds at most MAX_LEAF triangles, in at most ceil(MAX_LEAF / 4) packets.
-        let refs = bvh.nodes.iter().flat_map(|n| n.child).chain([bvh.root]);
+        for width in [4, 8] {
+            let bvh = Bvh::with_width(mesh.clone(), width);
+            match &bvh.tree {
+                Tree::Four(w) => check_leaves(w, 1000),
+                Tree::Eight(w) => check_leaves(w, 1000),
+            }
+            if width == 4 || has_avx() {
+                let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
+                let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+                assert!((hit.t - 1.0).abs() < 1e-6);
+            }
+        }
+    }
+
+    /// Every leaf holds at most MAX_LEAF triangles, in at most ceil(MAX_LEAF / 4) packets, and
+    /// the `n` triangles are in the tree exactly once.
+    fn check_leaves<const N: usize>(w: &Wide<N>, n: u32) {
+        let refs = w.nodes.iter().flat_map(|n| n.child).chain([w.root]);
         for r in refs.filter(|r| r & LEAF != 0) {
             let packets = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
             assert!(packets <= MAX_LEAF.div_ceil(PACKET));
             let first = (r & LEAF_FIRST_MASK) as usize;
-            let tris = bvh.packet_ids[first..first + packets]
+            let tris = w.packet_ids[first..first + packets]
                 .iter()
                 .flatten()
                 .filter(|&&id| id != u32::MAX)
                 .count();
             assert!(tris <= MAX_LEAF);
         }
-        // All 1000 triangles are in the tree exactly once.
-        let mut ids: Vec<u32> = bvh.packet_ids.iter().flatten().copied().collect();
+        let mut ids: Vec<u32> = w.packet_ids.iter().flatten().copied().collect();
         ids.retain(|&id| id != u32::MAX);
         ids.sort_unstable();
-        assert_eq!(ids, (0..1000).collect::<Vec<u32>>());
+        assert_eq!(ids, (0..n).collect::<Vec<u32>>());
     }
 
     /// A splitmix64 stream of uniforms in [0, 1) (no dependence on the code under test).
@@ -1073,94 +1211,148 @@ mod tests {
         rays
     }
 
-    /// Brute force with the scalar watertight test: the nearest hit `(t, triangle, u, v)`
+    /// Brute force with the scalar watertight test: the nearest hit `(triangle, t, u, v)`
     /// over all triangles of non-zero area (the first triangle on a tie of `t`).
-    fn brute_force<V: F4>(
-        mesh: &TriangleMesh,
-        ray: &Ray,
-        t_max: f32,
-    ) -> Option<(f32, u32, f32, f32)> {
-        let pre = PreparedRay::<V>::new(ray);
-        let mut best: Option<(f32, u32, f32, f32)> = None;
+    fn brute_force(mesh: &TriangleMesh, ray: &Ray, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+        let consts = RayConsts::new(ray);
+        let mut best: Option<(u32, f32, f32, f32)> = None;
         for i in 0..mesh.triangle_count() {
             let c = mesh.corners(i).map(|p| [p.x, p.y, p.z]);
             if !(cross_f64(&c).norm_squared() > 0.0) {
                 continue;
             }
-            if let Some(h) = intersect_triangle(&c, &pre, 0.0, t_max) {
-                if best.is_none_or(|b| h.t < b.0) {
-                    best = Some((h.t, i as u32, h.u, h.v));
+            if let Some(h) = intersect_triangle(&c, &consts, 0.0, t_max) {
+                if best.is_none_or(|b| h.t < b.1) {
+                    best = Some((i as u32, h.t, h.u, h.v));
                 }
             }
         }
         best
     }
 
-    /// The tree on lanes `V` finds what brute force finds: the same distance bit for bit, the
-    /// same triangle (or, on a tie of distance, one at the same distance), the same
-    /// barycentrics and normal; `occluded` agrees.
-    fn agrees_with_brute_force<V: F4>() {
+    /// A tree walk under test: nearest hit `(triangle, t, u, v)` and occlusion.
+    type Cast = dyn Fn(&Bvh, &Ray, f32) -> (Option<(u32, f32, f32, f32)>, bool);
+
+    /// The walk `cast` of a tree of `width` finds what brute force finds: the same distance bit
+    /// for bit, the same triangle (or, on a tie of distance, one at the same distance) and
+    /// barycentrics; `occluded` agrees; the public API gives the same hit with its normal.
+    fn agrees_with_brute_force(width: usize, cast: &Cast) {
         let mut rng = Uniforms(11);
         let mesh = test_mesh(&mut rng);
-        let bvh = Bvh::new(mesh.clone());
+        let bvh = Bvh::with_width(mesh.clone(), width);
+        let public = width == 4 || has_avx();
         let mut hits = 0;
         for (k, (ray, t_max)) in test_rays(&mut rng, 3000).iter().enumerate() {
-            let expected = brute_force::<V>(&mesh, ray, *t_max);
-            let got = bvh.intersect_with::<V>(ray, 0.0, *t_max);
-            assert_eq!(
-                bvh.occluded_with::<V>(ray, 0.0, *t_max),
-                expected.is_some(),
-                "ray {k}"
-            );
+            let expected = brute_force(&mesh, ray, *t_max);
+            let (got, occluded) = cast(&bvh, ray, *t_max);
+            assert_eq!(occluded, expected.is_some(), "ray {k}");
             match (expected, got) {
                 (None, None) => {}
-                (Some((t, tri, u, v)), Some(h)) => {
+                (Some((tri, t, u, v)), Some((h_tri, h_t, h_u, h_v))) => {
                     hits += 1;
-                    assert_eq!(h.t.to_bits(), t.to_bits(), "ray {k}");
-                    if h.triangle == tri {
-                        assert_eq!((h.u, h.v), (u, v), "ray {k}");
+                    assert_eq!(h_t.to_bits(), t.to_bits(), "ray {k}");
+                    if h_tri == tri {
+                        assert_eq!((h_u, h_v), (u, v), "ray {k}");
                     } else {
                         // A tie: the other triangle must hit at exactly the same distance.
-                        let c = mesh.corners(h.triangle as usize).map(|p| [p.x, p.y, p.z]);
-                        let pre = PreparedRay::<V>::new(ray);
-                        let other = intersect_triangle(&c, &pre, 0.0, f32::INFINITY).unwrap();
-                        assert_eq!(other.t.to_bits(), t.to_bits(), "ray {k}");
+                        let c = mesh.corners(h_tri as usize).map(|p| [p.x, p.y, p.z]);
+                        let other =
+                            intersect_triangle(&c, &RayConsts::new(ray), 0.0, f32::INFINITY);
+                        assert_eq!(other.unwrap().t.to_bits(), t.to_bits(), "ray {k}");
                     }
+                }
+                (e, g) => panic!("ray {k}: brute force {e:?}, BVH {g:?}"),
+            }
+            if public {
+                let h = bvh.intersect(ray, 0.0, *t_max);
+                assert_eq!(h.map(|h| (h.triangle, h.t, h.u, h.v)), got, "ray {k}");
+                if let Some(h) = h {
                     let c = mesh.corners(h.triangle as usize).map(|p| [p.x, p.y, p.z]);
                     assert_eq!(h.normal, geometric_normal(&c));
                 }
-                (e, g) => panic!("ray {k}: brute force {e:?}, BVH {g:?}"),
+                assert_eq!(bvh.occluded(ray, 0.0, *t_max), occluded);
             }
         }
         assert!(hits > 1000, "only {hits} rays hit");
     }
 
-    #[test]
-    fn wide_tree_agrees_with_brute_force_native() {
-        agrees_with_brute_force::<Native>();
+    fn four(b: &Bvh) -> &Wide<4> {
+        match &b.tree {
+            Tree::Four(w) => w,
+            Tree::Eight(_) => unreachable!("built with width 4"),
+        }
+    }
+
+    fn eight(b: &Bvh) -> &Wide<8> {
+        match &b.tree {
+            Tree::Eight(w) => w,
+            Tree::Four(_) => unreachable!("built with width 8"),
+        }
     }
 
     #[test]
-    fn wide_tree_agrees_with_brute_force_portable() {
-        agrees_with_brute_force::<crate::geometry::simd::Portable>();
+    fn four_wide_tree_agrees_with_brute_force_native() {
+        agrees_with_brute_force(4, &|b, r, t| {
+            let w = four(b);
+            (
+                w.intersect::<Native, Native>(r, 0.0, t),
+                w.occluded::<Native, Native>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn four_wide_tree_agrees_with_brute_force_portable() {
+        agrees_with_brute_force(4, &|b, r, t| {
+            let w = four(b);
+            (
+                w.intersect::<Portable<4>, Portable<4>>(r, 0.0, t),
+                w.occluded::<Portable<4>, Portable<4>>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn eight_wide_tree_agrees_with_brute_force_portable() {
+        agrees_with_brute_force(8, &|b, r, t| {
+            let w = eight(b);
+            (
+                w.intersect::<Portable<8>, Portable<4>>(r, 0.0, t),
+                w.occluded::<Portable<8>, Portable<4>>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn eight_wide_tree_agrees_with_brute_force_native() {
+        if !has_avx() {
+            println!("skipped: no AVX on this CPU");
+            return;
+        }
+        agrees_with_brute_force(8, &|b, r, t| {
+            let w = eight(b);
+            (intersect_eight(w, r, 0.0, t), occluded_eight(w, r, 0.0, t))
+        });
     }
 
     /// Each lane of the packet test is the scalar test, bit for bit, including lanes that
     /// take the double-precision fallback (rays through shared edges and corners).
-    fn packet_lanes_are_the_scalar_test<V: F4>() {
+    fn packet_lanes_are_the_scalar_test<T: Lanes<PACKET>>() {
         let mut rng = Uniforms(12);
         let mesh = test_mesh(&mut rng);
-        let bvh = Bvh::new(mesh);
+        let bvh = Bvh::with_width(mesh, 4);
+        let w = four(&bvh);
         let mut compared = 0;
         for (ray, t_max) in test_rays(&mut rng, 400) {
-            let pre = PreparedRay::<V>::new(&ray);
-            for (p, ids) in bvh.packets.iter().zip(&bvh.packet_ids) {
-                let h = packet_test::<V>(p, &pre, 0.0, t_max);
-                for j in 0..4 {
+            let consts = RayConsts::new(&ray);
+            let tri_ray = TriRay::<T>::new(&consts);
+            for (p, ids) in w.packets.iter().zip(&w.packet_ids) {
+                let h = packet_test::<T>(p, &tri_ray, 0.0, t_max);
+                for j in 0..PACKET {
                     let scalar = if ids[j] == u32::MAX {
                         None
                     } else {
-                        intersect_triangle(&p.corners(j), &pre, 0.0, t_max)
+                        intersect_triangle(&p.corners(j), &consts, 0.0, t_max)
                     };
                     match scalar {
                         None => assert_eq!(h.mask & (1 << j), 0),
@@ -1186,7 +1378,7 @@ mod tests {
 
     #[test]
     fn packet_lanes_are_the_scalar_test_portable() {
-        packet_lanes_are_the_scalar_test::<crate::geometry::simd::Portable>();
+        packet_lanes_are_the_scalar_test::<Portable<4>>();
     }
 
     #[test]

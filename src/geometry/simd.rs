@@ -1,22 +1,25 @@
-//! Four-lane f32 vectors for the BVH's node and triangle tests.
+//! Four- and eight-lane f32 vectors for the BVH's node and triangle tests.
 //!
 //! [`Sse`] wraps SSE2 (`core::arch::x86_64`), which every x86_64 CPU has, so it needs no
-//! runtime feature detection and no extra crate; [`Portable`] is the same operations on
-//! `[f32; 4]`, used on every other architecture and compiled everywhere so tests can check that
-//! the two give identical results. [`Native`] is the one the BVH uses.
+//! runtime feature detection and no extra crate. [`Avx`] wraps AVX (eight lanes) for code
+//! compiled with `#[target_feature(enable = "avx")]` and entered only after
+//! `is_x86_feature_detected!("avx")`. [`Portable`] is the same operations on `[f32; N]`, used
+//! on every other architecture and compiled everywhere so tests can check that the
+//! implementations give identical results. [`Native`] is the four-lane one of this
+//! architecture.
 //!
 //! Every operation is exactly rounded lane by lane (IEEE add, sub, mul, div; no fused
 //! multiply-add), so a lane computes bit for bit what the scalar expression would. `max` and
 //! `min` follow the SSE rule `a > b ? a : b` / `a < b ? a : b`: when a lane of `a` is NaN they
 //! return `b`'s lane, which the slab test relies on to ignore `0 * inf` on a slab boundary.
-//! Comparisons return lane masks (all bits set or clear) that [`F4::bits`] packs into the low
-//! four bits of an integer, lane 0 in bit 0.
+//! Comparisons return lane masks (all bits set or clear) that [`Lanes::bits`] packs into the
+//! low bits of an integer, lane 0 in bit 0.
 
-/// A vector of four f32 lanes (and lane masks in the same type).
-pub(crate) trait F4: Copy {
+/// A vector of `N` f32 lanes (and lane masks in the same type).
+pub(crate) trait Lanes<const N: usize>: Copy {
     fn splat(x: f32) -> Self;
-    fn load(a: &[f32; 4]) -> Self;
-    fn to_array(self) -> [f32; 4];
+    fn load(a: &[f32; N]) -> Self;
+    fn to_array(self) -> [f32; N];
     fn add(self, o: Self) -> Self;
     fn sub(self, o: Self) -> Self;
     fn mul(self, o: Self) -> Self;
@@ -35,25 +38,20 @@ pub(crate) trait F4: Copy {
     fn or(self, o: Self) -> Self;
     /// `!self & o` of masks.
     fn andnot(self, o: Self) -> Self;
-    /// Sign bits of the four lanes (mask lanes: 1 where set), lane 0 in bit 0.
+    /// Sign bits of the lanes (mask lanes: 1 where set), lane 0 in bit 0.
     fn bits(self) -> u32;
 }
 
-/// Plain arrays: every architecture (on x86_64 only the tests use it).
+/// Plain arrays: every architecture (on x86_64 only the tests use the four-lane one).
 #[derive(Clone, Copy, Debug)]
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-pub(crate) struct Portable([f32; 4]);
+pub(crate) struct Portable<const N: usize>([f32; N]);
 
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-impl Portable {
+impl<const N: usize> Portable<N> {
     #[inline(always)]
     fn zip(self, o: Self, f: impl Fn(f32, f32) -> f32) -> Self {
-        Portable([
-            f(self.0[0], o.0[0]),
-            f(self.0[1], o.0[1]),
-            f(self.0[2], o.0[2]),
-            f(self.0[3], o.0[3]),
-        ])
+        Portable(std::array::from_fn(|i| f(self.0[i], o.0[i])))
     }
 
     #[inline(always)]
@@ -67,17 +65,17 @@ impl Portable {
     }
 }
 
-impl F4 for Portable {
+impl<const N: usize> Lanes<N> for Portable<N> {
     #[inline(always)]
     fn splat(x: f32) -> Self {
-        Portable([x; 4])
+        Portable([x; N])
     }
     #[inline(always)]
-    fn load(a: &[f32; 4]) -> Self {
+    fn load(a: &[f32; N]) -> Self {
         Portable(*a)
     }
     #[inline(always)]
-    fn to_array(self) -> [f32; 4] {
+    fn to_array(self) -> [f32; N] {
         self.0
     }
     #[inline(always)]
@@ -134,7 +132,7 @@ impl F4 for Portable {
     }
     #[inline(always)]
     fn bits(self) -> u32 {
-        (0..4).fold(0, |m, i| m | ((self.0[i].to_bits() >> 31) << i))
+        (0..N).fold(0, |m, i| m | ((self.0[i].to_bits() >> 31) << i))
     }
 }
 
@@ -143,7 +141,7 @@ pub(crate) use sse::Sse;
 
 #[cfg(target_arch = "x86_64")]
 mod sse {
-    use super::F4;
+    use super::Lanes;
     use core::arch::x86_64::*;
 
     /// SSE2 registers (part of the x86_64 baseline).
@@ -153,7 +151,7 @@ mod sse {
     // SAFETY (every `unsafe` block below): the intrinsics used are SSE2 or older, which the
     // x86_64 target always enables (`target_feature = "sse2"` is part of its baseline), and
     // loads and stores go through references to `[f32; 4]` with the unaligned forms.
-    impl F4 for Sse {
+    impl Lanes<4> for Sse {
         #[inline(always)]
         fn splat(x: f32) -> Self {
             Sse(unsafe { _mm_set1_ps(x) })
@@ -229,12 +227,105 @@ mod sse {
     }
 }
 
-/// The lanes the BVH uses on this architecture.
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx::Avx;
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::Lanes;
+    use core::arch::x86_64::*;
+
+    /// AVX registers of eight lanes. Only for code compiled with AVX enabled
+    /// (`#[target_feature(enable = "avx")]`) and called after `is_x86_feature_detected!("avx")`:
+    /// each method is inlined into that code, where the intrinsics are available.
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct Avx(__m256);
+
+    // SAFETY (every `unsafe` block below): these methods are only reached from functions that
+    // enable AVX and are only called once the CPU was detected to support it (see `Bvh`);
+    // loads and stores go through references to `[f32; 8]` with the unaligned forms.
+    impl Lanes<8> for Avx {
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            Avx(unsafe { _mm256_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(a: &[f32; 8]) -> Self {
+            Avx(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            let mut a = [0.0f32; 8];
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+        #[inline(always)]
+        fn add(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn sub(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn mul(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_mul_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn div(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_div_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn max(self, o: Self) -> Self {
+            // VMAXPS: dest = src1 > src2 ? src1 : src2.
+            Avx(unsafe { _mm256_max_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn min(self, o: Self) -> Self {
+            // VMINPS: dest = src1 < src2 ? src1 : src2.
+            Avx(unsafe { _mm256_min_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn lt(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn le(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn gt(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn eq(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn and(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_and_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn or(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_or_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn andnot(self, o: Self) -> Self {
+            Avx(unsafe { _mm256_andnot_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            (unsafe { _mm256_movemask_ps(self.0) }) as u32
+        }
+    }
+}
+
+/// The four lanes the BVH uses on this architecture.
 #[cfg(target_arch = "x86_64")]
 pub(crate) type Native = Sse;
-/// The lanes the BVH uses on this architecture.
+/// The four lanes the BVH uses on this architecture.
 #[cfg(not(target_arch = "x86_64"))]
-pub(crate) type Native = Portable;
+pub(crate) type Native = Portable<4>;
 
 #[cfg(test)]
 mod tests {
@@ -242,7 +333,7 @@ mod tests {
 
     /// Every operation of `A` and `B` agrees bit for bit on awkward inputs (NaN, infinities,
     /// signed zeros, subnormals).
-    fn agree<A: F4, B: F4>() {
+    fn agree<const N: usize, A: Lanes<N>, B: Lanes<N>>() {
         let vals = [
             0.0f32,
             -0.0,
@@ -255,20 +346,14 @@ mod tests {
             3.0e38,
             0.1,
         ];
-        let quads: Vec<[f32; 4]> = (0..vals.len())
+        let n = vals.len();
+        let quads: Vec<[f32; N]> = (0..n)
             .flat_map(|i| {
-                (0..vals.len()).map(move |j| {
-                    [
-                        vals[i],
-                        vals[j],
-                        vals[(i + j) % vals.len()],
-                        vals[(i * 3 + j) % vals.len()],
-                    ]
-                })
+                (0..n).map(move |j| std::array::from_fn(|k| vals[(i + j * k + k * k) % n]))
             })
             .collect();
-        let same = |x: [f32; 4], y: [f32; 4], what: &str| {
-            for k in 0..4 {
+        let same = |x: [f32; N], y: [f32; N], what: &str| {
+            for k in 0..N {
                 let (a, b) = (x[k], y[k]);
                 assert!(
                     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
@@ -318,11 +403,28 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn sse_agrees_with_portable() {
-        agree::<Sse, Portable>();
+        agree::<4, Sse, Portable<4>>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_agrees_with_portable() {
+        if !is_x86_feature_detected!("avx") {
+            println!("skipped: no AVX on this CPU");
+            return;
+        }
+        // SAFETY: AVX was detected just above.
+        unsafe { agree_avx() }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn agree_avx() {
+        agree::<8, Avx, Portable<8>>();
     }
 
     #[test]
     fn native_agrees_with_portable() {
-        agree::<Native, Portable>();
+        agree::<4, Native, Portable<4>>();
     }
 }
