@@ -7,8 +7,10 @@
 //! Lambertian with the entry's albedo `rho` (BRDF `rho / pi`).
 //!
 //! Estimator. For each pixel, `spp` camera rays leave the camera centre through uniformly
-//! random points of the pixel (a box filter: the pixel value is the mean radiance over its
-//! footprint). At every path vertex `x_k` (k = 1 .. max_bounces) the spot is connected by a
+//! distributed points of the pixel (a box filter: the pixel value is the mean radiance over its
+//! footprint); the points, and the first two bounce directions, are stratified across the
+//! pixel's paths by scrambled Sobol points ([`sampling::PixelSampler`]: each point is still
+//! uniform, so the estimate is unbiased, with less variance than independent points). At every path vertex `x_k` (k = 1 .. max_bounces) the spot is connected by a
 //! shadow ray (next-event estimation; the spot is a delta light, so this is the only way to
 //! reach it), contributing
 //!
@@ -29,13 +31,14 @@
 //! time `t_world = t_camera - eta |x_1 - o| / c` (physics.md, "two clocks"), `x_1` being the
 //! first surface the pixel ray hits, on the axis of [`world_axis`].
 //!
-//! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and
-//! accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
+//! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and its
+//! own scrambled points, and accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
 //! output is bit-identical for any number of rayon threads, and a cube assembled from bands
 //! of rows ([`Tracer::render_rows`], for writing large cubes without holding them whole) is
 //! bit-identical to the whole render.
 //!
-//! Speed: the sensor response is read from a table ([`binning::ResponseTable`]) rather than
+//! Speed: geometry and path vertices are single precision, ray casting uses the wide BVH of
+//! [`crate::geometry::bvh`]; the sensor response is read from a table ([`binning::ResponseTable`]) rather than
 //! evaluated per sample, and each pixel stores and clears only the bins it touched; the
 //! rest of the time is ray casting (figures in `benches/tracer_results.md`).
 
@@ -51,7 +54,7 @@ use binning::{add_weighted, ResponseTable, TimeResponse};
 use nalgebra::{Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
-use sampling::{cosine_hemisphere, pixel_rng, uniform, uniform_pair, Stream};
+use sampling::{cosine_hemisphere, pixel_rng, uniform, uniform_pair, PixelSampler, Stream};
 use std::ops::Range;
 use std::time::Instant;
 
@@ -60,6 +63,9 @@ const RAY_OFFSET_M: f32 = 1e-4;
 /// Shadow rays stop this short of the laser spot, metres (a spot on a surface must not be
 /// shadowed by that surface).
 const SHADOW_END_M: f32 = 1e-4;
+/// Bounces whose directions come from the pixel's low-discrepancy points (2D dimensions 1 and
+/// 2; dimension 0 is the position in the pixel).
+const LD_BOUNCES: u32 = PixelSampler::DIMS - 1;
 /// `1 / pi` in single precision.
 const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 
@@ -181,12 +187,14 @@ struct PathKernel<'a> {
 }
 
 impl PathKernel<'_> {
-    /// Trace one path through continuous pixel coordinates `(u, v)`; calls `sink` for each
-    /// contribution and returns the number of rays cast.
+    /// Trace path `index` of a pixel through continuous pixel coordinates `(u, v)`; calls
+    /// `sink` for each contribution and returns the number of rays cast.
     #[inline(always)]
     fn trace_path(
         &self,
         rng: &mut Pcg64Mcg,
+        ld: &PixelSampler,
+        index: u32,
         u: f64,
         v: f64,
         sink: &mut impl FnMut(Contribution),
@@ -260,7 +268,14 @@ impl PathKernel<'_> {
                 }
                 beta /= survive;
             }
-            dir = cosine_hemisphere(&n, rng);
+            // The first two bounces from the pixel's low-discrepancy points, later ones from
+            // its random stream.
+            let (u1, u2) = if bounce <= LD_BOUNCES {
+                ld.sample(index, bounce)
+            } else {
+                uniform_pair(rng)
+            };
+            dir = cosine_hemisphere(&n, u1, u2);
             origin = p_off;
         }
         rays
@@ -472,13 +487,15 @@ impl<'a> Tracer<'a> {
                     }
                 };
                 for x in 0..nx {
-                    let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
+                    let pixel = (y * nx + x) as u64;
+                    let mut rng = pixel_rng(opts.seed, Stream::Transient, pixel);
+                    let ld = PixelSampler::new(opts.seed, Stream::Transient, pixel, spp);
                     let mut lost = 0.0;
-                    for _ in 0..spp {
-                        let (du, dv) = uniform_pair(&mut rng);
+                    for i in 0..spp {
+                        let (du, dv) = ld.sample(i, 0);
                         let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
                         stats.paths += 1;
-                        let rays = k.trace_path(&mut rng, u, v, &mut |c: Contribution| {
+                        let rays = k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
                             let value = c.value * inv_spp;
                             let t_camera_ps = c.path_m * ps_per_m;
                             stats.samples += 1;
@@ -579,12 +596,16 @@ pub fn render_steady(
         .enumerate()
         .for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let mut rng = pixel_rng(opts.seed, Stream::Steady, (y * nx + x) as u64);
+                let pixel = (y * nx + x) as u64;
+                let mut rng = pixel_rng(opts.seed, Stream::Steady, pixel);
+                let ld = PixelSampler::new(opts.seed, Stream::Steady, pixel, spp);
                 let mut sum = 0.0;
-                for _ in 0..spp {
-                    let (du, dv) = uniform_pair(&mut rng);
+                for i in 0..spp {
+                    let (du, dv) = ld.sample(i, 0);
                     let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
-                    k.trace_path(&mut rng, u, v, &mut |c: Contribution| sum += c.value);
+                    k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
+                        sum += c.value
+                    });
                 }
                 *px = sum / spp as f64;
             }
