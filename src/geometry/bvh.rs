@@ -8,9 +8,10 @@
 //! hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed: each
 //! wide node takes the two children of a binary node and keeps opening its largest interior
 //! child until it has four (or eight). A node stores its child boxes lane by lane, so one slab
-//! test of vectors ([`simd`](super::simd)) tests all of them; the hit children are visited
-//! nearest first and subtrees that start beyond the current closest hit are culled. Leaves
-//! hold packets of four triangles, also stored lane by lane and tested against the ray at once.
+//! test of vectors (the private `geometry::simd`: SSE2 or AVX lanes, plain arrays elsewhere)
+//! tests all of them; the hit children are visited nearest first and subtrees that start
+//! beyond the current closest hit are culled. Leaves hold packets of four triangles, also
+//! stored lane by lane and tested against the ray at once.
 //!
 //! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
 //! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
@@ -481,8 +482,8 @@ impl<const N: usize> Wide<N> {
             let mut ids = [u32::MAX; PACKET];
             for (j, &tri) in chunk.iter().enumerate() {
                 for (k, corner) in corners(tri).iter().enumerate() {
-                    for a in 0..3 {
-                        p.v[k][a][j] = corner[a];
+                    for (a, &x) in corner.iter().enumerate() {
+                        p.v[k][a][j] = x;
                     }
                 }
                 ids[j] = tri;
@@ -1218,7 +1219,7 @@ mod tests {
         let mut best: Option<(u32, f32, f32, f32)> = None;
         for i in 0..mesh.triangle_count() {
             let c = mesh.corners(i).map(|p| [p.x, p.y, p.z]);
-            if !(cross_f64(&c).norm_squared() > 0.0) {
+            if cross_f64(&c).norm_squared() <= 0.0 {
                 continue;
             }
             if let Some(h) = intersect_triangle(&c, &consts, 0.0, t_max) {
@@ -1348,8 +1349,8 @@ mod tests {
             let tri_ray = TriRay::<T>::new(&consts);
             for (p, ids) in w.packets.iter().zip(&w.packet_ids) {
                 let h = packet_test::<T>(p, &tri_ray, 0.0, t_max);
-                for j in 0..PACKET {
-                    let scalar = if ids[j] == u32::MAX {
+                for (j, &id) in ids.iter().enumerate() {
+                    let scalar = if id == u32::MAX {
                         None
                     } else {
                         intersect_triangle(&p.corners(j), &consts, 0.0, t_max)
