@@ -51,7 +51,7 @@ use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
 use binning::{add_weighted, ResponseTable, TimeResponse};
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use sampling::{cosine_hemisphere, pixel_rng, uniform, uniform_pair, PixelSampler, Stream};
@@ -173,6 +173,10 @@ struct PathKernel<'a> {
     bvh: &'a Bvh,
     /// Camera centre.
     camera_m: Point3<f32>,
+    /// Without lens distortion, the world direction of the ray through pixel coordinates
+    /// `(u, v)` is `world_from_pixel * (u, v, 1)` normalised (`R K^-1`); `None` with
+    /// distortion, which `Intrinsics::camera_ray` removes by iteration.
+    world_from_pixel: Option<Matrix3<f32>>,
     /// Laser spot and its unit normal.
     laser_m: Point3<f32>,
     laser_normal: Vector3<f32>,
@@ -199,11 +203,16 @@ impl PathKernel<'_> {
         v: f64,
         sink: &mut impl FnMut(Contribution),
     ) -> u64 {
-        let cam = &self.scene.camera;
         let materials = &self.bvh.mesh().material;
-        let dir0 = cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner();
+        let mut dir: Vector3<f32> = match &self.world_from_pixel {
+            Some(m) => (m * Vector3::new(u as f32, v as f32, 1.0)).normalize(),
+            None => {
+                let cam = &self.scene.camera;
+                (cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner())
+                    .cast::<f32>()
+            }
+        };
         let mut origin = self.camera_m;
-        let mut dir: Vector3<f32> = dir0.cast::<f32>();
         let mut path_m = 0.0f64;
         let mut first_m = 0.0f64;
         let mut beta = 1.0f32;
@@ -300,6 +309,7 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
         scene,
         bvh,
         camera_m: scene.camera.pose.position_m.cast::<f32>(),
+        world_from_pixel: world_from_pixel(&scene.camera),
         laser_m: laser.position_m.cast::<f32>(),
         laser_normal: laser.normal.into_inner().cast::<f32>(),
         intensity_scale: intensity_scale as f32,
@@ -308,6 +318,16 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
     }
+}
+
+/// `R K^-1` of an undistorted camera (see `PathKernel::world_from_pixel`).
+fn world_from_pixel(cam: &crate::scene::StreakCamera) -> Option<Matrix3<f32>> {
+    let k = &cam.intrinsics;
+    if k.k1 != 0.0 || k.k2 != 0.0 {
+        return None;
+    }
+    let camera_from_pixel = k.k_matrix().try_inverse()?;
+    Some((cam.pose.world_from_camera.matrix() * camera_from_pixel).cast::<f32>())
 }
 
 /// The world-time axis of a render: the same bin width as the camera axis, covering the
@@ -612,4 +632,34 @@ pub fn render_steady(
             progress(1);
         });
     image
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixel_matrix_gives_the_camera_rays() {
+        // The undistorted fast path agrees with Intrinsics::camera_ray rotated to the world,
+        // at corners, centre and interior points of the image.
+        let scene = Scene::builtin("cornell", None).unwrap();
+        let cam = &scene.camera;
+        let m = world_from_pixel(cam).expect("the built-in camera has no distortion");
+        let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
+        for (u, v) in [
+            (0.0, 0.0),
+            (w, h),
+            (0.5 * w, 0.5 * h),
+            (3.25, 40.5),
+            (w, 0.0),
+        ] {
+            let expected =
+                cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner();
+            let got = (m * Vector3::new(u as f32, v as f32, 1.0)).normalize();
+            assert!((got.cast::<f64>() - expected).norm() < 1e-6, "({u}, {v})");
+        }
+        let mut distorted = *cam;
+        distorted.intrinsics.k1 = 0.1;
+        assert!(world_from_pixel(&distorted).is_none());
+    }
 }
