@@ -155,7 +155,10 @@ impl PixelSampler {
         });
         PixelSampler {
             keys,
-            mask: spp.max(1).next_power_of_two() - 1,
+            mask: spp
+                .max(1)
+                .checked_next_power_of_two()
+                .map_or(u32::MAX, |p| p - 1),
         }
     }
 
@@ -377,6 +380,18 @@ mod tests {
                     "pixel {pixel} dim {dim} a {a}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn any_sample_count_is_accepted() {
+        // The index mask covers every index below spp, up to u32::MAX paths.
+        for spp in [0, 1, 3, 256, 257, (1 << 31) + 1, u32::MAX] {
+            let s = PixelSampler::new(1, Stream::Transient, 0, spp);
+            assert!(s.mask >= spp.saturating_sub(1));
+            assert!(s.mask == u32::MAX || (s.mask + 1).is_power_of_two());
+            let (x, y) = s.sample(spp.saturating_sub(1), 2);
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
         }
     }
 
