@@ -1,4 +1,5 @@
-//! Throughput of the in-memory cube kernels (time unwarp, prefix sums, mip levels) against a
+//! Throughput of the in-memory cube kernels (time unwarp, the pyramid's prefix sums and mip
+//! levels) against a
 //! plain copy of the same bytes. Run through `tools/bench_cubeops.sh`, which also times the
 //! numpy baselines; release build only.
 //!
@@ -10,7 +11,7 @@
 //! that page faults are not counted.
 
 use femto::cube::TimeAxis;
-use femto::pyramid::{level_nt, mip_halve_rows, prefix_rows, top_level};
+use femto::pyramid::{level_nt, pyramid_rows, top_level};
 use femto::unwarp::{covering_axis, unwarp_rows, Direction};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -65,28 +66,6 @@ fn report(name: &str, (best, median, cpu): (f64, f64, f64), bytes: usize) {
 /// Fill in parallel (also pre-faults the pages).
 fn touch<T: Copy + Send + Sync>(v: &mut [T], x: T) {
     v.par_chunks_mut(1 << 16).for_each(|c| c.fill(x));
-}
-
-/// The mip kernel as it was before non-temporal stores (femto commit 193b77e): the same
-/// arithmetic, ordinary stores. The baseline of the "before" figures, timed in the same run.
-mod plain {
-    use rayon::prelude::*;
-
-    pub fn mip_halve_rows(src: &[f32], nt_src: usize, dst: &mut [f32]) {
-        let nt_dst = nt_src.div_ceil(2);
-        dst.par_chunks_mut(nt_dst)
-            .zip(src.par_chunks(nt_src))
-            .with_min_len(64)
-            .for_each(|(d, s)| {
-                let pairs = s.chunks_exact(2);
-                if let Some(&v) = pairs.remainder().first() {
-                    d[nt_dst - 1] = v;
-                }
-                for (o, p) in d.iter_mut().zip(pairs) {
-                    *o = p[0] + p[1];
-                }
-            });
-    }
 }
 
 fn main() {
@@ -180,41 +159,29 @@ fn main() {
         println!("  check: total {a:.6e} -> {b:.6e}");
     }
 
-    // Prefix sums (f64).
+    // The pyramid: prefix sums (f64) alone, then prefix sums and every mip level in the one
+    // pass `femto pyramid` makes.
     {
         let mut prefix = vec![0.0f64; n_pix * (nt + 1)];
         touch(&mut prefix, 1.0);
-        let t = time(reps, || prefix_rows(&src, nt, &mut prefix));
-        report("prefix (f64)", t, src.len() * 4 + prefix.len() * 8);
+        let t = time(reps, || pyramid_rows(&src, nt, &mut prefix, &mut []));
+        report("prefix only (f64)", t, src.len() * 4 + prefix.len() * 8);
         println!("  check: P_end(0) {:.6e}", prefix[nt]);
-    }
-
-    // All mip levels, each from the one below.
-    {
         let mut levels: Vec<Vec<f32>> = (1..=top_level(nt))
             .map(|k| vec![1.0f32; n_pix * level_nt(nt, k)])
             .collect();
         levels.iter_mut().for_each(|l| touch(l, 1.0));
-        let bytes: usize = (1..=top_level(nt))
-            .map(|k| n_pix * (level_nt(nt, k - 1) + level_nt(nt, k)) * 4)
-            .sum();
+        let bytes =
+            src.len() * 4 + prefix.len() * 8 + levels.iter().map(|l| l.len() * 4).sum::<usize>();
         let t = time(reps, || {
-            for k in 0..levels.len() {
-                let (lower, upper) = levels.split_at_mut(k);
-                let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
-                plain::mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
-            }
+            let mut outs: Vec<&mut [f32]> = levels.iter_mut().map(|l| &mut l[..]).collect();
+            pyramid_rows(&src, nt, &mut prefix, &mut outs)
         });
-        report("mips (plain stores)", t, bytes);
-        let before = levels[0][levels[0].len() / 2];
-        let t = time(reps, || {
-            for k in 0..levels.len() {
-                let (lower, upper) = levels.split_at_mut(k);
-                let below: &[f32] = if k == 0 { &src } else { &lower[k - 1] };
-                mip_halve_rows(below, level_nt(nt, k), &mut upper[0]);
-            }
-        });
-        report(&format!("mips ({} levels)", levels.len()), t, bytes);
-        assert_eq!(levels[0][levels[0].len() / 2], before);
+        report(&format!("pyramid ({} levels)", levels.len()), t, bytes);
+        let top = levels.last().map_or(0.0, |l| l[0] as f64);
+        println!(
+            "  check: top level(0) {top:.6e}, P_end(0) {:.6e}",
+            prefix[nt]
+        );
     }
 }

@@ -20,7 +20,10 @@
 
 use crate::atomic::write_atomically;
 use crate::cube::{self, Cube, TimeAxis, TimeFrame};
-use rust_hdf5::format::messages::filter::apply_filters;
+use rayon::prelude::*;
+use rust_hdf5::format::messages::filter::{
+    apply_filters, reverse_filters_masked_bounded, FILTER_DEFLATE, FILTER_SHUFFLE,
+};
 use rust_hdf5::{
     DatatypeMessage, FilterPipeline, H5Dataset, H5File, H5Group, H5Type, Hdf5Error, VarLenUnicode,
 };
@@ -633,7 +636,9 @@ impl CubeSink {
         })
     }
 
-    fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+    /// Number of whole rows in `rows`, to be written from row `y0`; an error when they are
+    /// not whole rows or run past the cube.
+    fn check_rows(&self, y0: usize, rows: &[f32]) -> Result<usize> {
         let row_len = self.nx * self.nt;
         if rows.is_empty() || !rows.len().is_multiple_of(row_len) {
             return Err(invalid(
@@ -653,10 +658,102 @@ impl CubeSink {
                 format!("rows {y0}..{} past the cube's {} rows", y0 + n, self.ny),
             ));
         }
-        self.cube
-            .write_slice(&[y0, 0, 0], &[n, self.nx, self.nt], rows)
-            .map_err(h5(&self.path))?;
-        self.rows_written[y0..y0 + n].fill(true);
+        Ok(n)
+    }
+
+    /// Write whole rows from row `y0`, compressed in parallel on rayon's threads (see
+    /// [`RowCompressor`]) and appended as they are.
+    fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
+        self.check_rows(y0, rows)?;
+        let compressor = self.row_compressor();
+        let compressed: Vec<CompressedRow> = rows
+            .par_chunks(compressor.row_len())
+            .map(|row| compressor.compress(row))
+            .collect();
+        for (i, row) in compressed.iter().enumerate() {
+            self.write_compressed_row(y0 + i, row)?;
+        }
+        Ok(())
+    }
+
+    /// A compressor for this cube's rows (see [`RowCompressor`]).
+    fn row_compressor(&self) -> RowCompressor {
+        RowCompressor {
+            nx: self.nx,
+            nt: self.nt,
+            cx: chunk_rows(self.nt * 4, self.nx),
+            compression: self.compression,
+        }
+    }
+
+    /// Write row `y` from chunks made by this sink's [`RowCompressor`], as they are (an
+    /// uncompressed row from its own buffer, without a copy).
+    fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
+        let s = self;
+        let cx = chunk_rows(s.nt * 4, s.nx);
+        let chunks = s.nx.div_ceil(cx);
+        let fits = match &row.storage {
+            RowStorage::Filtered { chunks: c, .. } => c.len() == chunks,
+            RowStorage::Plain(values) => values.len() == s.nx * s.nt,
+        };
+        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || !fits {
+            return Err(invalid(
+                &s.path,
+                format!(
+                    "compressed row {y} ({} x {} values) does not fit the cube's {} rows of \
+                     {} x {} in {chunks} chunks",
+                    row.nx, row.nt, s.ny, s.nx, s.nt
+                ),
+            ));
+        }
+        if matches!(row.storage, RowStorage::Filtered { .. })
+            != matches!(s.compression, CubeCompression::Deflate(_))
+        {
+            return Err(invalid(
+                &s.path,
+                "compressed row made by another writer's compressor",
+            ));
+        }
+        let e = h5(&s.path);
+        match &row.storage {
+            RowStorage::Filtered { chunks, .. } => {
+                for (c, bytes) in chunks.iter().enumerate() {
+                    s.cube
+                        .write_chunk_raw_at(&[y, c, 0], bytes, 0)
+                        .map_err(&e)?;
+                }
+            }
+            RowStorage::Plain(values) => {
+                let chunk_values = cx * s.nt;
+                for (c, part) in values.chunks(chunk_values).enumerate() {
+                    if part.len() == chunk_values {
+                        s.cube
+                            .write_chunk_at(&[y, c, 0], &le_bytes(part))
+                            .map_err(&e)?;
+                    } else {
+                        // The edge chunk, padded with zeros as HDF5 stores it.
+                        let mut padded = vec![0.0f32; chunk_values];
+                        padded[..part.len()].copy_from_slice(part);
+                        s.cube
+                            .write_chunk_at(&[y, c, 0], &le_bytes(&padded))
+                            .map_err(&e)?;
+                    }
+                }
+            }
+        }
+        s.rows_written[y] = true;
+        Ok(())
+    }
+
+    /// Store row `y` from chunks already filtered by this sink's pipeline (bytes and filter
+    /// mask of each, as [`CubeReader::read_raw_row`] gives them).
+    fn write_raw_row(&mut self, y: usize, chunks: &[(Vec<u8>, u32)]) -> Result<()> {
+        for (c, (bytes, mask)) in chunks.iter().enumerate() {
+            self.cube
+                .write_chunk_raw_at(&[y, c, 0], bytes, *mask)
+                .map_err(h5(&self.path))?;
+        }
+        self.rows_written[y] = true;
         Ok(())
     }
 
@@ -839,6 +936,9 @@ impl CubeWriter {
     }
 
     /// Write rows `y0 .. y0 + n` from `rows` (`n * nx * nt` values, layout `[y][x][t]`).
+    ///
+    /// The rows are compressed in parallel on rayon's threads (see [`RowCompressor`]) and
+    /// appended as they are.
     pub fn write_rows(&mut self, y0: usize, rows: &[f32]) -> Result<()> {
         self.sink.write_rows(y0, rows)
     }
@@ -879,72 +979,14 @@ impl CubeWriter {
 
     /// A compressor for this cube's rows, to run on worker threads (see [`RowCompressor`]).
     pub fn row_compressor(&self) -> RowCompressor {
-        RowCompressor {
-            nx: self.sink.nx,
-            nt: self.sink.nt,
-            cx: chunk_rows(self.sink.nt * 4, self.sink.nx),
-            compression: self.sink.compression,
-        }
+        self.sink.row_compressor()
     }
 
     /// Write row `y` from chunks made by this writer's [`RowCompressor`]: the bytes are
     /// stored as they are, so the writer's thread does no compression (and, for an
     /// uncompressed cube, no copy: the row's values go to the file from where they are).
     pub fn write_compressed_row(&mut self, y: usize, row: &CompressedRow) -> Result<()> {
-        let s = &mut self.sink;
-        let cx = chunk_rows(s.nt * 4, s.nx);
-        let chunks = s.nx.div_ceil(cx);
-        let fits = match &row.storage {
-            RowStorage::Filtered { chunks: c, .. } => c.len() == chunks,
-            RowStorage::Plain(values) => values.len() == s.nx * s.nt,
-        };
-        if y >= s.ny || row.nx != s.nx || row.nt != s.nt || !fits {
-            return Err(invalid(
-                &s.path,
-                format!(
-                    "compressed row {y} ({} x {} values) does not fit the cube's {} rows of \
-                     {} x {} in {chunks} chunks",
-                    row.nx, row.nt, s.ny, s.nx, s.nt
-                ),
-            ));
-        }
-        if matches!(row.storage, RowStorage::Filtered { .. })
-            != matches!(s.compression, CubeCompression::Deflate(_))
-        {
-            return Err(invalid(
-                &s.path,
-                "compressed row made by another writer's compressor",
-            ));
-        }
-        let e = h5(&s.path);
-        match &row.storage {
-            RowStorage::Filtered { chunks, .. } => {
-                for (c, bytes) in chunks.iter().enumerate() {
-                    s.cube
-                        .write_chunk_raw_at(&[y, c, 0], bytes, 0)
-                        .map_err(&e)?;
-                }
-            }
-            RowStorage::Plain(values) => {
-                let chunk_values = cx * s.nt;
-                for (c, part) in values.chunks(chunk_values).enumerate() {
-                    if part.len() == chunk_values {
-                        s.cube
-                            .write_chunk_at(&[y, c, 0], &le_bytes(part))
-                            .map_err(&e)?;
-                    } else {
-                        // The edge chunk, padded with zeros as HDF5 stores it.
-                        let mut padded = vec![0.0f32; chunk_values];
-                        padded[..part.len()].copy_from_slice(part);
-                        s.cube
-                            .write_chunk_at(&[y, c, 0], &le_bytes(&padded))
-                            .map_err(&e)?;
-                    }
-                }
-            }
-        }
-        s.rows_written[y] = true;
-        Ok(())
+        self.sink.write_compressed_row(y, row)
     }
 
     /// Check every row (of the cube and of every group) was written, close the file and
@@ -1153,6 +1195,9 @@ pub struct CubeReader {
     cube: H5Dataset,
     path: PathBuf,
     meta: CubeMeta,
+    /// Chunk width `cx` and filters of a cube chunked `(1, cx, nt)` through a filter
+    /// pipeline: its rows are decoded chunk by chunk on rayon's threads.
+    row_chunks: Option<(usize, FilterPipeline)>,
 }
 
 fn read_f64_attr(ds: &H5Dataset, path: &Path, object: &str, name: &str) -> Result<f64> {
@@ -1307,12 +1352,61 @@ impl CubeReader {
             groups,
             has_mask,
         };
+        let row_chunks = match (cube.chunk_dims(), cube.filters()) {
+            (Some(d), Ok(filters))
+                if d.len() == 3 && d[0] == 1 && d[2] == meta.axis.nt && !filters.is_empty() =>
+            {
+                Some((d[1], FilterPipeline { filters }))
+            }
+            _ => None,
+        };
         Ok(CubeReader {
             file,
             cube,
             path: path.to_path_buf(),
             meta,
+            row_chunks,
         })
+    }
+
+    /// Rows `y0 ..` into `out` (whole rows) from the stored chunks of a cube chunked
+    /// `(1, cx, nt)`: read one by one, decoded in parallel. `None` when a chunk cannot be
+    /// read or decoded this way (the caller then reads through the HDF5 library, which
+    /// reports the fault).
+    fn read_rows_by_chunks(&self, y0: usize, out: &mut [f32]) -> Option<()> {
+        let (cx, pipeline) = self.row_chunks.as_ref()?;
+        let (nx, nt) = (self.meta.nx, self.meta.axis.nt);
+        let row_len = nx * nt;
+        let n_chunks = nx.div_ceil(*cx);
+        let stored: Vec<(Vec<u8>, u32)> = (0..out.len() / row_len)
+            .flat_map(|r| (0..n_chunks).map(move |c| (y0 + r, c)))
+            .map(|(y, c)| self.cube.read_chunk_raw_at(&[y, c, 0]).ok())
+            .collect::<Option<_>>()?;
+        let chunk_values = cx * nt;
+        let ok = out
+            .par_chunks_mut(row_len)
+            .zip(stored.par_chunks(n_chunks))
+            .all(|(row, chunks)| {
+                row.chunks_mut(chunk_values)
+                    .zip(chunks)
+                    .all(|(dst, (bytes, mask))| {
+                        match reverse_filters_masked_bounded(
+                            pipeline,
+                            bytes,
+                            *mask,
+                            chunk_values * 4,
+                        ) {
+                            Ok(raw) if raw.len() == chunk_values * 4 => {
+                                for (v, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
+                                    *v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                                }
+                                true
+                            }
+                            _ => false,
+                        }
+                    })
+            });
+        ok.then_some(())
     }
 
     /// The cube's metadata.
@@ -1355,12 +1449,39 @@ impl CubeReader {
         }
         let n = out.len() / row_len;
         self.check_rows(y0, n)?;
-        if n == 0 {
+        if n == 0 || self.read_rows_by_chunks(y0, out).is_some() {
             return Ok(());
         }
         self.cube
             .read_slice_into(out, &[y0, 0, 0], &[n, self.meta.nx, self.meta.axis.nt])
             .map_err(h5(&self.path))
+    }
+
+    /// Whether `/cube` is stored as femto's writer stores it (chunks `(1, cx, nt)`, shuffle
+    /// of 4-byte values then deflate at any level), so that its chunks can be copied as
+    /// they are into a new cube of chunk width `cx` ([`GroupUpdate::open`]).
+    fn stored_as_written(&self, cx: usize) -> bool {
+        let nt = self.meta.axis.nt;
+        if self.cube.chunk_dims() != Some(vec![1, cx, nt]) {
+            return false;
+        }
+        match self.cube.filters() {
+            Ok(f) => {
+                f.len() == 2
+                    && f[0].id == FILTER_SHUFFLE
+                    && matches!(f[0].cd_values.first(), None | Some(4))
+                    && f[1].id == FILTER_DEFLATE
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// The stored (filtered) bytes and filter mask of the `n_chunks` chunks of row `y`, or
+    /// `None` if one of them cannot be read raw (never written, for example).
+    fn read_raw_row(&self, y: usize, n_chunks: usize) -> Option<Vec<(Vec<u8>, u32)>> {
+        (0..n_chunks)
+            .map(|c| self.cube.read_chunk_raw_at(&[y, c, 0]).ok())
+            .collect()
     }
 
     /// The validity mask (`ny * nx` bytes, `[y][x]`), if the file has one.
@@ -1877,57 +1998,103 @@ fn check_group_layout(
     Ok(())
 }
 
-/// Create a chunked, compressed dataset of `elem` in `group`.
+/// Deflate level of the datasets of extra groups unless their [`DatasetSpec`] says
+/// otherwise: derived data (the pyramid, the registration), rebuilt by a command in seconds,
+/// so written at the fastest level.
+const GROUP_DEFLATE_LEVEL: u32 = 1;
+
+/// The filters of a group dataset of `elem`: shuffle (for values wider than a byte), then
+/// deflate; `None` for an uncompressed one.
+fn group_pipeline(elem: Elem, compression: CubeCompression) -> Option<FilterPipeline> {
+    match compression {
+        CubeCompression::Deflate(level) if elem.size() > 1 => {
+            Some(FilterPipeline::shuffle_deflate(elem.size() as u32, level))
+        }
+        CubeCompression::Deflate(level) => Some(FilterPipeline::deflate(level)),
+        CubeCompression::None => None,
+    }
+}
+
+/// Create a chunked dataset of `elem` in `group`, one row (index of the first axis) per
+/// chunk, so that rows are compressed independently, in parallel ([`write_group_rows`]).
 fn create_group_dataset(
     group: &H5Group,
     name: &str,
     elem: Elem,
     shape: &[usize],
+    compression: CubeCompression,
 ) -> rust_hdf5::Result<H5Dataset> {
     fn make<T: H5Type>(
         group: &H5Group,
         name: &str,
         shape: &[usize],
         chunk: &[usize],
+        compression: CubeCompression,
     ) -> rust_hdf5::Result<H5Dataset> {
         let b = group.new_dataset::<T>().shape(shape).chunk(chunk);
-        if T::element_size() > 1 {
-            b.shuffle_deflate(DEFLATE_LEVEL).create(name)
-        } else {
-            b.deflate(DEFLATE_LEVEL).create(name)
+        match compression {
+            CubeCompression::Deflate(level) if T::element_size() > 1 => {
+                b.shuffle_deflate(level).create(name)
+            }
+            CubeCompression::Deflate(level) => b.deflate(level).create(name),
+            CubeCompression::None => b.create(name),
         }
     }
-    let row_elems: usize = shape[1..].iter().product();
     let mut chunk = shape.to_vec();
-    chunk[0] = chunk_rows(row_elems * elem.size(), shape[0]);
+    chunk[0] = 1;
     match elem {
-        Elem::F64 => make::<f64>(group, name, shape, &chunk),
-        Elem::U8 => make::<u8>(group, name, shape, &chunk),
-        Elem::U32 => make::<u32>(group, name, shape, &chunk),
-        Elem::I32 => make::<i32>(group, name, shape, &chunk),
-        _ => make::<f32>(group, name, shape, &chunk),
+        Elem::F64 => make::<f64>(group, name, shape, &chunk, compression),
+        Elem::U8 => make::<u8>(group, name, shape, &chunk, compression),
+        Elem::U32 => make::<u32>(group, name, shape, &chunk, compression),
+        Elem::I32 => make::<i32>(group, name, shape, &chunk, compression),
+        _ => make::<f32>(group, name, shape, &chunk, compression),
     }
 }
 
-/// Write `buf` as rows `r0 ..` of a group dataset of shape `shape`.
+/// Little-endian bytes of elements `range` of `buf`.
+fn buf_le_bytes(buf: &DataBuf, range: std::ops::Range<usize>) -> Vec<u8> {
+    match buf {
+        DataBuf::F32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::F64(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::U8(v) => v[range].to_vec(),
+        DataBuf::U32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::I32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+    }
+}
+
+/// Write `buf` as rows `r0 ..` of a group dataset of shape `shape` (made by
+/// [`create_group_dataset`]): each row is one chunk, compressed on rayon's threads and
+/// stored as it is.
 fn write_group_rows(
     ds: &H5Dataset,
     shape: &[usize],
+    compression: CubeCompression,
     r0: usize,
     buf: &DataBuf,
 ) -> rust_hdf5::Result<()> {
     let row_elems: usize = shape[1..].iter().product();
-    let mut starts = vec![0; shape.len()];
-    starts[0] = r0;
-    let mut counts = shape.to_vec();
-    counts[0] = buf.len() / row_elems;
-    match buf {
-        DataBuf::F32(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::F64(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::U8(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::U32(v) => ds.write_slice(&starts, &counts, v),
-        DataBuf::I32(v) => ds.write_slice(&starts, &counts, v),
+    let pipeline = group_pipeline(buf.elem(), compression);
+    let chunks: Vec<Vec<u8>> = (0..buf.len() / row_elems)
+        .into_par_iter()
+        .map(|i| {
+            let raw = buf_le_bytes(buf, i * row_elems..(i + 1) * row_elems);
+            match &pipeline {
+                Some(p) => apply_filters(p, &raw)
+                    .expect("shuffle and deflate cannot fail on a whole chunk"),
+                None => raw,
+            }
+        })
+        .collect();
+    let mut coords = vec![0; shape.len()];
+    for (i, bytes) in chunks.iter().enumerate() {
+        coords[0] = r0 + i;
+        if pipeline.is_some() {
+            ds.write_chunk_raw_at(&coords, bytes, 0)?;
+        } else {
+            ds.write_chunk_at(&coords, bytes)?;
+        }
     }
+    Ok(())
 }
 
 fn write_group_attrs(group: &H5Group, attrs: &[(String, AttrValue)]) -> rust_hdf5::Result<()> {
@@ -1967,14 +2134,31 @@ fn copy_group(reader: &CubeReader, file: &H5File, name: &str) -> Result<()> {
     for ds_name in dataset_names_in(&src, path, name)? {
         let (shape, _) = reader.group_dataset_shape(name, &ds_name)?;
         let full = format!("{name}/{ds_name}");
-        let elem = group_elem(&open_dataset(&reader.file, path, &full)?, path, &full)?;
-        let ds = create_group_dataset(&dst, &ds_name, elem, &shape).map_err(&e)?;
+        let src_ds = open_dataset(&reader.file, path, &full)?;
+        let elem = group_elem(&src_ds, path, &full)?;
+        // Stored as it was: uncompressed, or deflated at its level.
+        let compression = match src_ds
+            .filters()
+            .map_err(&e)?
+            .iter()
+            .find(|f| f.id == FILTER_DEFLATE)
+        {
+            Some(f) => CubeCompression::Deflate(
+                f.cd_values
+                    .first()
+                    .copied()
+                    .unwrap_or(GROUP_DEFLATE_LEVEL)
+                    .min(9),
+            ),
+            None => CubeCompression::None,
+        };
+        let ds = create_group_dataset(&dst, &ds_name, elem, &shape, compression).map_err(&e)?;
         let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
         let step = slab_rows(row_bytes, shape[0]);
         for r0 in (0..shape[0]).step_by(step) {
             let n = step.min(shape[0] - r0);
             let slab = reader.read_group_rows(name, &ds_name, r0, n)?;
-            write_group_rows(&ds, &shape, r0, &slab).map_err(&e)?;
+            write_group_rows(&ds, &shape, compression, r0, &slab).map_err(&e)?;
         }
     }
     Ok(())
@@ -2032,6 +2216,9 @@ pub struct DatasetSpec {
     /// Shape, C order; slabs are cut along the first axis.
     pub shape: Vec<usize>,
     pub elem: GroupElem,
+    /// Filters of the stored rows: shuffle (for values wider than a byte) + deflate at the
+    /// given level, or none. Default: deflate level 1.
+    pub compression: CubeCompression,
 }
 
 impl DatasetSpec {
@@ -2040,7 +2227,14 @@ impl DatasetSpec {
             name: name.into(),
             shape: shape.to_vec(),
             elem,
+            compression: CubeCompression::Deflate(GROUP_DEFLATE_LEVEL),
         }
+    }
+
+    /// The same dataset stored with `compression`.
+    pub fn with_compression(mut self, compression: CubeCompression) -> DatasetSpec {
+        self.compression = compression;
+        self
     }
 }
 
@@ -2051,6 +2245,7 @@ struct OpenGroupDataset {
     ds: H5Dataset,
     shape: Vec<usize>,
     elem: Elem,
+    compression: CubeCompression,
     rows_written: Vec<bool>,
 }
 
@@ -2083,13 +2278,15 @@ impl GroupSinks {
         let group = file.create_group(name).map_err(&e)?;
         write_group_attrs(&group, attrs).map_err(&e)?;
         for d in specs {
-            let ds = create_group_dataset(&group, &d.name, d.elem.elem(), &d.shape).map_err(&e)?;
+            let ds = create_group_dataset(&group, &d.name, d.elem.elem(), &d.shape, d.compression)
+                .map_err(&e)?;
             self.datasets.push(OpenGroupDataset {
                 group: name.to_string(),
                 name: d.name.clone(),
                 ds,
                 shape: d.shape.clone(),
                 elem: d.elem.elem(),
+                compression: d.compression,
                 rows_written: vec![false; d.shape[0]],
             });
         }
@@ -2146,7 +2343,7 @@ impl GroupSinks {
                 ),
             ));
         }
-        write_group_rows(&d.ds, &d.shape, r0, rows).map_err(h5(path))?;
+        write_group_rows(&d.ds, &d.shape, d.compression, r0, rows).map_err(h5(path))?;
         d.rows_written[r0..r0 + n].fill(true);
         Ok(())
     }
@@ -2267,12 +2464,33 @@ impl GroupUpdate {
         };
         let mut sink = CubeSink::create(&tmp, cube_path, meta.nx, meta.ny, &attrs)?;
         let row_len = meta.row_len();
+        // Chunks stored as this sink stores them are copied as they are (no decompression
+        // and recompression); other rows are decoded and written.
+        let cx = chunk_rows(meta.axis.nt * 4, meta.nx);
+        let raw =
+            matches!(sink.compression, CubeCompression::Deflate(_)) && reader.stored_as_written(cx);
         let rows = slab_rows(row_len * 4, meta.ny);
         let mut buf = vec![0.0f32; rows * row_len];
         for y0 in (0..meta.ny).step_by(rows) {
             let n = rows.min(meta.ny - y0);
-            reader.read_rows_into(y0, &mut buf[..n * row_len])?;
-            sink.write_rows(y0, &buf[..n * row_len])?;
+            let copied = raw
+                .then(|| {
+                    (y0..y0 + n)
+                        .map(|y| reader.read_raw_row(y, meta.nx.div_ceil(cx)))
+                        .collect::<Option<Vec<_>>>()
+                })
+                .flatten();
+            match copied {
+                Some(slab) => {
+                    for (y, chunks) in (y0..).zip(&slab) {
+                        sink.write_raw_row(y, chunks)?;
+                    }
+                }
+                None => {
+                    reader.read_rows_into(y0, &mut buf[..n * row_len])?;
+                    sink.write_rows(y0, &buf[..n * row_len])?;
+                }
+            }
         }
         drop(buf);
         if let Some(mask) = reader.read_mask()? {
@@ -2463,16 +2681,7 @@ mod tests {
         let value = |y: usize, i: usize| ((y * 7919 + i * 104_729) % 10_007) as f32 * 0.25 - 9.0;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.h5");
-        let mut w = CubeWriter::create(
-            &path,
-            nx,
-            ny,
-            axis,
-            TimeFrame::Camera,
-            DEFAULT_UNITS,
-            &Provenance::new("test"),
-        )
-        .unwrap();
+        let mut w = camera_writer(&path, nx, ny, axis, CubeCompression::default());
         let compressor = w.row_compressor();
         assert_eq!(compressor.row_len(), nx * nt);
         for y in [2, 0] {
@@ -2503,17 +2712,7 @@ mod tests {
         let levels = (0..=9).map(CubeCompression::Deflate);
         for compression in std::iter::once(CubeCompression::None).chain(levels) {
             let p = dir.path().join("d.h5");
-            let mut w = CubeWriter::create_with(
-                &p,
-                nx,
-                ny,
-                axis,
-                TimeFrame::Camera,
-                DEFAULT_UNITS,
-                &Provenance::new("test"),
-                compression,
-            )
-            .unwrap();
+            let mut w = camera_writer(&p, nx, ny, axis, compression);
             let row0: Vec<f32> = (0..nx * nt).map(|i| value(0, i)).collect();
             // Deflated chunks decode whatever their level; raw ones only fit an unfiltered cube.
             let foreign = w.write_compressed_row(0, &compressor.compress(&row0));
@@ -2546,6 +2745,67 @@ mod tests {
             CubeCompression::Deflate(10),
         )
         .is_err());
+    }
+
+    /// A writer of a camera-time test cube at `p`.
+    fn camera_writer(
+        p: &Path,
+        nx: usize,
+        ny: usize,
+        axis: TimeAxis,
+        compression: CubeCompression,
+    ) -> CubeWriter {
+        CubeWriter::create_with(
+            p,
+            nx,
+            ny,
+            axis,
+            TimeFrame::Camera,
+            DEFAULT_UNITS,
+            &Provenance::new("test"),
+            compression,
+        )
+        .unwrap()
+    }
+
+    /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
+    /// made it (deflate at any level), decoded and recompressed otherwise (an uncompressed
+    /// cube); the cube and its mask come back unchanged either way, and `stored_as_written`
+    /// tells the two apart.
+    #[test]
+    fn group_update_copies_the_cube_raw_or_decoded() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nt) = (300, 3, 512);
+        let axis = TimeAxis {
+            t0_ps: 1.0,
+            dt_ps: 2.0,
+            nt,
+        };
+        let data: Vec<f32> = (0..nx * ny * nt).map(|i| (i % 97) as f32 - 3.5).collect();
+        let mask: Vec<u8> = (0..nx * ny).map(|i| u8::from(i % 4 != 0)).collect();
+        for (compression, raw) in [
+            (CubeCompression::Deflate(6), true),
+            (CubeCompression::None, false),
+        ] {
+            let p = dir.path().join(format!("{compression:?}.h5"));
+            let mut w = camera_writer(&p, nx, ny, axis, compression);
+            w.write_rows(0, &data).unwrap();
+            w.write_mask(&mask).unwrap();
+            w.finish().unwrap();
+            let cx = chunk_rows(nt * 4, nx);
+            assert!(cx < nx, "the test needs several chunks per row");
+            assert_eq!(CubeReader::open(&p).unwrap().stored_as_written(cx), raw);
+            let mut u = GroupUpdate::open(&p).unwrap();
+            u.begin_group("g", &[], &[DatasetSpec::new("d", &[2, 3], GroupElem::F64)])
+                .unwrap();
+            u.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0; 6]))
+                .unwrap();
+            u.finish().unwrap();
+            let back = read_cube(&p).unwrap();
+            assert_eq!(back.data, data, "{compression:?}");
+            assert_eq!(back.mask.as_deref(), Some(&mask[..]));
+            assert!(CubeReader::open(&p).unwrap().stored_as_written(cx));
+        }
     }
 
     #[test]

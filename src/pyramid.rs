@@ -50,16 +50,30 @@ pub fn top_level(nt: usize) -> usize {
     k
 }
 
-/// Prefix sums of whole pixels: `src_rows` holds profiles of `nt` bins back to back
-/// (`[y][x][t]` for any number of rows), `prefix` receives `nt + 1` values per profile,
-/// `P[0] = 0` and `P[i + 1] = P[i] + src[i]`, accumulated in f64. Parallel over pixels.
+/// Pixels per parallel task of [`pyramid_rows`].
+const BLOCK_PIXELS: usize = 64;
+
+/// Prefix sums and mip levels `1 ..= levels.len()` of whole profiles, in one pass over the
+/// source. `src_rows` holds profiles of `nt` bins back to back (`[y][x][t]` for any number
+/// of rows); `prefix` receives `nt + 1` values per profile, `P[0] = 0` and
+/// `P[i + 1] = P[i] + src[i]`, accumulated in f64; `levels[k - 1]` receives
+/// `level_nt(nt, k)` samples per profile, each the sum of two samples of the level below
+/// (the last one alone when that level's length is odd: the signal is zero past the axis).
+/// Parallel over blocks of pixels.
 ///
-/// The kernel is memory-bound: it runs at the bandwidth of a plain copy
-/// (tools/bench_cubeops_results.md). Blocks of four bins computed with SSE2 and written with
-/// non-temporal stores were measured as well and were no faster, so it stays plain.
+/// The kernel is memory-bound, so it is written to move as few bytes as possible: each
+/// profile is read once, its levels are built from one another in a per-thread scratch buffer
+/// that stays in the L1 cache, and the levels go out with non-temporal stores (no read of
+/// each output cache line before it is overwritten). Building the prefix and the levels in
+/// separate passes, each level from the stored one below, moved 4.95 GB for a
+/// 672 x 600 x 512 cube; this pass moves 3.30 GB (tools/bench_cubeops_results.md).
 ///
-/// Panics if the slice lengths disagree.
-pub fn prefix_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64]) {
+/// Panics if the slice lengths disagree or more levels are asked than `top_level(nt)`.
+pub fn pyramid_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64], levels: &mut [&mut [f32]]) {
+    assert!(
+        levels.len() <= top_level(nt),
+        "more levels than the axis has"
+    );
     if nt == 0 {
         prefix.fill(0.0);
         return;
@@ -67,38 +81,140 @@ pub fn prefix_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64]) {
     assert_eq!(src_rows.len() % nt, 0, "source is not whole profiles");
     let n_pix = src_rows.len() / nt;
     assert_eq!(prefix.len(), n_pix * (nt + 1), "prefix size");
-    prefix
-        .par_chunks_mut(nt + 1)
-        .zip(src_rows.par_chunks(nt))
-        .with_min_len(64)
-        .for_each(|(p, s)| prefix_one(s, p));
+    let level_nts: Vec<usize> = (1..=levels.len()).map(|k| level_nt(nt, k)).collect();
+    for (k, (l, &n)) in levels.iter().zip(&level_nts).enumerate() {
+        assert_eq!(l.len(), n_pix * n, "level {} size", k + 1);
+    }
+    // Every level of one block of pixels, level by level, each `[pixel][sample]`.
+    let scratch_len: usize = BLOCK_PIXELS * level_nts.iter().sum::<usize>();
+    // One task per block of pixels, holding that block's part of every output.
+    let mut level_blocks: Vec<_> = levels
+        .iter_mut()
+        .zip(&level_nts)
+        .map(|(l, &n)| l.chunks_mut(BLOCK_PIXELS * n))
+        .collect();
+    let blocks: Vec<Block> = src_rows
+        .chunks(BLOCK_PIXELS * nt)
+        .zip(prefix.chunks_mut(BLOCK_PIXELS * (nt + 1)))
+        .map(|(src, prefix)| Block {
+            src,
+            prefix,
+            levels: level_blocks
+                .iter_mut()
+                .map(|c| c.next().expect("levels are sized like the source"))
+                .collect(),
+        })
+        .collect();
+    blocks.into_par_iter().for_each_init(
+        || vec![0.0f32; scratch_len],
+        |scratch, mut b| {
+            block_pyramid(b.src, nt, b.prefix, &level_nts, scratch, &mut b.levels);
+            stream::fence();
+        },
+    );
 }
 
-/// One profile's prefix sum. Bins are taken in pairs so that the dependent chain of
-/// additions is half as long (the pair sum is independent of the running total). Measured
-/// against a plain running sum and against four pixels summed in lock-step: this one was
-/// the fastest of the three and runs at copy bandwidth (see tools/bench_cubeops.sh).
+/// One block of pixels of [`pyramid_rows`]: its source profiles and its part of each output.
+struct Block<'a> {
+    src: &'a [f32],
+    prefix: &'a mut [f64],
+    levels: Vec<&'a mut [f32]>,
+}
+
+/// [`pyramid_rows`] for one block of pixels. The prefix is written as it is summed; level 1
+/// is summed from the same profile while it is in the L1 cache, and each level above it from
+/// the one below, into `scratch`
+/// (a block's levels fit in the L2 cache); then each level, a contiguous stretch of its
+/// output, is streamed out.
+fn block_pyramid(
+    src: &[f32],
+    nt: usize,
+    prefix: &mut [f64],
+    level_nts: &[usize],
+    scratch: &mut [f32],
+    levels: &mut [&mut [f32]],
+) {
+    let profiles = src.chunks_exact(nt).zip(prefix.chunks_exact_mut(nt + 1));
+    if levels.is_empty() {
+        profiles.for_each(|(s, p)| prefix_one(s, p));
+        return;
+    }
+    let n_pix = src.len() / nt;
+    let n1 = level_nts[0];
+    for ((s, p), l1) in profiles.zip(scratch.chunks_exact_mut(n1)) {
+        halve(s, l1);
+        prefix_one(s, p);
+    }
+    // `scratch[below]` holds the block's level below the one being built.
+    let mut below = 0..n_pix * n1;
+    for k in 1..levels.len() {
+        let (n_below, n_k) = (level_nts[k - 1], level_nts[k]);
+        let (done, free) = scratch.split_at_mut(below.end);
+        let dst = &mut free[..n_pix * n_k];
+        let src_k = &done[below.clone()];
+        if n_below % 2 == 0 {
+            // Even length: output j is the sum of inputs 2j and 2j + 1, whatever the pixel.
+            halve(src_k, dst);
+        } else {
+            for (d, s) in dst.chunks_exact_mut(n_k).zip(src_k.chunks_exact(n_below)) {
+                halve(s, d);
+            }
+        }
+        below = below.end..below.end + n_pix * n_k;
+    }
+    let mut start = 0;
+    for (level, &n_k) in levels.iter_mut().zip(level_nts) {
+        let len = n_pix * n_k;
+        stream::copy(&scratch[start..start + len], level);
+        start += len;
+    }
+}
+
+/// One profile's prefix sum. Bins are taken four at a time so that the dependent chain of
+/// additions through the running total is one addition per four bins (the partial sums
+/// within the four are independent of it); measured against a pairwise version and a plain
+/// running sum, this one was the fastest (tools/bench_cubeops_results.md).
 #[inline]
 fn prefix_one(src: &[f32], prefix: &mut [f64]) {
     prefix[0] = 0.0;
     let mut acc = 0.0f64;
-    let pairs = src.chunks_exact(2);
-    let tail = pairs.remainder();
-    for (pair, out) in pairs.zip(prefix[1..].chunks_exact_mut(2)) {
-        let (a, b) = (pair[0] as f64, pair[1] as f64);
+    let quads = src.chunks_exact(4);
+    let tail = quads.remainder();
+    for (q, out) in quads.zip(prefix[1..].chunks_exact_mut(4)) {
+        let (a, b, c, d) = (q[0] as f64, q[1] as f64, q[2] as f64, q[3] as f64);
+        let ab = a + b;
+        let abcd = ab + (c + d);
         out[0] = acc + a;
-        acc += a + b;
-        out[1] = acc;
+        let acc_ab = acc + ab;
+        out[1] = acc_ab;
+        out[2] = acc_ab + c;
+        acc += abcd;
+        out[3] = acc;
     }
-    if let Some(&v) = tail.first() {
-        prefix[src.len()] = acc + v as f64;
+    let n = src.len() - tail.len();
+    for (i, &v) in tail.iter().enumerate() {
+        acc += v as f64;
+        prefix[n + i + 1] = acc;
+    }
+}
+
+/// `dst[j] = src[2 j] + src[2 j + 1]`, and the last sample alone when `src.len()` is odd
+/// (`dst.len() == ceil(src.len() / 2)`).
+#[inline]
+fn halve(src: &[f32], dst: &mut [f32]) {
+    let pairs = src.chunks_exact(2);
+    if let Some(&v) = pairs.remainder().first() {
+        dst[dst.len() - 1] = v;
+    }
+    for (o, p) in dst.iter_mut().zip(pairs) {
+        *o = p[0] + p[1];
     }
 }
 
 /// Stores that bypass the cache (SSE `movntps` / SSE2 `movnti`, part of every x86-64 CPU) for
-/// the mip levels, outputs far larger than the cache, with plain stores on other targets. Non-temporal stores
-/// are weakly ordered: [`fence`] must follow them before another thread reads the data (each
-/// parallel task of this module ends with it).
+/// the mip levels, outputs far larger than the cache, with plain stores on other targets.
+/// Non-temporal stores are weakly ordered: [`fence`] must follow them before another thread
+/// reads the data (each parallel task of this module ends with it).
 mod stream {
     /// `*out = a` for an f32.
     #[inline(always)]
@@ -115,35 +231,32 @@ mod stream {
         }
     }
 
-    /// `dst[j] = src[2 j] + src[2 j + 1]` (`src.len() == 2 * dst.len()`), four sums per store
-    /// where `dst` is 16-byte aligned.
-    pub fn halve(src: &[f32], dst: &mut [f32]) {
-        assert_eq!(src.len(), 2 * dst.len(), "halve: sizes");
+    /// `dst.copy_from_slice(src)`, four values per store where `dst` is 16-byte aligned.
+    #[inline]
+    pub fn copy(src: &[f32], dst: &mut [f32]) {
+        assert_eq!(src.len(), dst.len(), "copy: sizes");
         let n = dst.len();
         let head = dst.as_ptr().align_offset(16).min(n);
         let mut i = 0;
         while i < head {
-            single_f32(&mut dst[i], src[2 * i] + src[2 * i + 1]);
+            single_f32(&mut dst[i], src[i]);
             i += 1;
         }
         #[cfg(target_arch = "x86_64")]
         while i + 4 <= n {
-            let (s, d) = (&src[2 * i..2 * i + 8], &mut dst[i..i + 4]);
-            // SAFETY: `s` holds 8 f32 and `d` 4 (bounds-checked slices above); `d` starts on
-            // a 16-byte boundary (`head` aligned it and `i` advances by 4 f32 = 16 bytes);
-            // unaligned loads have no alignment requirement; SSE is in the x86-64 baseline.
+            let (s, d) = (&src[i..i + 4], &mut dst[i..i + 4]);
+            // SAFETY: `s` and `d` hold 4 f32 each (bounds-checked slices above); `d` starts
+            // on a 16-byte boundary (`head` aligned it and `i` advances by 4 f32 = 16
+            // bytes); unaligned loads have no alignment requirement; SSE is in the x86-64
+            // baseline.
             unsafe {
                 use std::arch::x86_64::*;
-                let a = _mm_loadu_ps(s.as_ptr());
-                let b = _mm_loadu_ps(s.as_ptr().add(4));
-                let even = _mm_shuffle_ps::<0b10_00_10_00>(a, b);
-                let odd = _mm_shuffle_ps::<0b11_01_11_01>(a, b);
-                _mm_stream_ps(d.as_mut_ptr(), _mm_add_ps(even, odd));
+                _mm_stream_ps(d.as_mut_ptr(), _mm_loadu_ps(s.as_ptr()));
             }
             i += 4;
         }
         while i < n {
-            single_f32(&mut dst[i], src[2 * i] + src[2 * i + 1]);
+            single_f32(&mut dst[i], src[i]);
             i += 1;
         }
     }
@@ -157,51 +270,6 @@ mod stream {
             std::arch::x86_64::_mm_sfence();
         }
     }
-}
-
-/// The next mip level of whole profiles: `src` holds profiles of `nt_src` samples back to
-/// back, `dst` receives `ceil(nt_src / 2)` per profile, each the sum of two neighbours (the
-/// last one alone when `nt_src` is odd: the signal is zero past the axis). Parallel over
-/// pixels.
-///
-/// For profiles of even length (every level of a power-of-two axis but the last) the output
-/// is computed four sums at a time and, on x86-64, written with non-temporal stores, which
-/// skip reading each output cache line before overwriting it: 11 to 27 % less time than
-/// ordinary stores (tools/bench_cubeops_results.md).
-///
-/// Panics if the slice lengths disagree.
-pub fn mip_halve_rows(src: &[f32], nt_src: usize, dst: &mut [f32]) {
-    let nt_dst = nt_src.div_ceil(2);
-    if nt_src == 0 {
-        assert!(dst.is_empty(), "destination of an empty level");
-        return;
-    }
-    assert_eq!(src.len() % nt_src, 0, "source is not whole profiles");
-    assert_eq!(dst.len(), src.len() / nt_src * nt_dst, "destination size");
-    if nt_src.is_multiple_of(2) {
-        // Profiles of even length: output j of the flat array is the sum of inputs 2j and
-        // 2j + 1, whatever the pixel.
-        const OUTPUTS_PER_TASK: usize = 1 << 14;
-        dst.par_chunks_mut(OUTPUTS_PER_TASK)
-            .zip(src.par_chunks(2 * OUTPUTS_PER_TASK))
-            .for_each(|(d, s)| {
-                stream::halve(s, d);
-                stream::fence();
-            });
-        return;
-    }
-    dst.par_chunks_mut(nt_dst)
-        .zip(src.par_chunks(nt_src))
-        .with_min_len(64)
-        .for_each(|(d, s)| {
-            let pairs = s.chunks_exact(2);
-            if let Some(&v) = pairs.remainder().first() {
-                d[nt_dst - 1] = v;
-            }
-            for (o, p) in d.iter_mut().zip(pairs) {
-                *o = p[0] + p[1];
-            }
-        });
 }
 
 /// `P(t_ps)` of one pixel's prefix (`nt + 1` values on `axis`): 0 before the axis, the
@@ -257,22 +325,15 @@ impl Pyramid {
         let nt = cube.nt();
         let n_pix = cube.nx * cube.ny;
         let mut prefix = vec![0.0f64; n_pix * (nt + 1)];
-        prefix_rows(&cube.data, nt, &mut prefix);
-        let mut levels: Vec<Level> = Vec::new();
-        for k in 1..=top_level(nt) {
-            let (src, nt_src): (&[f32], usize) = match levels.last() {
-                Some(l) => (&l.data, l.nt),
-                None => (&cube.data, nt),
-            };
-            let nt_k = level_nt(nt, k);
-            let mut data = vec![0.0f32; n_pix * nt_k];
-            mip_halve_rows(src, nt_src, &mut data);
-            levels.push(Level {
+        let mut levels: Vec<Level> = (1..=top_level(nt))
+            .map(|k| Level {
                 bins_per_sample: 1 << k,
-                nt: nt_k,
-                data,
-            });
-        }
+                nt: level_nt(nt, k),
+                data: vec![0.0f32; n_pix * level_nt(nt, k)],
+            })
+            .collect();
+        let mut outs: Vec<&mut [f32]> = levels.iter_mut().map(|l| &mut l.data[..]).collect();
+        pyramid_rows(&cube.data, nt, &mut prefix, &mut outs);
         Pyramid {
             nx: cube.nx,
             ny: cube.ny,
@@ -438,14 +499,14 @@ mod tests {
     }
 
     #[test]
-    fn prefix_rows_matches_running_sums_for_any_pixel_count() {
+    fn pyramid_rows_prefix_matches_running_sums_for_any_pixel_count() {
         let mut rng = Pcg64::seed_from_u64(9);
         for (n_pix, nt) in [(1, 5), (4, 3), (7, 11), (9, 1)] {
             let src: Vec<f32> = (0..n_pix * nt)
                 .map(|_| rng.random_range(-1.0..3.0f32))
                 .collect();
             let mut prefix = vec![f64::NAN; n_pix * (nt + 1)];
-            prefix_rows(&src, nt, &mut prefix);
+            pyramid_rows(&src, nt, &mut prefix, &mut []);
             for p in 0..n_pix {
                 let mut want = 0.0f64;
                 assert_eq!(prefix[p * (nt + 1)], 0.0);
@@ -465,7 +526,7 @@ mod tests {
     /// alignment of the output (a buffer offset by one value) and several pixels per call give
     /// exactly the running sums in integers, and nothing is written outside the output.
     #[test]
-    fn prefix_rows_is_exact_for_integer_bins_at_either_alignment() {
+    fn pyramid_rows_prefix_is_exact_for_integer_bins_at_either_alignment() {
         let mut rng = Pcg64::seed_from_u64(5);
         for offset in 0..2 {
             for nt in 1..=13 {
@@ -474,7 +535,7 @@ mod tests {
                         .map(|_| rng.random_range(-1000..=1000) as f32)
                         .collect();
                     let mut buf = vec![f64::NAN; offset + n_pix * (nt + 1)];
-                    prefix_rows(&src, nt, &mut buf[offset..]);
+                    pyramid_rows(&src, nt, &mut buf[offset..], &mut []);
                     let prefix = &buf[offset..];
                     for p in 0..n_pix {
                         let mut want = 0i64;
@@ -497,33 +558,78 @@ mod tests {
         }
     }
 
+    /// Every level of every profile length (odd lengths included, where a level's last
+    /// sample is alone) at each 16-byte alignment of the outputs, for block sizes below,
+    /// at and above a task's pixel count: exact pair sums of the level below (integer
+    /// values, so any summation order is exact), and nothing written outside the outputs.
     #[test]
-    fn mip_halve_rows_matches_pair_sums_at_either_alignment() {
+    fn pyramid_rows_levels_are_pair_sums_at_any_alignment() {
         let mut rng = Pcg64::seed_from_u64(6);
         for offset in 0..4 {
-            for nt_src in [2usize, 4, 6, 10, 3, 5] {
-                for n_pix in [1usize, 3, 40] {
-                    let src: Vec<f32> = (0..n_pix * nt_src)
-                        .map(|_| rng.random_range(-4.0..4.0f32))
+            for nt in [1usize, 2, 3, 5, 6, 10, 16, 37] {
+                for n_pix in [1usize, 3, BLOCK_PIXELS + 5] {
+                    let src: Vec<f32> = (0..n_pix * nt)
+                        .map(|_| rng.random_range(-400..=400) as f32)
                         .collect();
-                    let nt_dst = nt_src.div_ceil(2);
-                    let mut buf = vec![f32::NAN; offset + n_pix * nt_dst];
-                    mip_halve_rows(&src, nt_src, &mut buf[offset..]);
+                    let top = top_level(nt);
+                    let mut bufs: Vec<Vec<f32>> = (1..=top)
+                        .map(|k| vec![f32::NAN; offset + n_pix * level_nt(nt, k)])
+                        .collect();
+                    let mut prefix = vec![f64::NAN; n_pix * (nt + 1)];
+                    let mut outs: Vec<&mut [f32]> =
+                        bufs.iter_mut().map(|b| &mut b[offset..]).collect();
+                    pyramid_rows(&src, nt, &mut prefix, &mut outs);
                     for p in 0..n_pix {
-                        for i in 0..nt_dst {
-                            let a = src[p * nt_src + 2 * i];
-                            let want = if 2 * i + 1 < nt_src {
-                                a + src[p * nt_src + 2 * i + 1]
-                            } else {
-                                a
-                            };
-                            assert_eq!(buf[offset + p * nt_dst + i], want, "nt {nt_src}");
+                        let mut below: Vec<f32> = src[p * nt..(p + 1) * nt].to_vec();
+                        for (k1, b) in bufs.iter().enumerate() {
+                            let n_k = level_nt(nt, k1 + 1);
+                            let want: Vec<f32> = below.chunks(2).map(|c| c.iter().sum()).collect();
+                            assert_eq!(
+                                &b[offset + p * n_k..offset + (p + 1) * n_k],
+                                &want[..],
+                                "nt {nt}, level {}, pixel {p}",
+                                k1 + 1
+                            );
+                            below = want;
                         }
+                        assert_eq!(
+                            prefix[p * (nt + 1) + nt],
+                            src[p * nt..(p + 1) * nt]
+                                .iter()
+                                .map(|&v| v as f64)
+                                .sum::<f64>()
+                        );
                     }
-                    assert!(buf[..offset].iter().all(|v| v.is_nan()));
+                    for b in &bufs {
+                        assert!(
+                            b[..offset].iter().all(|v| v.is_nan()),
+                            "wrote before a level"
+                        );
+                    }
                 }
             }
         }
+    }
+
+    /// Fewer levels than the axis allows: the ones asked for, the same as a full build.
+    #[test]
+    fn pyramid_rows_builds_only_the_levels_asked() {
+        let (n_pix, nt) = (5, 24);
+        let src: Vec<f32> = (0..n_pix * nt).map(|i| (i % 7) as f32).collect();
+        let mut prefix = vec![0.0f64; n_pix * (nt + 1)];
+        let mut all: Vec<Vec<f32>> = (1..=top_level(nt))
+            .map(|k| vec![0.0; n_pix * level_nt(nt, k)])
+            .collect();
+        let mut outs: Vec<&mut [f32]> = all.iter_mut().map(|b| &mut b[..]).collect();
+        pyramid_rows(&src, nt, &mut prefix, &mut outs);
+        let mut two: Vec<Vec<f32>> = (1..=2)
+            .map(|k| vec![0.0; n_pix * level_nt(nt, k)])
+            .collect();
+        let mut outs: Vec<&mut [f32]> = two.iter_mut().map(|b| &mut b[..]).collect();
+        let mut prefix2 = vec![0.0f64; n_pix * (nt + 1)];
+        pyramid_rows(&src, nt, &mut prefix2, &mut outs);
+        assert_eq!(prefix, prefix2);
+        assert_eq!(&all[..2], &two[..]);
     }
 
     #[test]
@@ -654,7 +760,7 @@ mod tests {
         assert!(fixed.iter().all(|&f| f % 4 == 0));
 
         let mut p64 = vec![0.0f64; nt + 1];
-        prefix_rows(&v, nt, &mut p64);
+        pyramid_rows(&v, nt, &mut p64, &mut []);
         let mut p32 = vec![0.0f32; nt + 1];
         let mut p32k = vec![0.0f32; nt + 1];
         let (mut s, mut ks, mut kc) = (0.0f32, 0.0f32, 0.0f32);

@@ -6,7 +6,7 @@ Usage:
     pip install mitsuba mitransient          # LLVM variant, CPU only
     # drjit 1.x needs LLVM >= 16 (Debian 12: apt-get install libllvm19, then
     # export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so)
-    python3 tools/compare_mitsuba.py /tmp/femto_cmp [threads]
+    python3 tools/compare_mitsuba.py /tmp/femto_cmp [threads] [--sampler independent,multijitter,...]
 
 The bench writes the built-in `cornell` scene (64 x 64 pixels, 300 bins of 4 ps) as one OBJ
 per material plus `scene.json`, and femto renders with isotropic emission (Mitsuba's point
@@ -22,9 +22,15 @@ intensity energy / 4 pi, the same time window given as optical path length) and 
   bin of the transient and per pixel of the steady image, and the efficiency
   1 / (MSE * seconds), so the two can be compared at equal noise.
 
+With `--sampler` (a comma-separated list of Mitsuba sampler plugins: independent, stratified,
+multijitter, ldsampler, orthogonal) Mitsuba's renders are repeated with each sampler, so femto
+can be compared with Mitsuba's best configuration; the agreement lines use the first one. The
+sample count Mitsuba actually used is printed (some samplers round it).
+
 Numbers depend on the machine and on how busy it is; record them with the date.
 """
 
+import argparse
 import json
 import math
 import os
@@ -41,11 +47,11 @@ def load_femto(folder, meta):
     for r in meta["renders"]:
         a = np.fromfile(os.path.join(folder, f"cube_spp{r['spp']}.f32"), dtype="<f4")
         cube = a.reshape(meta["ny"], meta["nx"], meta["nt"]).astype(np.float64)
-        out[r["spp"]] = (cube, r["seconds"], r.get("cpu_seconds", float("nan")))
+        out[r["spp"]] = (cube, r["seconds"], r.get("cpu_seconds", float("nan")), r["spp"])
     return out
 
 
-def mitsuba_scene(folder, meta, mi):
+def mitsuba_scene(folder, meta, mi, sampler="independent"):
     t = mi.ScalarTransform4f
     d = {
         "type": "scene",
@@ -71,7 +77,7 @@ def mitsuba_scene(folder, meta, mi):
                 "bin_width_opl": meta["dt_ps"] * C_M_PER_PS / meta["eta"],
                 "rfilter": {"type": "box"},
             },
-            "sampler": {"type": "independent", "sample_count": 4},
+            "sampler": {"type": sampler, "sample_count": 4},
         },
         "laser": {
             "type": "point",
@@ -104,8 +110,14 @@ def render_mitsuba(scene, meta, spp, mi, dr, seed):
 
 
 def main():
-    folder = sys.argv[1]
-    threads = int(sys.argv[2]) if len(sys.argv) > 2 else 2
+    ap = argparse.ArgumentParser(description="Compare femto's transient renders with Mitsuba 3 + mitransient.")
+    ap.add_argument("folder", help="folder written by FEMTO_BENCH_DUMP=<folder> cargo bench --bench tracer")
+    ap.add_argument("threads", nargs="?", type=int, default=2, help="Dr.Jit threads (default 2)")
+    ap.add_argument("--sampler", default="independent",
+                    help="comma-separated Mitsuba samplers to compare with (default independent)")
+    args = ap.parse_args()
+    folder, threads = args.folder, args.threads
+    samplers = [s for s in args.sampler.split(",") if s]
     meta = json.load(open(os.path.join(folder, "scene.json")))
     import drjit as dr
     import mitsuba as mi
@@ -115,16 +127,30 @@ def main():
 
     dr.set_thread_count(threads)
     femto = load_femto(folder, meta)
-    scene = mitsuba_scene(folder, meta, mi)
-    render_mitsuba(scene, meta, 1, mi, dr, 1)  # JIT warm-up: kernels compiled and cached
-    mits = {}
-    for spp, seed in ((4, 11), (16, 12), (256, 13)):
-        mits[spp] = render_mitsuba(scene, meta, spp, mi, dr, seed)
-
     print(f"scene cornell {meta['nx']}x{meta['ny']} px, {meta['nt']} bins of {meta['dt_ps']} ps, "
           f"max bounces {meta['max_bounces']}, isotropic point light; Mitsuba {mi.__version__} llvm_ad_mono, "
           f"{threads} threads")
-    # Agreement at 256 spp.
+    for k, sampler in enumerate(samplers):
+        scene = mitsuba_scene(folder, meta, mi, sampler)
+        mits = {}
+        for spp, seed in ((4, 11), (16, 12), (256, 13)):
+            # JIT warm-up at the same sample count (some samplers bake it into the kernel), so
+            # the timed render reuses the compiled kernel.
+            render_mitsuba(scene, meta, spp, mi, dr, seed + 100)
+            mits[spp] = render_mitsuba(scene, meta, spp, mi, dr, seed)
+        used = {spp: mi.load_dict({"type": sampler, "sample_count": spp}).sample_count() for spp in mits}
+        if len(samplers) > 1:
+            print(f"--- Mitsuba sampler: {sampler}")
+        if any(used[spp] != spp for spp in used):
+            print(f"note: {sampler} rounds the sample counts 4, 16, 256 to {used[4]}, {used[16]}, {used[256]}")
+        mits = {spp: (cube, seconds, cpu, used[spp]) for spp, (cube, seconds, cpu) in mits.items()}
+        if k == 0:
+            agreement(femto, mits)
+        compare(femto, mits)
+
+
+def agreement(femto, mits):
+    """Agreement of the two renderers at 256 spp."""
     f_ref, m_ref = femto[256][0], mits[256][0]
     fs, ms = f_ref.sum(axis=2), m_ref.sum(axis=2)
     # Noise of one 256-spp steady pixel, from the 16-spp renders (variance scales as 1/spp).
@@ -143,13 +169,16 @@ def main():
     print(f"time histogram (16 ps bins): peak bin femto {hf.argmax()} mitsuba {hm.argmax()}, "
           f"max |difference| / peak {np.abs(hf - hm).max() / hf[top]:.3f}, "
           f"total in window femto/mitsuba {hf.sum() / hm.sum():.4f}")
-    # Noise at equal spp and efficiency (1 / (MSE * seconds), wall and CPU).
+
+
+def compare(femto, mits):
+    """Noise at equal spp, efficiency (1 / (MSE * seconds), wall and CPU) and speed at equal noise."""
     print("renderer  spp   wall s    CPU s  RMSE(transient bin)  RMSE(steady px)  eff_transient(wall, CPU)  eff_steady(wall, CPU)")
     mse16 = {}
     for name, runs in (("femto", femto), ("mitsuba", mits)):
         ref = runs[256][0]
         for spp in (4, 16):
-            cube, seconds, cpu = runs[spp]
+            cube, seconds, cpu, _ = runs[spp]
             mt = np.mean((cube - ref) ** 2)
             ms_ = np.mean((cube.sum(axis=2) - ref.sum(axis=2)) ** 2)
             if spp == 16:
@@ -158,14 +187,19 @@ def main():
                   f"{1 / (mt * seconds):12.4e} {1 / (mt * cpu):11.4e} {1 / (ms_ * seconds):10.4e} {1 / (ms_ * cpu):10.4e}")
     f256, m256 = femto[256], mits[256]
     print(f"256 spp: femto {f256[1]:.2f} s wall, {f256[2]:.2f} CPU s; mitsuba {m256[1]:.2f} s wall, {m256[2]:.2f} CPU s")
-    # Equal noise: the time to reach a given MSE is proportional to (MSE at 16 spp) x (time per
-    # spp), taken from the 256-spp renders where fixed costs matter least. The reference noise
-    # inflates both renderers' 16-spp MSE by the same factor 1 + 16/256, so it cancels here.
+    # Equal noise: the time to reach a given MSE is proportional to (MSE at the "16 spp" render)
+    # x (its sample count) x (time per sample), the latter taken from the "256 spp" render
+    # where fixed costs matter least (sample counts as the sampler actually used them). The
+    # reference noise inflates both renderers' 16-spp MSE by about the same factor
+    # 1 + 16/256, so it nearly cancels (for independent samples; a stratified sampler's
+    # reference is less noisy than that, which slightly favours it).
+    f16, m16 = femto[16][3], mits[16][3]
     for k, what in ((0, "transient bin"), (1, "steady pixel")):
         for j, clock in ((1, "wall"), (2, "CPU")):
-            cost_f = mse16["femto"][k] * f256[j]
-            cost_m = mse16["mitsuba"][k] * m256[j]
+            cost_f = mse16["femto"][k] * f16 * f256[j] / f256[3]
+            cost_m = mse16["mitsuba"][k] * m16 * m256[j] / m256[3]
             print(f"equal {what} noise, {clock} time: femto is {cost_m / cost_f:.2f}x as fast as mitsuba")
+
 
 if __name__ == "__main__":
     main()

@@ -7,8 +7,8 @@ in float64 (nt + 1 values); mip level k + 1 sums pairs of level k (the last samp
 length is odd), float32. The integral over [ta, tb] is P(tb) - P(ta) with linear interpolation.
 
 Usage: python3 tools/pyramid_numpy.py [--nx 672 --ny 600 --nt 512 --reps 1] [--selftest]
-Prints the prefix and mip times (best of --reps), GB/s (bytes read + written / time) and the
-mean CPU seconds per run (process time).
+Prints the prefix, mip and whole-pyramid times (best and median of --reps), GB/s (bytes read +
+written / best time) and the mean CPU seconds per run (process time).
 """
 import argparse
 import time
@@ -28,16 +28,33 @@ def prefix(cube, out=None):
     return p
 
 
-def mips(cube):
-    levels = []
+def level_shapes(shape):
+    ny, nx, n = shape
+    out = []
+    while n > 1:
+        n = (n + 1) // 2
+        out.append((ny, nx, n))
+    return out
+
+
+def mips(cube, out=None):
+    """Level k + 1 sums pairs of level k (the last sample alone when the length is odd), float32.
+    `out` (arrays shaped as `level_shapes`) may be given: the benchmark passes pre-allocated,
+    pre-faulted ones, as the Rust benchmark does."""
+    levels = [np.empty(s, np.float32) for s in level_shapes(cube.shape)] if out is None else out
     cur = cube
-    while cur.shape[2] > 1:
-        n = cur.shape[2]
-        if n % 2:
-            cur = np.concatenate([cur, np.zeros(cur.shape[:2] + (1,), np.float32)], axis=2)
-        cur = cur[..., 0::2] + cur[..., 1::2]
-        levels.append(cur)
+    for lv in levels:
+        half = cur.shape[2] // 2
+        np.add(cur[..., 0:2 * half:2], cur[..., 1:2 * half:2], out=lv[..., :half])
+        if cur.shape[2] % 2:
+            lv[..., half] = cur[..., -1]
+        cur = lv
     return levels
+
+
+def pyramid(cube, p_out=None, l_out=None):
+    """What `femto pyramid` computes: the prefix sums and every mip level."""
+    return prefix(cube, out=p_out), mips(cube, out=l_out)
 
 
 def integral(p, t0, dt, ta, tb):
@@ -57,6 +74,7 @@ def selftest():
     p = prefix(v)
     assert abs(integral(p, 0.0, 1.0, 2.5, 3.25)[0, 0] - (0.5 * v[0, 0, 2] + 0.25 * v[0, 0, 3])) < 1e-6
     lv = mips(v)
+    assert [l.shape[2] for l in lv] == [19, 10, 5, 3, 2, 1]
     assert len(lv) == 6 and lv[-1].shape[2] == 1
     assert abs(lv[-1][0, 0, 0] - v.sum()) < 1e-4
     assert abs(lv[1][0, 0, 9] - v[0, 0, 36]) < 1e-7
@@ -75,28 +93,27 @@ def main():
         selftest()
         return
     cube = np.random.default_rng(0).random((a.ny, a.nx, a.nt), dtype=np.float32)
-    # Output written once before timing, as the Rust benchmark does, so page faults are not
+    # Outputs written once before timing, as the Rust benchmark does, so page faults are not
     # counted.
     p = np.ones((a.ny, a.nx, a.nt + 1), np.float64)
+    lv = [np.ones(s, np.float32) for s in level_shapes(cube.shape)]
     pbytes = cube.nbytes + p.nbytes
-    tp, tm = None, None
-    cp, cm = 0.0, 0.0
-    for _ in range(a.reps):
-        t, c = time.perf_counter(), time.process_time()
-        prefix(cube, out=p)
-        d = time.perf_counter() - t
-        cp += time.process_time() - c
-        tp = d if tp is None else min(tp, d)
-        t, c = time.perf_counter(), time.process_time()
-        lv = mips(cube)
-        d = time.perf_counter() - t
-        cm += time.process_time() - c
-        tm = d if tm is None else min(tm, d)
-        mbytes = sum(l.nbytes for l in lv) * 3  # each level: read 2x its size, write 1x
-        del lv
-    del p
-    print(f"numpy prefix: {tp:.3f} s, {pbytes / tp / 1e9:.2f} GB/s (CPU {cp / a.reps:.3f} s per run)")
-    print(f"numpy mips:   {tm:.3f} s, {mbytes / tm / 1e9:.2f} GB/s (CPU {cm / a.reps:.3f} s per run)")
+    mbytes = sum(l.nbytes for l in lv) * 3  # each level: read 2x its size, write 1x
+    allbytes = cube.nbytes + p.nbytes + sum(l.nbytes for l in lv)  # as femto's one pass counts
+    runs = {"prefix": (lambda: prefix(cube, out=p), pbytes),
+            "mips": (lambda: mips(cube, out=lv), mbytes),
+            "pyramid": (lambda: pyramid(cube, p_out=p, l_out=lv), allbytes)}
+    for name, (f, nbytes) in runs.items():
+        walls, cpu = [], 0.0
+        for _ in range(a.reps):
+            t, c = time.perf_counter(), time.process_time()
+            f()
+            walls.append(time.perf_counter() - t)
+            cpu += time.process_time() - c
+        walls.sort()
+        best, median = walls[0], walls[len(walls) // 2]
+        print(f"numpy {name + ':':9s} {best:.3f} s (median {median:.3f} s, CPU {cpu / a.reps:.3f} s per run), "
+              f"{nbytes / best / 1e9:.2f} GB/s")
 
 
 if __name__ == "__main__":

@@ -73,7 +73,7 @@ pub struct IngestArgs {
     /// h5py's gzip default) is about 8 % smaller for about 1.5x the CPU time. 'none' is
     /// fastest, about 1.7x the time of decoding the images alone, for 2-3.5x the bytes (see
     /// docs/ingest.md).
-    #[arg(long, default_value = "1", value_parser = parse_compression)]
+    #[arg(long, default_value = "1", value_parser = super::parse_compression)]
     pub compression: CubeCompression,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
     #[arg(long, hide = true)]
@@ -90,17 +90,6 @@ fn parse_range(s: &str, what: &str) -> Result<(usize, usize), String> {
             .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
     };
     Ok((parse(a)?, parse(b)?))
-}
-
-/// `none` or a deflate level 0-9.
-fn parse_compression(s: &str) -> Result<CubeCompression, String> {
-    if s == "none" {
-        return Ok(CubeCompression::None);
-    }
-    match s.parse::<u32>() {
-        Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
-        _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
-    }
 }
 
 /// `auto` or `x0:x1,t0:t1`.

@@ -125,3 +125,15 @@ unsafe fn libc_sigpipe_default() {
     const SIG_DFL: usize = 0;
     signal(SIGPIPE, SIG_DFL);
 }
+
+/// `--compression`: `none` or a deflate level 0-9 (with shuffle).
+pub fn parse_compression(s: &str) -> Result<femto::container::CubeCompression, String> {
+    use femto::container::CubeCompression;
+    if s == "none" {
+        return Ok(CubeCompression::None);
+    }
+    match s.parse::<u32>() {
+        Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
+        _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
+    }
+}

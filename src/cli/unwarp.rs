@@ -11,7 +11,7 @@ use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use femto::calibrate::register;
 use femto::camera::Calibration;
-use femto::container::{CubeReader, CubeWriter, GroupData, Provenance};
+use femto::container::{CubeCompression, CubeReader, CubeWriter, GroupData, Provenance};
 use femto::cube::{TimeAxis, TimeFrame};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
@@ -54,6 +54,11 @@ pub struct UnwarpArgs {
     /// The mesh for --calibration (.obj, .gltf or .glb).
     #[arg(long, requires = "calibration")]
     pub mesh: Option<PathBuf>,
+    /// Compression of the output cube: a deflate level 0-9 (with shuffle) or 'none'. Level 1,
+    /// as `femto ingest` writes, compresses camera data about 2.5 times faster than level 4
+    /// for about 4 % more bytes
+    #[arg(long, default_value = "1", value_parser = super::parse_compression)]
+    pub compression: CubeCompression,
 }
 
 /// Largest slab of input plus output rows moved at once, bytes.
@@ -172,7 +177,7 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         command_line: super::command_line(),
         notes,
     };
-    let mut writer = CubeWriter::create(
+    let mut writer = CubeWriter::create_with(
         &args.out,
         nx,
         ny,
@@ -180,6 +185,7 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         direction.target_frame(),
         &meta.units,
         &provenance,
+        args.compression,
     )?;
 
     let (nt_in, nt_out) = (meta.axis.nt, axis.nt);

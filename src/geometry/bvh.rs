@@ -1,26 +1,44 @@
 //! Ray-mesh intersection: the public API every caster uses.
 //!
-//! A bounding volume hierarchy built with the binned surface area heuristic (SAH; Wald 2007,
-//! "On fast construction of SAH-based bounding volume hierarchies"), stored as a flat array of
-//! 32-byte nodes whose two children share one 64-byte cache line. Traversal tests both children,
-//! visits the nearer first and culls subtrees that start beyond the current closest hit. The
-//! ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances scaled by
-//! `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that holds a hit
-//! is ever skipped.
+//! A wide bounding volume hierarchy (Wald, Benthin and Boulos 2008, "Getting rid of packets";
+//! Embree's layouts): four children per node (BVH4) with SSE2 on x86_64 and on other
+//! architectures, eight (BVH8) where the CPU has AVX (detected at run time with
+//! `is_x86_feature_detected!`). It is built as a binary tree with the binned surface area
+//! heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding volume
+//! hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed: each
+//! wide node takes the two children of a binary node and keeps opening its largest interior
+//! child until it has four (or eight). A node stores its child boxes lane by lane, so one slab
+//! test of vectors (the private `geometry::simd`: SSE2 or AVX lanes, plain arrays elsewhere)
+//! tests all of them; the hit children are visited nearest first and subtrees that start
+//! beyond the current closest hit are culled. Leaves hold packets of four triangles, also
+//! stored lane by lane and tested against the ray at once.
 //!
-//! femto keeps its own tree rather than a crate's after measuring against `obvhs` 0.4 (BVH8,
-//! SIMD traversal) with the same triangle test: on the bunny this tree was about 20 % faster for
-//! coherent camera rays and within about 5 % for random rays (`cargo bench --bench bvh`), and
-//! its box test is provably conservative for axis-parallel rays.
+//! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
+//! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
+//! holds a hit is ever skipped.
 //!
 //! The ray-triangle test is the watertight algorithm of Woop, Benthin and Wald (2013,
 //! "Watertight ray/triangle intersection", JCGT 2(1)): vertices are moved into a ray-aligned
 //! sheared frame and the three 2D edge functions are evaluated there, falling back to double
 //! precision when one of them is exactly zero. A ray that passes through a shared edge or vertex
 //! of a closed mesh hits at least one of the triangles, whatever rounding does. Both faces of a
-//! triangle are hit. Triangles of zero area are left out of the hierarchy, so they never report
-//! a hit.
+//! triangle are hit. Each lane of the wide test performs exactly the scalar test's operations
+//! (no fused multiply-add; the double-precision fallback per lane), so the wide test is bit for
+//! bit the scalar one and keeps its watertightness; the four- and eight-wide trees therefore
+//! return the same hits. Triangles of zero area are left out of the hierarchy, so they never
+//! report a hit.
+//!
+//! femto keeps its own tree rather than a crate's: the binary version of this tree already
+//! matched `obvhs` 0.4 (BVH8, SIMD traversal) with the same triangle test on the bunny
+//! (`cargo bench --bench bvh`), and its box test is provably conservative for axis-parallel
+//! rays; the wide version is what the transient tracer's speed needed
+//! (`benches/tracer_results.md`).
 
+#[cfg(target_arch = "x86_64")]
+use super::simd::Avx;
+#[cfg(any(test, not(target_arch = "x86_64")))]
+use super::simd::Portable;
+use super::simd::{Lanes, Native};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use nalgebra::{Point3, Vector3};
 use std::mem::MaybeUninit;
@@ -29,48 +47,113 @@ use std::mem::MaybeUninit;
 const BINS: usize = 16;
 /// Leaves never hold more triangles than this (the SAH may still choose smaller leaves).
 const MAX_LEAF: usize = 8;
+/// Triangles per leaf packet (the SIMD width of the triangle test).
+const PACKET: usize = 4;
 /// Below this depth the SAH picks the split; deeper nodes split at the centroid median, which
 /// halves the count at every level and so bounds the depth of any tree by `SAH_DEPTH + 32`.
 const SAH_DEPTH: u32 = 64;
-/// Traversal stack size: one entry per level, so it must exceed `SAH_DEPTH + 32`.
-const STACK: usize = 128;
-/// Relative cost of one node visit (two box tests) against one triangle test, for the SAH.
+/// Traversal stack size: a wide node pushes at most `N - 1 <= 7` entries, and the wide tree
+/// is no deeper than the binary one (`SAH_DEPTH + 32` levels), so it must exceed `7 * 97`.
+const STACK: usize = 704;
+/// Relative cost of one node visit against one test of a packet of triangles, for the SAH.
 const COST_TRAVERSAL: f32 = 1.0;
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24` (pbrt-v3, Eq. 3.9): scaling
 /// the far slab distance by this makes the f32 slab test conservative.
 const SLAB_FAR_SCALE: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// One node of the flattened tree.
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-struct Node {
-    /// Box corners: `min` x, y, z then `max` x, y, z.
-    bounds: [f32; 6],
-    /// Leaf: first entry of `Bvh::tris`. Interior: index of its children in `Bvh::pairs`.
-    first: u32,
-    /// Number of triangles of a leaf; 0 for an interior node.
-    count: u32,
-}
+/// A child reference with this bit set is a leaf: bits 28..31 hold its number of packets and
+/// bits 0..28 its first packet. Otherwise it is the index of an interior node.
+const LEAF: u32 = 1 << 31;
+const LEAF_COUNT_SHIFT: u32 = 28;
+const LEAF_FIRST_MASK: u32 = (1 << LEAF_COUNT_SHIFT) - 1;
+/// An empty child slot: a leaf of no packets (never visited: its box is empty).
+const EMPTY_CHILD: u32 = LEAF;
 
-/// The two children of an interior node, sharing one 64-byte cache line.
+/// One node of a wide tree: `N` child boxes, lane by lane.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-struct NodePair([Node; 2]);
+struct Node<const N: usize> {
+    /// `bounds[plane][child]`: planes `min` x, y, z then `max` x, y, z. Empty slots have
+    /// `min = +inf`, `max = -inf`, which the slab test never enters.
+    bounds: [[f32; N]; 6],
+    /// Child references (see [`LEAF`]).
+    child: [u32; N],
+}
+
+impl<const N: usize> Node<N> {
+    const EMPTY: Node<N> = Node {
+        bounds: [
+            [f32::INFINITY; N],
+            [f32::INFINITY; N],
+            [f32::INFINITY; N],
+            [f32::NEG_INFINITY; N],
+            [f32::NEG_INFINITY; N],
+            [f32::NEG_INFINITY; N],
+        ],
+        child: [EMPTY_CHILD; N],
+    };
+}
+
+/// Four triangles, lane by lane: `v[corner][axis][lane]`. Unused lanes hold NaN corners,
+/// whose edge functions are NaN and never report a hit.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct TriPacket {
+    v: [[[f32; PACKET]; 3]; 3],
+}
+
+impl TriPacket {
+    /// Corners of lane `j`.
+    #[cfg(test)]
+    fn corners(&self, j: usize) -> [[f32; 3]; 3] {
+        self.v.map(|c| [c[0][j], c[1][j], c[2][j]])
+    }
+}
+
+/// A wide tree of `N` children per node over packets of triangles.
+#[derive(Clone, Debug)]
+struct Wide<const N: usize> {
+    /// Reference to the root (see [`LEAF`]); an empty leaf when the mesh has no triangle of
+    /// non-zero area.
+    root: u32,
+    /// Interior nodes; the root, when interior, is node 0.
+    nodes: Vec<Node<N>>,
+    /// Leaf triangles in packets.
+    packets: Vec<TriPacket>,
+    /// Mesh triangle index of each lane of `packets` (`u32::MAX` for unused lanes).
+    packet_ids: Vec<[u32; PACKET]>,
+}
+
+/// The tree a [`Bvh`] traverses.
+#[derive(Clone, Debug)]
+enum Tree {
+    /// Four children per node (SSE2, or plain arrays off x86_64).
+    Four(Wide<4>),
+    /// Eight children per node, traversed with AVX (only built where the CPU has it).
+    Eight(Wide<8>),
+}
 
 /// An acceleration structure that owns its mesh.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     mesh: TriangleMesh,
     bounds: Aabb,
-    /// Root node; `None` when the mesh has no triangle of non-zero area.
-    root: Option<Node>,
-    /// Children of interior nodes: an interior node's `first` indexes this array.
-    pairs: Vec<NodePair>,
-    /// Triangle corners in leaf order, copied from the mesh for locality.
-    tris: Vec<[[f32; 3]; 3]>,
-    /// Mesh triangle index of each entry of `tris`.
-    ids: Vec<u32>,
+    tree: Tree,
+    /// Unit geometric normal of each mesh triangle (zero for those of zero area).
+    normals: Vec<Vector3<f32>>,
+}
+
+/// Whether this CPU runs the eight-wide traversal (AVX).
+fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 impl Bvh {
@@ -78,27 +161,35 @@ impl Bvh {
     ///
     /// Every index in `mesh.triangles` must be a valid position index (the loaders check this).
     pub fn new(mesh: TriangleMesh) -> Bvh {
+        Bvh::with_width(mesh, if has_avx() { 8 } else { 4 })
+    }
+
+    /// Build with `width` (4 or 8) children per node; 8 only where [`has_avx`].
+    fn with_width(mesh: TriangleMesh, width: usize) -> Bvh {
         let bounds = mesh.bounds();
-        let (nodes, order) = build(&mesh);
-        // `build` pushes children in pairs after the root: nodes 2k+1 and 2k+2 form pair k.
-        let root = nodes.first().map(|&root| relink(root));
-        let pairs = nodes
-            .get(1..)
-            .unwrap_or_default()
-            .chunks_exact(2)
-            .map(|c| NodePair([relink(c[0]), relink(c[1])]))
-            .collect();
-        let tris = order
-            .iter()
-            .map(|&i| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]))
+        let (binary, order) = build(&mesh);
+        let corners = |i: u32| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]);
+        let tree = if width == 8 {
+            Tree::Eight(Wide::collapse(&binary, &order, &corners))
+        } else {
+            Tree::Four(Wide::collapse(&binary, &order, &corners))
+        };
+        let normals = (0..mesh.triangle_count())
+            .map(|i| {
+                let c = corners(i as u32);
+                let n = cross_f64(&c);
+                if n.norm_squared() > 0.0 && n.norm_squared().is_finite() {
+                    geometric_normal(&c)
+                } else {
+                    Vector3::zeros()
+                }
+            })
             .collect();
         Bvh {
             mesh,
             bounds,
-            root,
-            pairs,
-            tris,
-            ids: order,
+            tree,
+            normals,
         }
     }
 
@@ -112,90 +203,190 @@ impl Bvh {
 
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let mut best: Option<(usize, TriHit)> = None;
-        let mut t_best = t_max;
-        self.traverse(ray, t_min, t_max, |slot, pre, t_far| {
-            if let Some(h) = intersect_triangle(&self.tris[slot], pre, t_min, t_far) {
-                t_best = h.t;
-                best = Some((slot, h));
-            }
-            (t_best, false)
-        });
-        best.map(|(slot, h)| Hit {
-            t: h.t,
-            triangle: self.ids[slot],
-            normal: geometric_normal(&self.tris[slot]),
-            u: h.u,
-            v: h.v,
+        let found = match &self.tree {
+            Tree::Four(w) => w.intersect::<Native, Native>(ray, t_min, t_max),
+            Tree::Eight(w) => intersect_eight(w, ray, t_min, t_max),
+        };
+        found.map(|(triangle, t, u, v)| Hit {
+            t,
+            triangle,
+            normal: self.normals[triangle as usize],
+            u,
+            v,
         })
     }
 
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        match &self.tree {
+            Tree::Four(w) => w.occluded::<Native, Native>(ray, t_min, t_max),
+            Tree::Eight(w) => occluded_eight(w, ray, t_min, t_max),
+        }
+    }
+}
+
+/// [`Wide::intersect`] of an eight-wide tree: AVX on x86_64 (a tree of eight is only built
+/// where the CPU has it), plain arrays elsewhere.
+#[inline]
+fn intersect_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `Tree::Eight` is only built by `Bvh::new` when `has_avx()`; tests that build
+        // one directly check for AVX first.
+        unsafe { intersect_avx(w, ray, t_min, t_max) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        w.intersect::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+    }
+}
+
+/// [`Wide::occluded`] of an eight-wide tree (see [`intersect_eight`]).
+#[inline]
+fn occluded_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: as in `intersect_eight`.
+        unsafe { occluded_avx(w, ray, t_min, t_max) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        w.occluded::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn intersect_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+    w.intersect::<Avx, Native>(ray, t_min, t_max)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    w.occluded::<Avx, Native>(ray, t_min, t_max)
+}
+
+impl<const N: usize> Wide<N> {
+    /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and packet lanes `T`.
+    #[inline(always)]
+    fn intersect<V: Lanes<N>, T: Lanes<PACKET>>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(u32, f32, f32, f32)> {
+        // (packet, lane, t, u, v) of the closest hit so far.
+        let mut best: Option<(usize, usize, f32, f32, f32)> = None;
+        self.traverse::<V, T, _, true>(ray, t_min, t_max, |pk, tri_ray, t_far| {
+            let h = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far);
+            let mut t_best = t_far;
+            let mut m = h.mask;
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if h.t[j] < t_best {
+                    t_best = h.t[j];
+                    best = Some((pk, j, h.t[j], h.u[j], h.v[j]));
+                }
+            }
+            (t_best, false)
+        });
+        best.map(|(pk, j, t, u, v)| (self.packet_ids[pk][j], t, u, v))
+    }
+
+    /// Whether anything lies on the ray, with node lanes `V` and packet lanes `T`.
+    #[inline(always)]
+    fn occluded<V: Lanes<N>, T: Lanes<PACKET>>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        self.traverse(ray, t_min, t_max, |slot, pre, t_far| {
-            hit = intersect_triangle(&self.tris[slot], pre, t_min, t_far).is_some();
+        self.traverse::<V, T, _, false>(ray, t_min, t_max, |pk, tri_ray, t_far| {
+            hit = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far).mask != 0;
             (t_far, hit)
         });
         hit
     }
 
-    /// Walk the tree front to back, calling `visit(slot, ray, t_far)` for each triangle slot in
-    /// a leaf whose box the ray enters before `t_far`. `visit` returns the new `t_far` and
-    /// whether to stop.
+    /// Walk the tree, calling `visit(packet, ray, t_far)` for each packet of a leaf whose box
+    /// the ray enters before `t_far`. `visit` returns the new `t_far` and whether to stop.
+    /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
+    /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    fn traverse<F>(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: F)
-    where
-        F: FnMut(usize, &PreparedRay, f32) -> (f32, bool),
+    fn traverse<V: Lanes<N>, T: Lanes<PACKET>, F, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut visit: F,
+    ) where
+        F: FnMut(usize, &TriRay<T>, f32) -> (f32, bool),
     {
-        let Some(root) = self.root else {
-            return;
-        };
         if t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
             return;
         }
-        let pre = PreparedRay::new(ray);
+        let consts = RayConsts::new(ray);
+        let node_ray = NodeRay::<V, N>::new(&consts);
+        let tri_ray = TriRay::<T>::new(&consts);
+        let t_min_v = V::splat(t_min);
         let mut t_far = t_max;
-        if slab(&root, &pre, t_min, t_far).is_none() {
-            return;
-        }
-        // Entries: (2 * pair + child, entry distance). Left uninitialised: zeroing 1 KiB for
+        // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
         // every ray cost a few per cent of a short ray's traversal.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut sp = 0usize;
-        let mut n = root;
+        let mut cur = self.root;
         loop {
-            if n.count > 0 {
-                let first = n.first as usize;
-                for slot in first..first + n.count as usize {
-                    let (t, stop) = visit(slot, &pre, t_far);
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, t_enter) = slab::<V, N>(node, &node_ray, t_min_v, V::splat(t_far));
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    if !ORDERED {
+                        // Push all but the first and descend into it.
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let j = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            stack[sp].write((node.child[j], t_enter[j]));
+                            sp += 1;
+                        }
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    // Two or more children: sort by entry distance, push all but the nearest
+                    // (farthest first) and descend into the nearest.
+                    let mut hits = [(0u32, 0f32); N];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let j = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let e = (node.child[j], t_enter[j]);
+                        let mut k = n;
+                        while k > 0 && hits[k - 1].1 > e.1 {
+                            hits[k] = hits[k - 1];
+                            k -= 1;
+                        }
+                        hits[k] = e;
+                        n += 1;
+                    }
+                    for &e in hits[1..n].iter().rev() {
+                        stack[sp].write(e);
+                        sp += 1;
+                    }
+                    cur = hits[0].0;
+                    continue;
+                }
+            } else {
+                let first = (cur & LEAF_FIRST_MASK) as usize;
+                let count = ((cur & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+                for pk in first..first + count {
+                    let (t, stop) = visit(pk, &tri_ray, t_far);
                     if stop {
                         return;
                     }
                     t_far = t;
-                }
-            } else {
-                let pair = &self.pairs[n.first as usize].0;
-                let ta = slab(&pair[0], &pre, t_min, t_far);
-                let tb = slab(&pair[1], &pre, t_min, t_far);
-                match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, t_enter_far) =
-                            if ta <= tb { (0, 1, tb) } else { (1, 0, ta) };
-                        stack[sp].write((2 * n.first + far, t_enter_far));
-                        sp += 1;
-                        n = pair[near as usize];
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        n = pair[0];
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        n = pair[1];
-                        continue;
-                    }
-                    (None, None) => {}
                 }
             }
             // Pop the next subtree that still starts before the closest hit.
@@ -209,24 +400,114 @@ impl Bvh {
                 // (this one included) was written by this traversal.
                 let (next, t_enter) = unsafe { stack[sp].assume_init() };
                 if t_enter < t_far {
-                    n = self.pairs[next as usize / 2].0[next as usize % 2];
+                    cur = next;
                     break;
                 }
             }
         }
     }
+
+    /// Collapse the binary tree `binary` (leaves index the build `order`) into a wide one.
+    fn collapse(
+        binary: &[BuildNode],
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+    ) -> Wide<N> {
+        let mut wide = Wide {
+            root: EMPTY_CHILD,
+            nodes: Vec::with_capacity(binary.len() / (N - 1) + 1),
+            packets: Vec::with_capacity(order.len() / 2 + 1),
+            packet_ids: Vec::with_capacity(order.len() / 2 + 1),
+        };
+        if !binary.is_empty() {
+            wide.root = wide.emit(binary, order, corners, 0);
+        }
+        wide
+    }
+
+    /// Emit binary node `ni` and its subtree; returns its child reference.
+    fn emit(
+        &mut self,
+        binary: &[BuildNode],
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+        ni: usize,
+    ) -> u32 {
+        let n = &binary[ni];
+        if n.count > 0 {
+            return self.leaf(order, corners, n.first as usize, n.count as usize);
+        }
+        // Open the interior child of largest area until there are N.
+        let mut kids = vec![n.first as usize, n.first as usize + 1];
+        while kids.len() < N {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| binary[k].count == 0)
+                .max_by(|a, b| half_area(&binary[*a.1]).total_cmp(&half_area(&binary[*b.1])));
+            let Some((i, &k)) = widest else {
+                break;
+            };
+            let first = binary[k].first as usize;
+            kids[i] = first;
+            kids.push(first + 1);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Node::EMPTY);
+        for (lane, &k) in kids.iter().enumerate() {
+            let b = binary[k].bounds;
+            let child = self.emit(binary, order, corners, k);
+            let node = &mut self.nodes[index];
+            for (plane, &x) in b.iter().enumerate() {
+                node.bounds[plane][lane] = x;
+            }
+            node.child[lane] = child;
+        }
+        index as u32
+    }
+
+    /// Pack leaf slots `first .. first + count` of the build order into packets.
+    fn leaf(
+        &mut self,
+        order: &[u32],
+        corners: &dyn Fn(u32) -> [[f32; 3]; 3],
+        first: usize,
+        count: usize,
+    ) -> u32 {
+        let first_packet = self.packets.len();
+        for chunk in order[first..first + count].chunks(PACKET) {
+            let mut p = TriPacket {
+                v: [[[f32::NAN; PACKET]; 3]; 3],
+            };
+            let mut ids = [u32::MAX; PACKET];
+            for (j, &tri) in chunk.iter().enumerate() {
+                for (k, corner) in corners(tri).iter().enumerate() {
+                    for (a, &x) in corner.iter().enumerate() {
+                        p.v[k][a][j] = x;
+                    }
+                }
+                ids[j] = tri;
+            }
+            self.packets.push(p);
+            self.packet_ids.push(ids);
+        }
+        let n_packets = self.packets.len() - first_packet;
+        assert!(
+            first_packet <= LEAF_FIRST_MASK as usize && n_packets < 8,
+            "BVH leaf reference overflow: {first_packet} packets"
+        );
+        LEAF | ((n_packets as u32) << LEAF_COUNT_SHIFT) | first_packet as u32
+    }
 }
 
-/// Map an interior node's child index in the build array (2k+1) to its pair index (k).
-fn relink(mut n: Node) -> Node {
-    if n.count == 0 {
-        n.first = (n.first - 1) / 2;
-    }
-    n
+/// Half the surface area of a binary node's box.
+fn half_area(n: &BuildNode) -> f32 {
+    let d = [0, 1, 2].map(|a| (n.bounds[3 + a] - n.bounds[a]).max(0.0));
+    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 }
 
 /// Per-ray constants of the slab and watertight triangle tests.
-struct PreparedRay {
+struct RayConsts {
     origin: [f32; 3],
     inv_dir: [f32; 3],
     /// Index into `Node::bounds` of the near and far plane on each axis (the max plane is
@@ -244,65 +525,206 @@ struct PreparedRay {
     sz: f32,
 }
 
-impl PreparedRay {
+impl RayConsts {
     #[inline(always)]
-    fn new(ray: &Ray) -> PreparedRay {
+    fn new(ray: &Ray) -> RayConsts {
         let d = [ray.dir.x, ray.dir.y, ray.dir.z];
-        let inv_dir = d.map(|c| 1.0 / c);
-        let kz = if d[0].abs() >= d[1].abs() {
-            if d[0].abs() >= d[2].abs() {
-                0
-            } else {
-                2
-            }
-        } else if d[1].abs() >= d[2].abs() {
-            1
+        // Written without branches: the axis order of random directions is unpredictable.
+        let a = d.map(f32::abs);
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
         } else {
-            2
+            2 - (a[1] >= a[2]) as usize
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let neg = inv_dir.map(|c| c.is_sign_negative() as usize);
-        PreparedRay {
+        // Swap kx and ky when d_kz < 0 to keep the winding.
+        let flip = (d[kz] < 0.0) as usize;
+        let kx = (kz + 1 + flip) % 3;
+        let ky = (kz + 2 - flip) % 3;
+        // The five quotients in two vector divisions (each lane exactly the scalar quotient).
+        let inv = Native::splat(1.0)
+            .div(Native::load(&[d[0], d[1], d[2], 1.0]))
+            .to_array();
+        let [sx, sy, ..] = Native::load(&[d[kx], d[ky], 1.0, 1.0])
+            .div(Native::load(&[d[kz], d[kz], 1.0, 1.0]))
+            .to_array();
+        let inv_dir = [inv[0], inv[1], inv[2]];
+        RayConsts {
             origin: [ray.origin.x, ray.origin.y, ray.origin.z],
             inv_dir,
-            near: [3 * neg[0], 1 + 3 * neg[1], 2 + 3 * neg[2]],
-            far: [3 - 3 * neg[0], 4 - 3 * neg[1], 5 - 3 * neg[2]],
+            near: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_negative() as usize),
+            far: [0, 1, 2].map(|a| a + 3 * inv_dir[a].is_sign_positive() as usize),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx,
+            sy,
+            sz: inv_dir[kz],
         }
     }
 }
 
-/// Conservative slab test: the entry distance when the ray meets the box within
-/// `(t_min, t_max)`, else `None`.
-#[inline(always)]
-fn slab(n: &Node, r: &PreparedRay, t_min: f32, t_max: f32) -> Option<f32> {
-    let mut t0 = t_min;
-    let mut t1 = t_max;
-    for a in 0..3 {
-        let near = (n.bounds[r.near[a]] - r.origin[a]) * r.inv_dir[a];
-        let far = (n.bounds[r.far[a]] - r.origin[a]) * r.inv_dir[a] * SLAB_FAR_SCALE;
-        // Written so that a NaN (0 * inf: the origin on the slab plane of a parallel ray)
-        // leaves the interval unchanged.
-        if near > t0 {
-            t0 = near;
-        }
-        if far < t1 {
-            t1 = far;
+/// The ray splatted for the slab test of `N` boxes.
+struct NodeRay<V, const N: usize> {
+    o: [V; 3],
+    inv: [V; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl<V: Lanes<N>, const N: usize> NodeRay<V, N> {
+    #[inline(always)]
+    fn new(c: &RayConsts) -> Self {
+        NodeRay {
+            o: c.origin.map(V::splat),
+            inv: c.inv_dir.map(V::splat),
+            near: c.near,
+            far: c.far,
         }
     }
-    (t0 <= t1).then_some(t0)
+}
+
+/// The ray splatted for the triangle test of a packet.
+struct TriRay<T> {
+    o: [T; 3],
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: T,
+    sy: T,
+    sz: T,
+}
+
+impl<T: Lanes<PACKET>> TriRay<T> {
+    #[inline(always)]
+    fn new(c: &RayConsts) -> Self {
+        TriRay {
+            o: c.origin.map(T::splat),
+            kx: c.kx,
+            ky: c.ky,
+            kz: c.kz,
+            sx: T::splat(c.sx),
+            sy: T::splat(c.sy),
+            sz: T::splat(c.sz),
+        }
+    }
+}
+
+/// Conservative slab test of the `N` boxes of `n`: a bit per child whose box the ray meets
+/// within `(t_min, t_far)`, and the entry distances.
+#[inline(always)]
+fn slab<V: Lanes<N>, const N: usize>(
+    n: &Node<N>,
+    r: &NodeRay<V, N>,
+    t_min: V,
+    t_far: V,
+) -> (u32, [f32; N]) {
+    let mut t0 = t_min;
+    let mut t1 = t_far;
+    let scale = V::splat(SLAB_FAR_SCALE);
+    for a in 0..3 {
+        let near = V::load(&n.bounds[r.near[a]]).sub(r.o[a]).mul(r.inv[a]);
+        let far = V::load(&n.bounds[r.far[a]])
+            .sub(r.o[a])
+            .mul(r.inv[a])
+            .mul(scale);
+        // `max`/`min` keep the running bound when `near`/`far` is NaN (0 * inf: the origin on
+        // the slab plane of a parallel ray), leaving the interval unchanged.
+        t0 = near.max(t0);
+        t1 = far.min(t1);
+    }
+    (t0.le(t1).bits(), t0.to_array())
+}
+
+/// Result of [`packet_test`]: a bit per lane that hits, and each lane's distance and
+/// barycentrics (meaningful where the bit is set).
+struct PacketHits {
+    mask: u32,
+    t: [f32; PACKET],
+    u: [f32; PACKET],
+    v: [f32; PACKET],
+}
+
+/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the triangles of
+/// `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
+/// would (see the module doc).
+#[inline(always)]
+fn packet_test<T: Lanes<PACKET>>(
+    p: &TriPacket,
+    r: &TriRay<T>,
+    t_min: f32,
+    t_max: f32,
+) -> PacketHits {
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let o = &r.o;
+    // Corner k relative to the origin, sheared and scaled into the ray's frame (the ray
+    // becomes the +z axis).
+    let corner = |k: usize| {
+        let pz = T::load(&p.v[k][kz]).sub(o[kz]);
+        let px = T::load(&p.v[k][kx]).sub(o[kx]).sub(r.sx.mul(pz));
+        let py = T::load(&p.v[k][ky]).sub(o[ky]).sub(r.sy.mul(pz));
+        (px, py, pz)
+    };
+    let (ax, ay, az) = corner(0);
+    let (bx, by, bz) = corner(1);
+    let (cx, cy, cz) = corner(2);
+    // Scaled barycentric coordinates (2D edge functions).
+    let mut u = cx.mul(by).sub(cy.mul(bx));
+    let mut v = ax.mul(cy).sub(ay.mul(cx));
+    let mut w = bx.mul(ay).sub(by.mul(ax));
+    let zero = T::splat(0.0);
+    let on_edge = u.eq(zero).or(v.eq(zero)).or(w.eq(zero)).bits();
+    if on_edge != 0 {
+        // Exactly zero in f32: recompute those lanes in f64, where the products are exact.
+        let f = |p: f32, q: f32, s: f32, t: f32| (p as f64 * q as f64 - s as f64 * t as f64) as f32;
+        let (ax, ay, bx, by, cx, cy) = (
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        );
+        let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
+        for j in 0..PACKET {
+            if on_edge & (1 << j) != 0 {
+                ua[j] = f(cx[j], by[j], cy[j], bx[j]);
+                va[j] = f(ax[j], cy[j], ay[j], cx[j]);
+                wa[j] = f(bx[j], ay[j], by[j], ax[j]);
+            }
+        }
+        (u, v, w) = (T::load(&ua), T::load(&va), T::load(&wa));
+    }
+    // Two-sided: reject only when the signs differ.
+    let neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
+    let pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
+    let det = u.add(v).add(w);
+    let t_scaled = u
+        .mul(r.sz.mul(az))
+        .add(v.mul(r.sz.mul(bz)))
+        .add(w.mul(r.sz.mul(cz)));
+    let inv_det = T::splat(1.0).div(det);
+    let t = t_scaled.mul(inv_det);
+    // A NaN `t` (degenerate ray, unused lane) fails both comparisons.
+    let in_range = t.gt(T::splat(t_min)).and(t.lt(T::splat(t_max)));
+    let mask = neg.and(pos).or(det.eq(zero)).andnot(in_range).bits();
+    if mask == 0 {
+        return PacketHits {
+            mask,
+            t: [0.0; PACKET],
+            u: [0.0; PACKET],
+            v: [0.0; PACKET],
+        };
+    }
+    PacketHits {
+        mask,
+        t: t.to_array(),
+        u: v.mul(inv_det).to_array(),
+        v: w.mul(inv_det).to_array(),
+    }
 }
 
 /// Distance and barycentrics of a triangle hit.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 struct TriHit {
     t: f32,
@@ -311,11 +733,12 @@ struct TriHit {
 }
 
 /// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013), hits with
-/// `t_min < t < t_max` only.
-#[inline(always)]
+/// `t_min < t < t_max` only: the scalar reference that each lane of [`packet_test`] must
+/// reproduce bit for bit.
+#[cfg(test)]
 fn intersect_triangle(
     tri: &[[f32; 3]; 3],
-    r: &PreparedRay,
+    r: &RayConsts,
     t_min: f32,
     t_max: f32,
 ) -> Option<TriHit> {
@@ -378,6 +801,18 @@ fn cross_f64(tri: &[[f32; 3]; 3]) -> Vector3<f64> {
     (p[1] - p[0]).cross(&(p[2] - p[0]))
 }
 
+/// One node of the binary build tree.
+#[derive(Clone, Copy, Debug)]
+struct BuildNode {
+    /// Box corners: `min` x, y, z then `max` x, y, z.
+    bounds: [f32; 6],
+    /// Leaf: first entry of the build order. Interior: index of its first child (the second
+    /// follows it).
+    first: u32,
+    /// Number of triangles of a leaf; 0 for an interior node.
+    count: u32,
+}
+
 /// Build record of one triangle.
 struct Prim {
     lo: [f32; 3],
@@ -427,7 +862,7 @@ impl Bin {
 }
 
 /// Build the flattened tree; returns the nodes and the mesh triangle index of each leaf slot.
-fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
+fn build(mesh: &TriangleMesh) -> (Vec<BuildNode>, Vec<u32>) {
     let mut prims = Vec::with_capacity(mesh.triangle_count());
     let mut order = Vec::with_capacity(mesh.triangle_count());
     for i in 0..mesh.triangle_count() {
@@ -449,7 +884,7 @@ fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
     }
     let mut idx: Vec<u32> = (0..prims.len() as u32).collect();
     nodes.reserve(2 * prims.len());
-    nodes.push(Node {
+    nodes.push(BuildNode {
         bounds: [0.0; 6],
         first: 0,
         count: 0,
@@ -485,7 +920,7 @@ fn build(mesh: &TriangleMesh) -> (Vec<Node>, Vec<u32>) {
             }
             Some(mid) => {
                 let l = nodes.len();
-                let child = Node {
+                let child = BuildNode {
                     bounds: [0.0; 6],
                     first: 0,
                     count: 0,
@@ -565,7 +1000,8 @@ fn split(
             if acc.count == 0 || right_count[k] == 0 {
                 continue;
             }
-            let cost = acc.half_area() * acc.count as f32 + right_area[k] * right_count[k] as f32;
+            let cost = acc.half_area() * blocks(acc.count as usize)
+                + right_area[k] * blocks(right_count[k] as usize);
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, a, k));
             }
@@ -576,7 +1012,7 @@ fn split(
     };
     let parent_area = bounds.half_area();
     let split_cost = COST_TRAVERSAL + cost / parent_area;
-    if split_cost >= count as f32 && count <= MAX_LEAF {
+    if split_cost >= blocks(count) && count <= MAX_LEAF {
         return None;
     }
     let scale = BINS as f32 / extent[a];
@@ -592,6 +1028,11 @@ fn split(
         return median(idx);
     }
     Some(left)
+}
+
+/// SAH cost of testing `n` triangles: the number of packets they fill.
+fn blocks(n: usize) -> f32 {
+    n.div_ceil(PACKET) as f32
 }
 
 #[inline]
@@ -645,12 +1086,300 @@ mod tests {
         };
         mesh.triangles = vec![[0, 1, 2]; 1000];
         mesh.material = vec![0; 1000];
-        let bvh = Bvh::new(mesh);
-        let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
-        let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
-        assert!((hit.t - 1.0).abs() < 1e-6);
-        let nodes = bvh.pairs.iter().flat_map(|p| p.0);
-        assert!(nodes.chain(bvh.root).all(|n| n.count as usize <= MAX_LEAF));
+        for width in [4, 8] {
+            let bvh = Bvh::with_width(mesh.clone(), width);
+            match &bvh.tree {
+                Tree::Four(w) => check_leaves(w, 1000),
+                Tree::Eight(w) => check_leaves(w, 1000),
+            }
+            if width == 4 || has_avx() {
+                let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
+                let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+                assert!((hit.t - 1.0).abs() < 1e-6);
+            }
+        }
+    }
+
+    /// Every leaf holds at most MAX_LEAF triangles, in at most ceil(MAX_LEAF / 4) packets, and
+    /// the `n` triangles are in the tree exactly once.
+    fn check_leaves<const N: usize>(w: &Wide<N>, n: u32) {
+        let refs = w.nodes.iter().flat_map(|n| n.child).chain([w.root]);
+        for r in refs.filter(|r| r & LEAF != 0) {
+            let packets = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+            assert!(packets <= MAX_LEAF.div_ceil(PACKET));
+            let first = (r & LEAF_FIRST_MASK) as usize;
+            let tris = w.packet_ids[first..first + packets]
+                .iter()
+                .flatten()
+                .filter(|&&id| id != u32::MAX)
+                .count();
+            assert!(tris <= MAX_LEAF);
+        }
+        let mut ids: Vec<u32> = w.packet_ids.iter().flatten().copied().collect();
+        ids.retain(|&id| id != u32::MAX);
+        ids.sort_unstable();
+        assert_eq!(ids, (0..n).collect::<Vec<u32>>());
+    }
+
+    /// A splitmix64 stream of uniforms in [0, 1) (no dependence on the code under test).
+    struct Uniforms(u64);
+
+    impl Uniforms {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.next()
+        }
+    }
+
+    /// A soup of random triangles of very different sizes, a grid of quads on integer
+    /// coordinates (rays along the axes through their shared edges and corners make edge
+    /// functions exactly zero) and a few triangles of zero area.
+    fn test_mesh(rng: &mut Uniforms) -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        let push = |mesh: &mut TriangleMesh, c: [[f32; 3]; 3]| {
+            let base = mesh.positions.len() as u32;
+            mesh.positions
+                .extend(c.iter().map(|p| Point3::new(p[0], p[1], p[2])));
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.material.push(0);
+        };
+        for k in 0..300 {
+            let size = if k % 10 == 0 { 3.0 } else { 0.2 };
+            let o = [0, 1, 2].map(|_| rng.range(-2.0, 2.0));
+            let c = [0, 1, 2].map(|_| [0, 1, 2].map(|a| o[a] + rng.range(-size, size)));
+            push(&mut mesh, c);
+        }
+        for i in -2..2 {
+            for j in -2..2 {
+                let (x, y, z) = (i as f32, j as f32, 0.5);
+                push(
+                    &mut mesh,
+                    [[x, y, z], [x + 1.0, y, z], [x + 1.0, y + 1.0, z]],
+                );
+                push(
+                    &mut mesh,
+                    [[x, y, z], [x + 1.0, y + 1.0, z], [x, y + 1.0, z]],
+                );
+            }
+        }
+        push(&mut mesh, [[0.1, 0.1, 0.0]; 3]);
+        push(
+            &mut mesh,
+            [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]],
+        );
+        mesh
+    }
+
+    fn test_rays(rng: &mut Uniforms, n: usize) -> Vec<(Ray, f32)> {
+        let mut rays = Vec::new();
+        for k in 0..n {
+            let o = Point3::new(
+                rng.range(-4.0, 4.0),
+                rng.range(-4.0, 4.0),
+                rng.range(-4.0, 4.0),
+            );
+            let dir = match k % 4 {
+                // Axis-aligned (through grid edges and corners when the origin is on one).
+                0 => {
+                    let o = Point3::new(o.x.round() * 0.5, o.y.round() * 0.5, -3.0);
+                    rays.push((Ray::new(o, Vector3::new(0.0, 0.0, 1.0)), f32::INFINITY));
+                    continue;
+                }
+                // Towards a random point of the soup's region.
+                _ => {
+                    let target = Vector3::new(
+                        rng.range(-2.0, 2.0),
+                        rng.range(-2.0, 2.0),
+                        rng.range(-2.0, 2.0),
+                    );
+                    (target - o.coords).normalize()
+                }
+            };
+            let t_max = if k % 3 == 0 {
+                rng.range(0.5, 6.0)
+            } else {
+                f32::INFINITY
+            };
+            rays.push((Ray::new(o, dir), t_max));
+        }
+        rays
+    }
+
+    /// Brute force with the scalar watertight test: the nearest hit `(triangle, t, u, v)`
+    /// over all triangles of non-zero area (the first triangle on a tie of `t`).
+    fn brute_force(mesh: &TriangleMesh, ray: &Ray, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+        let consts = RayConsts::new(ray);
+        let mut best: Option<(u32, f32, f32, f32)> = None;
+        for i in 0..mesh.triangle_count() {
+            let c = mesh.corners(i).map(|p| [p.x, p.y, p.z]);
+            if cross_f64(&c).norm_squared() <= 0.0 {
+                continue;
+            }
+            if let Some(h) = intersect_triangle(&c, &consts, 0.0, t_max) {
+                if best.is_none_or(|b| h.t < b.1) {
+                    best = Some((i as u32, h.t, h.u, h.v));
+                }
+            }
+        }
+        best
+    }
+
+    /// A tree walk under test: nearest hit `(triangle, t, u, v)` and occlusion.
+    type Cast = dyn Fn(&Bvh, &Ray, f32) -> (Option<(u32, f32, f32, f32)>, bool);
+
+    /// The walk `cast` of a tree of `width` finds what brute force finds: the same distance bit
+    /// for bit, the same triangle (or, on a tie of distance, one at the same distance) and
+    /// barycentrics; `occluded` agrees; the public API gives the same hit with its normal.
+    fn agrees_with_brute_force(width: usize, cast: &Cast) {
+        let mut rng = Uniforms(11);
+        let mesh = test_mesh(&mut rng);
+        let bvh = Bvh::with_width(mesh.clone(), width);
+        let public = width == 4 || has_avx();
+        let mut hits = 0;
+        for (k, (ray, t_max)) in test_rays(&mut rng, 3000).iter().enumerate() {
+            let expected = brute_force(&mesh, ray, *t_max);
+            let (got, occluded) = cast(&bvh, ray, *t_max);
+            assert_eq!(occluded, expected.is_some(), "ray {k}");
+            match (expected, got) {
+                (None, None) => {}
+                (Some((tri, t, u, v)), Some((h_tri, h_t, h_u, h_v))) => {
+                    hits += 1;
+                    assert_eq!(h_t.to_bits(), t.to_bits(), "ray {k}");
+                    if h_tri == tri {
+                        assert_eq!((h_u, h_v), (u, v), "ray {k}");
+                    } else {
+                        // A tie: the other triangle must hit at exactly the same distance.
+                        let c = mesh.corners(h_tri as usize).map(|p| [p.x, p.y, p.z]);
+                        let other =
+                            intersect_triangle(&c, &RayConsts::new(ray), 0.0, f32::INFINITY);
+                        assert_eq!(other.unwrap().t.to_bits(), t.to_bits(), "ray {k}");
+                    }
+                }
+                (e, g) => panic!("ray {k}: brute force {e:?}, BVH {g:?}"),
+            }
+            if public {
+                let h = bvh.intersect(ray, 0.0, *t_max);
+                assert_eq!(h.map(|h| (h.triangle, h.t, h.u, h.v)), got, "ray {k}");
+                if let Some(h) = h {
+                    let c = mesh.corners(h.triangle as usize).map(|p| [p.x, p.y, p.z]);
+                    assert_eq!(h.normal, geometric_normal(&c));
+                }
+                assert_eq!(bvh.occluded(ray, 0.0, *t_max), occluded);
+            }
+        }
+        assert!(hits > 1000, "only {hits} rays hit");
+    }
+
+    fn four(b: &Bvh) -> &Wide<4> {
+        match &b.tree {
+            Tree::Four(w) => w,
+            Tree::Eight(_) => unreachable!("built with width 4"),
+        }
+    }
+
+    fn eight(b: &Bvh) -> &Wide<8> {
+        match &b.tree {
+            Tree::Eight(w) => w,
+            Tree::Four(_) => unreachable!("built with width 8"),
+        }
+    }
+
+    #[test]
+    fn four_wide_tree_agrees_with_brute_force_native() {
+        agrees_with_brute_force(4, &|b, r, t| {
+            let w = four(b);
+            (
+                w.intersect::<Native, Native>(r, 0.0, t),
+                w.occluded::<Native, Native>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn four_wide_tree_agrees_with_brute_force_portable() {
+        agrees_with_brute_force(4, &|b, r, t| {
+            let w = four(b);
+            (
+                w.intersect::<Portable<4>, Portable<4>>(r, 0.0, t),
+                w.occluded::<Portable<4>, Portable<4>>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn eight_wide_tree_agrees_with_brute_force_portable() {
+        agrees_with_brute_force(8, &|b, r, t| {
+            let w = eight(b);
+            (
+                w.intersect::<Portable<8>, Portable<4>>(r, 0.0, t),
+                w.occluded::<Portable<8>, Portable<4>>(r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn eight_wide_tree_agrees_with_brute_force_native() {
+        if !has_avx() {
+            println!("skipped: no AVX on this CPU");
+            return;
+        }
+        agrees_with_brute_force(8, &|b, r, t| {
+            let w = eight(b);
+            (intersect_eight(w, r, 0.0, t), occluded_eight(w, r, 0.0, t))
+        });
+    }
+
+    /// Each lane of the packet test is the scalar test, bit for bit, including lanes that
+    /// take the double-precision fallback (rays through shared edges and corners).
+    fn packet_lanes_are_the_scalar_test<T: Lanes<PACKET>>() {
+        let mut rng = Uniforms(12);
+        let mesh = test_mesh(&mut rng);
+        let bvh = Bvh::with_width(mesh, 4);
+        let w = four(&bvh);
+        let mut compared = 0;
+        for (ray, t_max) in test_rays(&mut rng, 400) {
+            let consts = RayConsts::new(&ray);
+            let tri_ray = TriRay::<T>::new(&consts);
+            for (p, ids) in w.packets.iter().zip(&w.packet_ids) {
+                let h = packet_test::<T>(p, &tri_ray, 0.0, t_max);
+                for (j, &id) in ids.iter().enumerate() {
+                    let scalar = if id == u32::MAX {
+                        None
+                    } else {
+                        intersect_triangle(&p.corners(j), &consts, 0.0, t_max)
+                    };
+                    match scalar {
+                        None => assert_eq!(h.mask & (1 << j), 0),
+                        Some(s) => {
+                            compared += 1;
+                            assert_ne!(h.mask & (1 << j), 0);
+                            assert_eq!(
+                                (h.t[j].to_bits(), h.u[j].to_bits(), h.v[j].to_bits()),
+                                (s.t.to_bits(), s.u.to_bits(), s.v.to_bits())
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 400, "{compared}");
+    }
+
+    #[test]
+    fn packet_lanes_are_the_scalar_test_native() {
+        packet_lanes_are_the_scalar_test::<Native>();
+    }
+
+    #[test]
+    fn packet_lanes_are_the_scalar_test_portable() {
+        packet_lanes_are_the_scalar_test::<Portable<4>>();
     }
 
     #[test]

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod glb;
 pub mod load;
 pub mod primitives;
+mod simd;
 
 use nalgebra::{Point3, Vector3};
 

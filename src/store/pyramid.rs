@@ -3,8 +3,8 @@
 //! `P(t_e + dtau / D) - P(t_e)`), stored in the cube's file or in a side file that holds this
 //! group only.
 //!
-//! [`write_pyramid`] streams the cube by row slabs through [`prefix_rows`] and
-//! [`mip_halve_rows`], so peak memory is one slab whatever the cube's size;
+//! [`write_pyramid`] streams the cube by row slabs through [`pyramid_rows`], so peak memory
+//! is one slab whatever the cube's size;
 //! [`read_pyramid`] loads a stored pyramid whole, as the renderer needs it, instead of
 //! rebuilding it from the cube.
 //!
@@ -21,11 +21,11 @@
 
 use super::{attr, GroupView, StoreError};
 use crate::container::{
-    AttrValue, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem, GroupReader,
-    GroupUpdate,
+    AttrValue, CubeCompression, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem,
+    GroupReader, GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
-use crate::pyramid::{level_nt, mip_halve_rows, prefix_rows, top_level, Level, Pyramid};
+use crate::pyramid::{level_nt, pyramid_rows, top_level, Level, Pyramid};
 use std::path::Path;
 
 /// Name of the group.
@@ -143,11 +143,20 @@ pub fn write_pyramid(
     out: &mut GroupUpdate,
     levels: usize,
     source: &str,
+    compression: CubeCompression,
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
     let meta = reader.meta();
     let rows_per_slab = SLAB_TARGET_BYTES / (meta.nx * (meta.axis.nt + 1) * 8);
-    write_pyramid_slabs(reader, out, levels, source, rows_per_slab, on_rows)
+    write_pyramid_slabs(
+        reader,
+        out,
+        levels,
+        source,
+        compression,
+        rows_per_slab,
+        on_rows,
+    )
 }
 
 /// [`write_pyramid`] with a given number of rows per slab (at least 1, at most all).
@@ -156,6 +165,7 @@ fn write_pyramid_slabs(
     out: &mut GroupUpdate,
     levels: usize,
     source: &str,
+    compression: CubeCompression,
     rows_per_slab: usize,
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
@@ -190,17 +200,14 @@ fn write_pyramid_slabs(
         attr("source", AttrValue::Str(source.to_string())),
     ];
     let mask = reader.read_mask()?;
-    let mut specs = vec![DatasetSpec::new(
-        "prefix",
-        &[ny, nx, nt + 1],
-        GroupElem::F64,
-    )];
+    let mut specs = vec![
+        DatasetSpec::new("prefix", &[ny, nx, nt + 1], GroupElem::F64).with_compression(compression),
+    ];
     for (k, &nt_k) in (1..=levels).zip(&info.level_nts()) {
-        specs.push(DatasetSpec::new(
-            level_name(k),
-            &[ny, nx, nt_k],
-            GroupElem::F32,
-        ));
+        specs.push(
+            DatasetSpec::new(level_name(k), &[ny, nx, nt_k], GroupElem::F32)
+                .with_compression(compression),
+        );
     }
     if mask.is_some() {
         specs.push(DatasetSpec::new("mask", &[ny, nx], GroupElem::U8));
@@ -213,30 +220,32 @@ fn write_pyramid_slabs(
     // One set of slab buffers for the whole cube (page faults and allocation once): the
     // source rows, the prefix and each level, resized (down, for the last slab) in place.
     let mut src = vec![0.0f32; rows_per_slab * nx * nt];
-    let mut prefix = DataBuf::F64(vec![0.0f64; rows_per_slab * nx * (nt + 1)]);
-    let mut level_bufs: Vec<DataBuf> = (1..=levels)
-        .map(|k| DataBuf::F32(vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)]))
+    let mut prefix = vec![0.0f64; rows_per_slab * nx * (nt + 1)];
+    let mut level_bufs: Vec<Vec<f32>> = (1..=levels)
+        .map(|k| vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)])
         .collect();
     for y0 in (0..ny).step_by(rows_per_slab) {
         let n = rows_per_slab.min(ny - y0);
         let src = &mut src[..n * nx * nt];
         reader.read_rows_into(y0, src)?;
-        if let DataBuf::F64(p) = &mut prefix {
-            p.truncate(n * nx * (nt + 1));
-            prefix_rows(src, nt, p);
+        prefix.truncate(n * nx * (nt + 1));
+        for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
+            l.truncate(n * nx * level_nt(nt, k));
         }
-        out.write_group_rows(GROUP, "prefix", y0, &prefix)?;
-        for k in 1..=levels {
-            let (below, this) = level_bufs.split_at_mut(k - 1);
-            let prev: &[f32] = match below.last() {
-                Some(DataBuf::F32(v)) => v,
-                _ => src,
-            };
-            if let DataBuf::F32(dst) = &mut this[0] {
-                dst.truncate(n * nx * level_nt(nt, k));
-                mip_halve_rows(prev, level_nt(nt, k - 1), dst);
+        let mut outs: Vec<&mut [f32]> = level_bufs.iter_mut().map(|l| &mut l[..]).collect();
+        pyramid_rows(src, nt, &mut prefix, &mut outs);
+        // The buffers are moved into a `DataBuf` for the write and back out after it.
+        let written = DataBuf::F64(std::mem::take(&mut prefix));
+        out.write_group_rows(GROUP, "prefix", y0, &written)?;
+        if let DataBuf::F64(p) = written {
+            prefix = p;
+        }
+        for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
+            let written = DataBuf::F32(std::mem::take(l));
+            out.write_group_rows(GROUP, &level_name(k), y0, &written)?;
+            if let DataBuf::F32(v) = written {
+                *l = v;
             }
-            out.write_group_rows(GROUP, &level_name(k), y0, &this[0])?;
         }
         on_rows(y0 + n);
     }
@@ -324,10 +333,16 @@ mod tests {
     use crate::container::{write_cube, Provenance};
     use crate::cube::Cube;
 
-    /// Streams of 2 rows (chunk boundaries of the datasets fall inside slabs) give the
-    /// prefix sums and box sums computed here directly from the cube's values.
+    /// Streams of 2 rows give the prefix sums and box sums computed here directly from the
+    /// cube's values, stored compressed or not.
     #[test]
     fn slabs_of_rows_give_the_brute_force_pyramid() {
+        for compression in [CubeCompression::Deflate(1), CubeCompression::None] {
+            slabs_of_rows_give_the_brute_force_pyramid_with(compression);
+        }
+    }
+
+    fn slabs_of_rows_give_the_brute_force_pyramid_with(compression: CubeCompression) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.h5");
         let axis = TimeAxis {
@@ -344,7 +359,8 @@ mod tests {
         write_cube(&path, &cube, &Provenance::new("test")).unwrap();
         let reader = CubeReader::open(&path).unwrap();
         let mut up = GroupUpdate::open(&path).unwrap();
-        let info = write_pyramid_slabs(&reader, &mut up, 3, "c.h5", 2, &|_| {}).unwrap();
+        let info =
+            write_pyramid_slabs(&reader, &mut up, 3, "c.h5", compression, 2, &|_| {}).unwrap();
         drop(reader);
         up.finish().unwrap();
         assert_eq!(info.level_nts(), vec![6, 3, 2]);
@@ -376,7 +392,7 @@ mod tests {
         // Too many levels for 11 bins (at most 4).
         let reader = CubeReader::open(&path).unwrap();
         let mut up = GroupUpdate::open(&path).unwrap();
-        let e = write_pyramid(&reader, &mut up, 5, "c.h5", &|_| {}).unwrap_err();
+        let e = write_pyramid(&reader, &mut up, 5, "c.h5", compression, &|_| {}).unwrap_err();
         assert!(e.to_string().contains("at most 4"), "{e}");
     }
 }

@@ -114,6 +114,8 @@ const TABLE_ROWS_MIN: usize = 16;
 #[derive(Clone, Debug)]
 pub struct ResponseTable {
     axis: TimeAxis,
+    /// `1 / axis.dt_ps`.
+    inv_dt: f64,
     /// Bin of a row's first weight, relative to the bin whose centre precedes the sample.
     lo: isize,
     /// Weights per row.
@@ -175,6 +177,7 @@ impl ResponseTable {
         };
         ResponseTable {
             axis: response.axis,
+            inv_dt: 1.0 / response.axis.dt_ps,
             lo,
             len,
             rows,
@@ -202,11 +205,28 @@ impl ResponseTable {
     /// `0..nt`). Returns `None` for a non-finite time.
     #[inline]
     pub fn weights(&self, t_ps: f64, weights: &mut [f64]) -> Option<isize> {
-        let tc = self.axis.bin_coord(t_ps) - 0.5;
+        self.weights_at(self.bin_coord(t_ps), weights)
+    }
+
+    /// Continuous bin coordinate of `t_ps` on the table's axis (bin `i` covers `[i, i + 1)`):
+    /// [`TimeAxis::bin_coord`] with the division by the bin width replaced by a product.
+    #[inline]
+    pub fn bin_coord(&self, t_ps: f64) -> f64 {
+        (t_ps - self.axis.t0_ps) * self.inv_dt
+    }
+
+    /// [`ResponseTable::weights`] of a sample at bin coordinate `b` (from
+    /// [`ResponseTable::bin_coord`]).
+    #[inline]
+    pub fn weights_at(&self, b: f64, weights: &mut [f64]) -> Option<isize> {
+        let tc = b - 0.5;
         if !tc.is_finite() || tc.abs() > 1e15 {
             return None;
         }
-        let floor = tc.floor();
+        // floor(tc) without a libm call (SSE2 has no rounding instruction): truncation is
+        // exact for |tc| <= 1e15 < 2^53.
+        let trunc = tc as i64;
+        let floor = (trunc - ((trunc as f64) > tc) as i64) as f64;
         let f = tc - floor;
         if f >= self.tent_from && f <= 1.0 - self.tent_from {
             let w = &mut weights[..self.len];

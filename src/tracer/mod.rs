@@ -7,8 +7,10 @@
 //! Lambertian with the entry's albedo `rho` (BRDF `rho / pi`).
 //!
 //! Estimator. For each pixel, `spp` camera rays leave the camera centre through uniformly
-//! random points of the pixel (a box filter: the pixel value is the mean radiance over its
-//! footprint). At every path vertex `x_k` (k = 1 .. max_bounces) the spot is connected by a
+//! distributed points of the pixel (a box filter: the pixel value is the mean radiance over its
+//! footprint); the points, and the first two bounce directions, are stratified across the
+//! pixel's paths by scrambled Sobol points ([`sampling::PixelSampler`]: each point is still
+//! uniform, so the estimate is unbiased, with less variance than independent points). At every path vertex `x_k` (k = 1 .. max_bounces) the spot is connected by a
 //! shadow ray (next-event estimation; the spot is a delta light, so this is the only way to
 //! reach it), contributing
 //!
@@ -29,13 +31,14 @@
 //! time `t_world = t_camera - eta |x_1 - o| / c` (physics.md, "two clocks"), `x_1` being the
 //! first surface the pixel ray hits, on the axis of [`world_axis`].
 //!
-//! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and
-//! accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
+//! Determinism: each pixel draws from its own random stream ([`sampling::pixel_rng`]) and its
+//! own scrambled points, and accumulates its samples in a fixed order in f64; rows are rendered in parallel but the
 //! output is bit-identical for any number of rayon threads, and a cube assembled from bands
 //! of rows ([`Tracer::render_rows`], for writing large cubes without holding them whole) is
 //! bit-identical to the whole render.
 //!
-//! Speed: the sensor response is read from a table ([`binning::ResponseTable`]) rather than
+//! Speed: geometry and path vertices are single precision, ray casting uses the wide BVH of
+//! [`crate::geometry::bvh`]; the sensor response is read from a table ([`binning::ResponseTable`]) rather than
 //! evaluated per sample, and each pixel stores and clears only the bins it touched; the
 //! rest of the time is ray casting (figures in `benches/tracer_results.md`).
 
@@ -48,18 +51,23 @@ use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
 use binning::{add_weighted, ResponseTable, TimeResponse};
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
-use sampling::{cosine_hemisphere, pixel_rng, uniform, Stream};
+use sampling::{cosine_hemisphere, pixel_rng, uniform, uniform_pair, PixelSampler, Stream};
 use std::ops::Range;
 use std::time::Instant;
 
 /// Offset of secondary ray origins along the surface normal, metres (0.1 mm).
-const RAY_OFFSET_M: f64 = 1e-4;
+const RAY_OFFSET_M: f32 = 1e-4;
 /// Shadow rays stop this short of the laser spot, metres (a spot on a surface must not be
 /// shadowed by that surface).
-const SHADOW_END_M: f64 = 1e-4;
+const SHADOW_END_M: f32 = 1e-4;
+/// Bounces whose directions come from the pixel's low-discrepancy points (2D dimensions 1 and
+/// 2; dimension 0 is the position in the pixel).
+const LD_BOUNCES: u32 = PixelSampler::DIMS - 1;
+/// `1 / pi` in single precision.
+const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 
 /// Settings of a transient render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -156,73 +164,103 @@ struct Contribution {
     value: f64,
 }
 
-/// The per-path kernel shared by the transient and steady renders.
+/// The per-path kernel shared by the transient and steady renders. Path vertices and
+/// directions are single precision, like the geometry (positions to ~1e-7 relative: 0.1 um
+/// in a metre-sized scene, 3e-4 ps of flight); path lengths and contributions are summed in
+/// double precision.
 struct PathKernel<'a> {
     scene: &'a Scene,
     bvh: &'a Bvh,
-    emission: Emission,
+    /// Camera centre.
+    camera_m: Point3<f32>,
+    /// Without lens distortion, the world direction of the ray through pixel coordinates
+    /// `(u, v)` is `world_from_pixel * (u, v, 1)` normalised (`R K^-1`); `None` with
+    /// distortion, which `Intrinsics::camera_ray` removes by iteration.
+    world_from_pixel: Option<Matrix3<f32>>,
+    /// Laser spot and its unit normal.
+    laser_m: Point3<f32>,
+    laser_normal: Vector3<f32>,
+    /// Radiant intensity towards `w` (unit, away from the spot): `intensity_scale`, times
+    /// `max(0, laser_normal . w)` for cosine emission (scene.rs `Laser::intensity`).
+    intensity_scale: f32,
+    cosine_emission: bool,
+    /// Albedo of each material.
+    albedo: Vec<f32>,
     max_bounces: u32,
     rr_start_bounce: u32,
 }
 
 impl PathKernel<'_> {
-    /// Trace one path through continuous pixel coordinates `(u, v)`; calls `sink` for each
-    /// contribution and returns the number of rays cast.
+    /// Trace path `index` of a pixel through continuous pixel coordinates `(u, v)`; calls
+    /// `sink` for each contribution and returns the number of rays cast.
+    #[inline(always)]
     fn trace_path(
         &self,
         rng: &mut Pcg64Mcg,
+        ld: &PixelSampler,
+        index: u32,
         u: f64,
         v: f64,
         sink: &mut impl FnMut(Contribution),
     ) -> u64 {
-        let cam = &self.scene.camera;
-        let laser = &self.scene.laser;
-        let mesh = self.bvh.mesh();
-        let dir0 = cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner();
-        let mut origin: Point3<f64> = cam.pose.position_m;
-        let mut dir: Vector3<f64> = dir0;
-        let mut path_m = 0.0;
-        let mut first_m = 0.0;
-        let mut beta = 1.0f64;
+        let materials = &self.bvh.mesh().material;
+        let mut dir: Vector3<f32> = match &self.world_from_pixel {
+            Some(m) => (m * Vector3::new(u as f32, v as f32, 1.0)).normalize(),
+            None => {
+                let cam = &self.scene.camera;
+                (cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner())
+                    .cast::<f32>()
+            }
+        };
+        let mut origin = self.camera_m;
+        let mut path_m = 0.0f64;
+        let mut first_m = 0.0f64;
+        let mut beta = 1.0f32;
         let mut rays = 0u64;
         for bounce in 1..=self.max_bounces {
             rays += 1;
-            let ray = Ray::new(origin.cast::<f32>(), dir.cast::<f32>());
+            let ray = Ray::new(origin, dir);
             let Some(hit) = self.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
                 break;
             };
-            let t = hit.t as f64;
-            let p = origin + dir * t;
-            path_m += t;
+            let p = origin + dir * hit.t;
+            path_m += hit.t as f64;
             if bounce == 1 {
-                first_m = t;
+                first_m = hit.t as f64;
             }
             // Two-sided surfaces: shade the side the ray arrives from.
-            let mut n = hit.normal.cast::<f64>();
+            let mut n = hit.normal;
             if n.dot(&dir) > 0.0 {
                 n = -n;
             }
-            let rho = self.scene.albedo[mesh.material[hit.triangle as usize] as usize] as f64;
+            let rho = self.albedo[materials[hit.triangle as usize] as usize];
             if rho <= 0.0 {
                 break;
             }
             let p_off = p + n * RAY_OFFSET_M;
             // Next-event estimation towards the spot.
-            let to_spot = laser.position_m - p_off;
-            let r = to_spot.norm();
-            if r > SHADOW_END_M {
-                let w = to_spot / r;
+            let to_spot = self.laser_m - p_off;
+            let r2 = to_spot.norm_squared();
+            if r2 > SHADOW_END_M * SHADOW_END_M {
+                let r = r2.sqrt();
+                let inv_r = 1.0 / r;
+                let w = to_spot * inv_r;
                 let cos_p = n.dot(&w);
-                let intensity = laser.intensity(self.emission, &(-w));
+                let intensity = if self.cosine_emission {
+                    self.intensity_scale * (-self.laser_normal.dot(&w)).max(0.0)
+                } else {
+                    self.intensity_scale
+                };
                 if cos_p > 0.0 && intensity > 0.0 {
                     rays += 1;
-                    let shadow = Ray::new(p_off.cast::<f32>(), w.cast::<f32>());
-                    if !self.bvh.occluded(&shadow, 0.0, (r - SHADOW_END_M) as f32) {
+                    let shadow = Ray::new(p_off, w);
+                    if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
+                        let value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
                         sink(Contribution {
                             bounce,
-                            path_m: path_m + r,
+                            path_m: path_m + r as f64,
                             first_m,
-                            value: beta * rho / std::f64::consts::PI * intensity * cos_p / (r * r),
+                            value: value as f64,
                         });
                     }
                 }
@@ -239,7 +277,14 @@ impl PathKernel<'_> {
                 }
                 beta /= survive;
             }
-            dir = cosine_hemisphere(&n, uniform(rng), uniform(rng));
+            // The first two bounces from the pixel's low-discrepancy points, later ones from
+            // its random stream.
+            let (u1, u2) = if bounce <= LD_BOUNCES {
+                ld.sample(index, bounce)
+            } else {
+                uniform_pair(rng)
+            };
+            dir = cosine_hemisphere(&n, u1, u2);
             origin = p_off;
         }
         rays
@@ -254,13 +299,35 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
             .all(|&m| (m as usize) < scene.albedo.len()),
         "the BVH's mesh has materials the scene has no albedo for (build it from scene.mesh)"
     );
+    let emission = opts.emission.unwrap_or(scene.laser.emission);
+    let laser = &scene.laser;
+    let (intensity_scale, cosine_emission) = match emission {
+        Emission::Cosine => (laser.energy * FRAC_1_PI as f64, true),
+        Emission::Isotropic => (laser.energy / (4.0 * std::f64::consts::PI), false),
+    };
     PathKernel {
         scene,
         bvh,
-        emission: opts.emission.unwrap_or(scene.laser.emission),
+        camera_m: scene.camera.pose.position_m.cast::<f32>(),
+        world_from_pixel: world_from_pixel(&scene.camera),
+        laser_m: laser.position_m.cast::<f32>(),
+        laser_normal: laser.normal.into_inner().cast::<f32>(),
+        intensity_scale: intensity_scale as f32,
+        cosine_emission,
+        albedo: scene.albedo.clone(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
     }
+}
+
+/// `R K^-1` of an undistorted camera (see `PathKernel::world_from_pixel`).
+fn world_from_pixel(cam: &crate::scene::StreakCamera) -> Option<Matrix3<f32>> {
+    let k = &cam.intrinsics;
+    if k.k1 != 0.0 || k.k2 != 0.0 {
+        return None;
+    }
+    let camera_from_pixel = k.k_matrix().try_inverse()?;
+    Some((cam.pose.world_from_camera.matrix() * camera_from_pixel).cast::<f32>())
 }
 
 /// The world-time axis of a render: the same bin width as the camera axis, covering the
@@ -411,7 +478,7 @@ impl<'a> Tracer<'a> {
             })
             .collect();
 
-        let eta = scene.eta;
+        let ps_per_m = flight_time_ps(scene.eta, 1.0);
         let spp = opts.spp.max(1);
         let inv_spp = 1.0 / spp as f64;
         let row_stats: Vec<TraceStats> = row_outs
@@ -440,21 +507,23 @@ impl<'a> Tracer<'a> {
                     }
                 };
                 for x in 0..nx {
-                    let mut rng = pixel_rng(opts.seed, Stream::Transient, (y * nx + x) as u64);
+                    let pixel = (y * nx + x) as u64;
+                    let mut rng = pixel_rng(opts.seed, Stream::Transient, pixel);
+                    let ld = PixelSampler::new(opts.seed, Stream::Transient, pixel, spp);
                     let mut lost = 0.0;
-                    for _ in 0..spp {
-                        let u = x as f64 + uniform(&mut rng);
-                        let v = y as f64 + uniform(&mut rng);
+                    for i in 0..spp {
+                        let (du, dv) = ld.sample(i, 0);
+                        let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
                         stats.paths += 1;
-                        let rays = k.trace_path(&mut rng, u, v, &mut |c: Contribution| {
+                        let rays = k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
                             let value = c.value * inv_spp;
-                            let t_camera_ps = flight_time_ps(eta, c.path_m);
+                            let t_camera_ps = c.path_m * ps_per_m;
                             stats.samples += 1;
-                            let b = cam_axis.bin_coord(t_camera_ps);
+                            let b = cam_resp.bin_coord(t_camera_ps);
                             if !(b >= 0.0 && b < nt as f64) {
                                 stats.samples_outside_window += 1;
                             }
-                            let Some(first) = cam_resp.weights(t_camera_ps, &mut weights) else {
+                            let Some(first) = cam_resp.weights_at(b, &mut weights) else {
                                 lost += value;
                                 return;
                             };
@@ -469,7 +538,7 @@ impl<'a> Tracer<'a> {
                                 add_weighted(split, first, &weights, value);
                             }
                             if let Some(world_resp) = &self.world_resp {
-                                let t_world_ps = t_camera_ps - flight_time_ps(eta, c.first_m);
+                                let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
                                 if let Some(first) =
                                     world_resp.weights(t_world_ps, &mut weights_world)
                                 {
@@ -547,16 +616,50 @@ pub fn render_steady(
         .enumerate()
         .for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let mut rng = pixel_rng(opts.seed, Stream::Steady, (y * nx + x) as u64);
+                let pixel = (y * nx + x) as u64;
+                let mut rng = pixel_rng(opts.seed, Stream::Steady, pixel);
+                let ld = PixelSampler::new(opts.seed, Stream::Steady, pixel, spp);
                 let mut sum = 0.0;
-                for _ in 0..spp {
-                    let u = x as f64 + uniform(&mut rng);
-                    let v = y as f64 + uniform(&mut rng);
-                    k.trace_path(&mut rng, u, v, &mut |c: Contribution| sum += c.value);
+                for i in 0..spp {
+                    let (du, dv) = ld.sample(i, 0);
+                    let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
+                    k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
+                        sum += c.value
+                    });
                 }
                 *px = sum / spp as f64;
             }
             progress(1);
         });
     image
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixel_matrix_gives_the_camera_rays() {
+        // The undistorted fast path agrees with Intrinsics::camera_ray rotated to the world,
+        // at corners, centre and interior points of the image.
+        let scene = Scene::builtin("cornell", None).unwrap();
+        let cam = &scene.camera;
+        let m = world_from_pixel(cam).expect("the built-in camera has no distortion");
+        let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
+        for (u, v) in [
+            (0.0, 0.0),
+            (w, h),
+            (0.5 * w, 0.5 * h),
+            (3.25, 40.5),
+            (w, 0.0),
+        ] {
+            let expected =
+                cam.pose.world_from_camera * cam.intrinsics.camera_ray(u, v).into_inner();
+            let got = (m * Vector3::new(u as f32, v as f32, 1.0)).normalize();
+            assert!((got.cast::<f64>() - expected).norm() < 1e-6, "({u}, {v})");
+        }
+        let mut distorted = *cam;
+        distorted.intrinsics.k1 = 0.1;
+        assert!(world_from_pixel(&distorted).is_none());
+    }
 }
