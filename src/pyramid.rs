@@ -141,13 +141,37 @@ fn block_pyramid(
     }
     let n_pix = src.len() / nt;
     let n1 = level_nts[0];
-    for ((s, p), l1) in profiles.zip(scratch.chunks_exact_mut(n1)) {
-        halve(s, l1);
-        prefix_one(s, p);
-    }
+    // Levels 1 and 2 go straight from registers to their outputs where SSE and the layout
+    // allow it (four-fifths of the level bytes skip the scratch); the levels above them, or
+    // all levels otherwise, are built in `scratch` and streamed out afterwards.
+    let direct = stream::can_write_levels_1_2(nt, levels);
     // `scratch[below]` holds the block's level below the one being built.
-    let mut below = 0..n_pix * n1;
-    for k in 1..levels.len() {
+    let mut below;
+    let first_built;
+    if direct {
+        let n2 = level_nts[1];
+        let (l1, rest) = levels.split_at_mut(1);
+        let l2_scratch = &mut scratch[n_pix * n1..n_pix * (n1 + n2)];
+        for (i, ((s, p), l2s)) in profiles.zip(l2_scratch.chunks_exact_mut(n2)).enumerate() {
+            stream::levels_1_2(
+                s,
+                &mut l1[0][i * n1..(i + 1) * n1],
+                &mut rest[0][i * n2..(i + 1) * n2],
+                l2s,
+            );
+            prefix_one(s, p);
+        }
+        below = n_pix * n1..n_pix * (n1 + n2);
+        first_built = 2;
+    } else {
+        for ((s, p), l1) in profiles.zip(scratch.chunks_exact_mut(n1)) {
+            halve(s, l1);
+            prefix_one(s, p);
+        }
+        below = 0..n_pix * n1;
+        first_built = 1;
+    }
+    for k in first_built..levels.len() {
         let (n_below, n_k) = (level_nts[k - 1], level_nts[k]);
         let (done, free) = scratch.split_at_mut(below.end);
         let dst = &mut free[..n_pix * n_k];
@@ -163,9 +187,11 @@ fn block_pyramid(
         below = below.end..below.end + n_pix * n_k;
     }
     let mut start = 0;
-    for (level, &n_k) in levels.iter_mut().zip(level_nts) {
+    for (k, (level, &n_k)) in levels.iter_mut().zip(level_nts).enumerate() {
         let len = n_pix * n_k;
-        stream::copy(&scratch[start..start + len], level);
+        if k >= 2 || !direct {
+            stream::copy(&scratch[start..start + len], level);
+        }
         start += len;
     }
 }
@@ -259,6 +285,61 @@ mod stream {
             single_f32(&mut dst[i], src[i]);
             i += 1;
         }
+    }
+
+    /// Whether [`levels_1_2`] can write levels 1 and 2 of profiles of `nt` bins into
+    /// `levels[0]` and `levels[1]`: on x86-64, with whole blocks of 16 bins and both outputs
+    /// 16-byte aligned (so every pixel's part of them is).
+    pub fn can_write_levels_1_2(nt: usize, levels: &[&mut [f32]]) -> bool {
+        cfg!(target_arch = "x86_64")
+            && nt.is_multiple_of(16)
+            && levels.len() >= 2
+            && levels[..2].iter().all(|l| l.as_ptr().align_offset(16) == 0)
+    }
+
+    /// Levels 1 and 2 of one profile `src` (a multiple of 16 bins), four sums per SSE
+    /// instruction: level 1 into `l1` and level 2 into `l2` with non-temporal stores (both
+    /// 16-byte aligned), and level 2 also into `l2_copy` (ordinary stores, for the levels
+    /// above). The sums are the same additions, in the same order, as two
+    /// [`super::halve`] passes.
+    #[cfg(target_arch = "x86_64")]
+    pub fn levels_1_2(src: &[f32], l1: &mut [f32], l2: &mut [f32], l2_copy: &mut [f32]) {
+        use std::arch::x86_64::*;
+        assert!(
+            src.len().is_multiple_of(16),
+            "levels_1_2: whole blocks of 16"
+        );
+        let n = src.len() / 16;
+        assert!(l1.len() == 8 * n && l2.len() == 4 * n && l2_copy.len() == 4 * n);
+        assert!(l1.as_ptr().align_offset(16) == 0 && l2.as_ptr().align_offset(16) == 0);
+        for q in 0..n {
+            // SAFETY: `src` holds 16 values from 16 q, `l1` 8 from 8 q and `l2`, `l2_copy` 4
+            // from 4 q (lengths asserted above); `l1` and `l2` are 16-byte aligned and the
+            // offsets are multiples of 4 f32, as `_mm_stream_ps` needs; loads and `storeu`
+            // are unaligned; SSE is in the x86-64 baseline.
+            unsafe {
+                let p = src.as_ptr().add(16 * q);
+                let pairs = |a: __m128, b: __m128| {
+                    _mm_add_ps(
+                        _mm_shuffle_ps::<0b10_00_10_00>(a, b),
+                        _mm_shuffle_ps::<0b11_01_11_01>(a, b),
+                    )
+                };
+                let l1a = pairs(_mm_loadu_ps(p), _mm_loadu_ps(p.add(4)));
+                let l1b = pairs(_mm_loadu_ps(p.add(8)), _mm_loadu_ps(p.add(12)));
+                let s2 = pairs(l1a, l1b);
+                _mm_stream_ps(l1.as_mut_ptr().add(8 * q), l1a);
+                _mm_stream_ps(l1.as_mut_ptr().add(8 * q + 4), l1b);
+                _mm_stream_ps(l2.as_mut_ptr().add(4 * q), s2);
+                _mm_storeu_ps(l2_copy.as_mut_ptr().add(4 * q), s2);
+            }
+        }
+    }
+
+    /// Never called off x86-64 ([`can_write_levels_1_2`] is false there).
+    #[cfg(not(target_arch = "x86_64"))]
+    pub fn levels_1_2(_: &[f32], _: &mut [f32], _: &mut [f32], _: &mut [f32]) {
+        unreachable!("levels_1_2 off x86-64")
     }
 
     /// Orders the non-temporal stores before any later store (the end of a parallel task).
@@ -565,8 +646,10 @@ mod tests {
     #[test]
     fn pyramid_rows_levels_are_pair_sums_at_any_alignment() {
         let mut rng = Pcg64::seed_from_u64(6);
+        // Whether the SSE path for levels 1 and 2 ran at least once (x86-64 only).
+        let mut direct_seen = false;
         for offset in 0..4 {
-            for nt in [1usize, 2, 3, 5, 6, 10, 16, 37] {
+            for nt in [1usize, 2, 3, 5, 6, 10, 16, 37, 64] {
                 for n_pix in [1usize, 3, BLOCK_PIXELS + 5] {
                     let src: Vec<f32> = (0..n_pix * nt)
                         .map(|_| rng.random_range(-400..=400) as f32)
@@ -578,6 +661,7 @@ mod tests {
                     let mut prefix = vec![f64::NAN; n_pix * (nt + 1)];
                     let mut outs: Vec<&mut [f32]> =
                         bufs.iter_mut().map(|b| &mut b[offset..]).collect();
+                    direct_seen |= stream::can_write_levels_1_2(nt, &outs);
                     pyramid_rows(&src, nt, &mut prefix, &mut outs);
                     for p in 0..n_pix {
                         let mut below: Vec<f32> = src[p * nt..(p + 1) * nt].to_vec();
@@ -609,6 +693,7 @@ mod tests {
                 }
             }
         }
+        assert_eq!(direct_seen, cfg!(target_arch = "x86_64"));
     }
 
     /// Fewer levels than the axis allows: the ones asked for, the same as a full build.
