@@ -62,11 +62,12 @@ const BLOCK_PIXELS: usize = 64;
 /// Parallel over blocks of pixels.
 ///
 /// The kernel is memory-bound, so it is written to move as few bytes as possible: each
-/// profile is read once, its levels are built from one another in a per-thread scratch buffer
-/// that stays in the L1 cache, and the levels go out with non-temporal stores (no read of
-/// each output cache line before it is overwritten). Building the prefix and the levels in
-/// separate passes, each level from the stored one below, moved 4.95 GB for a
-/// 672 x 600 x 512 cube; this pass moves 3.30 GB (tools/bench_cubeops_results.md).
+/// profile is read once; levels 1 and 2 are summed from it in SSE registers, levels 3 and up
+/// from one another in a per-thread scratch that stays in the L2 cache; and the levels go
+/// out with non-temporal stores (no read of each output cache line before it is
+/// overwritten). Building the prefix and the levels in separate passes, each level from the
+/// stored one below, moved 4.95 GB for a 672 x 600 x 512 cube; this pass moves 3.30 GB, at
+/// the bandwidth of a plain copy (tools/bench_cubeops_results.md).
 ///
 /// Panics if the slice lengths disagree or more levels are asked than `top_level(nt)`.
 pub fn pyramid_rows(src_rows: &[f32], nt: usize, prefix: &mut [f64], levels: &mut [&mut [f32]]) {
