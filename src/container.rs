@@ -2681,7 +2681,7 @@ mod tests {
         let value = |y: usize, i: usize| ((y * 7919 + i * 104_729) % 10_007) as f32 * 0.25 - 9.0;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.h5");
-        let mut w = camera_writer(&path, nx, ny, axis, CubeCompression::default());
+        let mut w = camera_writer(&path, nx, ny, axis, CubeCompression::default()).unwrap();
         let compressor = w.row_compressor();
         assert_eq!(compressor.row_len(), nx * nt);
         for y in [2, 0] {
@@ -2712,7 +2712,7 @@ mod tests {
         let levels = (0..=9).map(CubeCompression::Deflate);
         for compression in std::iter::once(CubeCompression::None).chain(levels) {
             let p = dir.path().join("d.h5");
-            let mut w = camera_writer(&p, nx, ny, axis, compression);
+            let mut w = camera_writer(&p, nx, ny, axis, compression).unwrap();
             let row0: Vec<f32> = (0..nx * nt).map(|i| value(0, i)).collect();
             // Deflated chunks decode whatever their level; raw ones only fit an unfiltered cube.
             let foreign = w.write_compressed_row(0, &compressor.compress(&row0));
@@ -2734,15 +2734,12 @@ mod tests {
             w.finish().unwrap();
             assert_eq!(read_cube(&p).unwrap().data, back.data, "{compression:?}");
         }
-        assert!(CubeWriter::create_with(
+        assert!(camera_writer(
             &dir.path().join("e.h5"),
             nx,
             ny,
             axis,
-            TimeFrame::Camera,
-            DEFAULT_UNITS,
-            &Provenance::new("test"),
-            CubeCompression::Deflate(10),
+            CubeCompression::Deflate(10)
         )
         .is_err());
     }
@@ -2754,7 +2751,7 @@ mod tests {
         ny: usize,
         axis: TimeAxis,
         compression: CubeCompression,
-    ) -> CubeWriter {
+    ) -> Result<CubeWriter> {
         CubeWriter::create_with(
             p,
             nx,
@@ -2765,7 +2762,6 @@ mod tests {
             &Provenance::new("test"),
             compression,
         )
-        .unwrap()
     }
 
     /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
@@ -2788,7 +2784,7 @@ mod tests {
             (CubeCompression::None, false),
         ] {
             let p = dir.path().join(format!("{compression:?}.h5"));
-            let mut w = camera_writer(&p, nx, ny, axis, compression);
+            let mut w = camera_writer(&p, nx, ny, axis, compression).unwrap();
             w.write_rows(0, &data).unwrap();
             w.write_mask(&mask).unwrap();
             w.finish().unwrap();
