@@ -1004,13 +1004,20 @@ impl CubeWriter {
     }
 }
 
-/// The little-endian bytes of `values` (the cube's on-disk type): a view of the same memory
-/// on little-endian machines, a converted copy elsewhere.
-fn le_bytes(values: &[f32]) -> std::borrow::Cow<'_, [u8]> {
+/// The little-endian bytes of `values` (every on-disk type of femto's files is
+/// little-endian): a view of the same memory on little-endian machines, a converted copy
+/// elsewhere.
+fn le_bytes<T: bytemuck::Pod>(values: &[T]) -> std::borrow::Cow<'_, [u8]> {
+    let bytes: &[u8] = bytemuck::cast_slice(values);
     if cfg!(target_endian = "little") {
-        std::borrow::Cow::Borrowed(bytemuck::cast_slice(values))
+        std::borrow::Cow::Borrowed(bytes)
     } else {
-        std::borrow::Cow::Owned(values.iter().flat_map(|v| v.to_le_bytes()).collect())
+        std::borrow::Cow::Owned(
+            bytes
+                .chunks_exact(std::mem::size_of::<T>())
+                .flat_map(|v| v.iter().rev().copied())
+                .collect(),
+        )
     }
 }
 
@@ -1461,18 +1468,16 @@ impl CubeReader {
     /// of 4-byte values then deflate at any level), so that its chunks can be copied as
     /// they are into a new cube of chunk width `cx` ([`GroupUpdate::open`]).
     fn stored_as_written(&self, cx: usize) -> bool {
-        let nt = self.meta.axis.nt;
-        if self.cube.chunk_dims() != Some(vec![1, cx, nt]) {
-            return false;
-        }
-        match self.cube.filters() {
-            Ok(f) => {
-                f.len() == 2
+        match &self.row_chunks {
+            Some((c, p)) => {
+                let f = &p.filters;
+                *c == cx
+                    && f.len() == 2
                     && f[0].id == FILTER_SHUFFLE
                     && matches!(f[0].cd_values.first(), None | Some(4))
                     && f[1].id == FILTER_DEFLATE
             }
-            Err(_) => false,
+            None => false,
         }
     }
 
@@ -2051,14 +2056,14 @@ fn create_group_dataset(
     }
 }
 
-/// Little-endian bytes of elements `range` of `buf`.
-fn buf_le_bytes(buf: &DataBuf, range: std::ops::Range<usize>) -> Vec<u8> {
+/// Little-endian bytes of elements `range` of `buf` ([`le_bytes`]).
+fn buf_le_bytes(buf: &DataBuf, range: std::ops::Range<usize>) -> std::borrow::Cow<'_, [u8]> {
     match buf {
-        DataBuf::F32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
-        DataBuf::F64(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
-        DataBuf::U8(v) => v[range].to_vec(),
-        DataBuf::U32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
-        DataBuf::I32(v) => v[range].iter().flat_map(|x| x.to_le_bytes()).collect(),
+        DataBuf::F32(v) => le_bytes(&v[range]),
+        DataBuf::F64(v) => le_bytes(&v[range]),
+        DataBuf::U8(v) => le_bytes(&v[range]),
+        DataBuf::U32(v) => le_bytes(&v[range]),
+        DataBuf::I32(v) => le_bytes(&v[range]),
     }
 }
 
@@ -2074,13 +2079,15 @@ fn write_group_rows(
 ) -> rust_hdf5::Result<()> {
     let row_elems: usize = shape[1..].iter().product();
     let pipeline = group_pipeline(buf.elem(), compression);
-    let chunks: Vec<Vec<u8>> = (0..buf.len() / row_elems)
+    // Uncompressed rows are stored from `buf` itself (on little-endian machines).
+    let chunks: Vec<std::borrow::Cow<[u8]>> = (0..buf.len() / row_elems)
         .into_par_iter()
         .map(|i| {
             let raw = buf_le_bytes(buf, i * row_elems..(i + 1) * row_elems);
             match &pipeline {
                 Some(p) => apply_filters(p, &raw)
-                    .expect("shuffle and deflate cannot fail on a whole chunk"),
+                    .expect("shuffle and deflate cannot fail on a whole chunk")
+                    .into(),
                 None => raw,
             }
         })

@@ -1445,14 +1445,10 @@ fn cube_scene_jitter_and_power_estimates_against_the_manifest() {
 #[test]
 fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
     let dir = tempfile::tempdir().unwrap();
+    // The realistic set, plus saturation.
     let flaws = femto::simulate::Flaws {
-        photon_noise: Some(3000.0),
-        dark: Some((0.01, 0.003)),
-        vignetting: Some(0.25),
-        jitter_ps: Some(2.0),
-        power_sigma: Some(0.03),
-        sweep: Some(0.05),
         saturation: Some(0.8),
+        ..femto::simulate::Flaws::realistic()
     };
     let cap = simulate_cube(dir.path(), flaws, 16);
     let m = Manifest::load(&cap.join("manifest.toml")).unwrap();
