@@ -73,7 +73,7 @@ fn main() {
             .unwrap_or(f64::NAN);
         let s = r.stats;
         println!(
-            "threads {threads}: {:.3} s, {:.2} CPU s, {} paths, {:.0} paths/s, {:.0} paths per CPU s, {} rays, {:.0} rays/s, {} samples ({} outside the window)",
+            "threads {threads}: {:.3} s, {:.2} CPU s, {} paths, {:.0} paths/s, {:.0} paths per CPU s, {} rays, {:.0} rays/s, {} samples ({} outside the window), {} paths ended past the window",
             s.seconds,
             cpu,
             s.paths,
@@ -82,7 +82,8 @@ fn main() {
             s.rays,
             s.rays as f64 / s.seconds,
             s.samples,
-            s.samples_outside_window
+            s.samples_outside_window,
+            s.paths_ended_late
         );
     }
 }

@@ -190,6 +190,18 @@ impl ResponseTable {
         &self.axis
     }
 
+    /// Arrival times, ps, outside of which a sample has no weight in any bin `0..nt`: one
+    /// bin of margin beyond the exact reach of the table's columns.
+    pub fn reach_ps(&self) -> (f64, f64) {
+        // A sample at bin coordinate `b` weighs bins `floor(b - 0.5) + lo ..` (`len` of them).
+        let (lo, len, nt) = (self.lo as f64, self.len as f64, self.axis.nt as f64);
+        let dt = self.axis.dt_ps;
+        (
+            self.axis.t0_ps + (0.5 - lo - len) * dt,
+            self.axis.t0_ps + (nt - lo + 1.5) * dt,
+        )
+    }
+
     /// Number of weights of every sample.
     pub fn len(&self) -> usize {
         self.len
@@ -313,6 +325,33 @@ mod tests {
             t0_ps: 100.0,
             dt_ps: 2.0,
             nt: 64,
+        }
+    }
+
+    #[test]
+    fn nothing_lands_in_the_axis_from_beyond_the_reach() {
+        // Samples past either end of `reach_ps` weigh no bin of the axis; samples a bin and a
+        // half inside it do, for a delta pulse and for pulses of a fraction of a bin to many.
+        for sigma_ps in [0.0, 0.02, 1.0, 7.0, 40.0] {
+            let table = ResponseTable::new(&TimeResponse::new(axis(), sigma_ps));
+            let (early, late) = table.reach_ps();
+            let nt = axis().nt as isize;
+            let mut w = vec![0.0; table.len()];
+            let weight_inside = |t: f64, w: &mut Vec<f64>| {
+                let first = table.weights(t, w).unwrap();
+                (0..table.len())
+                    .filter(|&k| (0..nt).contains(&(first + k as isize)))
+                    .map(|k| w[k])
+                    .sum::<f64>()
+            };
+            for k in 0..200 {
+                let d = k as f64 * 0.37;
+                assert_eq!(weight_inside(early - d, &mut w), 0.0, "sigma {sigma_ps}");
+                assert_eq!(weight_inside(late + d, &mut w), 0.0, "sigma {sigma_ps}");
+            }
+            let dt = axis().dt_ps;
+            assert!(weight_inside(early + 2.5 * dt + 6.0 * sigma_ps, &mut w) > 0.0);
+            assert!(weight_inside(late - 2.5 * dt - 6.0 * sigma_ps, &mut w) > 0.0);
         }
     }
 

@@ -40,7 +40,12 @@
 //! Speed: geometry and path vertices are single precision, ray casting uses the wide BVH of
 //! [`crate::geometry::bvh`]; the sensor response is read from a table ([`binning::ResponseTable`]) rather than
 //! evaluated per sample, and each pixel stores and clears only the bins it touched; the
-//! rest of the time is ray casting (figures in `benches/tracer_results.md`).
+//! rest of the time is ray casting (figures in `benches/tracer_results.md`). Light that lands
+//! in no bin is not traced: a connection to the spot that would arrive before every window
+//! is not made, and a path ends as soon as its length so far plus the straight line to the
+//! spot puts everything it could still deliver after every window (the camera window, and
+//! the world window shifted by the path's first segment); this removes only terms that
+//! would fall outside the cubes.
 
 pub mod binning;
 pub mod sampling;
@@ -112,8 +117,13 @@ pub struct TraceStats {
     pub rays: u64,
     /// Contributions that reached the sensor (unoccluded connections to the spot).
     pub samples: u64,
-    /// Contributions whose camera arrival time lies outside the cube's time window.
+    /// Contributions whose camera arrival time lies outside the cube's time window: those
+    /// binned with part of their weight outside, and connections to the spot not made
+    /// because they would arrive before every window.
     pub samples_outside_window: u64,
+    /// Paths ended because anything they could still deliver would arrive after every
+    /// window (their length so far plus the straight line to the spot is already too long).
+    pub paths_ended_late: u64,
     /// Energy that fell outside the camera-time window, summed over pixels in cube units
     /// (what the cube's sum misses compared with a steady-state render).
     pub energy_outside_window: f64,
@@ -133,6 +143,7 @@ impl TraceStats {
         self.rays += o.rays;
         self.samples += o.samples;
         self.samples_outside_window += o.samples_outside_window;
+        self.paths_ended_late += o.paths_ended_late;
         self.energy_outside_window += o.energy_outside_window;
     }
 }
@@ -192,17 +203,18 @@ struct PathKernel<'a> {
 
 impl PathKernel<'_> {
     /// Trace path `index` of a pixel through continuous pixel coordinates `(u, v)`; calls
-    /// `sink` for each contribution and returns the number of rays cast.
+    /// `sink` for each contribution that can land in `window`; returns the rays cast and what
+    /// the window let it skip.
     #[inline(always)]
     fn trace_path(
         &self,
         rng: &mut Pcg64Mcg,
         ld: &PixelSampler,
         index: u32,
-        u: f64,
-        v: f64,
+        (u, v): (f64, f64),
+        window: &PathWindow,
         sink: &mut impl FnMut(Contribution),
-    ) -> u64 {
+    ) -> PathTally {
         let materials = &self.bvh.mesh().material;
         let mut dir: Vector3<f32> = match &self.world_from_pixel {
             Some(m) => (m * Vector3::new(u as f32, v as f32, 1.0)).normalize(),
@@ -216,9 +228,10 @@ impl PathKernel<'_> {
         let mut path_m = 0.0f64;
         let mut first_m = 0.0f64;
         let mut beta = 1.0f32;
-        let mut rays = 0u64;
+        let mut tally = PathTally::default();
+        let (mut early_m, mut late_m) = (f64::NEG_INFINITY, f64::INFINITY);
         for bounce in 1..=self.max_bounces {
-            rays += 1;
+            tally.rays += 1;
             let ray = Ray::new(origin, dir);
             let Some(hit) = self.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
                 break;
@@ -227,6 +240,7 @@ impl PathKernel<'_> {
             path_m += hit.t as f64;
             if bounce == 1 {
                 first_m = hit.t as f64;
+                (early_m, late_m) = window.bounds_m(first_m);
             }
             // Two-sided surfaces: shade the side the ray arrives from.
             let mut n = hit.normal;
@@ -241,8 +255,18 @@ impl PathKernel<'_> {
             // Next-event estimation towards the spot.
             let to_spot = self.laser_m - p_off;
             let r2 = to_spot.norm_squared();
-            if r2 > SHADOW_END_M * SHADOW_END_M {
-                let r = r2.sqrt();
+            let r = r2.sqrt();
+            // This connection arrives after `path_m + r`, and so does every later one (the
+            // rest of a longer path to the spot is at least the straight line): past the
+            // window, the path has nothing left to give.
+            let arrival_m = path_m + r as f64;
+            if arrival_m > late_m {
+                tally.ended_late = true;
+                break;
+            }
+            if arrival_m < early_m {
+                tally.skipped_early += 1;
+            } else if r2 > SHADOW_END_M * SHADOW_END_M {
                 let inv_r = 1.0 / r;
                 let w = to_spot * inv_r;
                 let cos_p = n.dot(&w);
@@ -252,13 +276,13 @@ impl PathKernel<'_> {
                     self.intensity_scale
                 };
                 if cos_p > 0.0 && intensity > 0.0 {
-                    rays += 1;
+                    tally.rays += 1;
                     let shadow = Ray::new(p_off, w);
                     if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
                         let value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
                         sink(Contribution {
                             bounce,
-                            path_m: path_m + r as f64,
+                            path_m: arrival_m,
                             first_m,
                             value: value as f64,
                         });
@@ -287,7 +311,55 @@ impl PathKernel<'_> {
             dir = cosine_hemisphere(&n, u1, u2);
             origin = p_off;
         }
-        rays
+        tally
+    }
+}
+
+/// What one path cost and skipped (see [`PathKernel::trace_path`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct PathTally {
+    /// Rays cast: the camera and bounce rays plus the shadow rays.
+    rays: u64,
+    /// Connections to the spot not made because they would arrive before every window.
+    skipped_early: u64,
+    /// Whether the path ended because everything it could still deliver arrives after
+    /// every window.
+    ended_late: bool,
+}
+
+/// The optical path lengths, metres, outside of which a contribution falls in no bin of
+/// the cubes being rendered (the time responses' reach, [`ResponseTable::reach_ps`]).
+#[derive(Clone, Copy, Debug)]
+struct PathWindow {
+    /// Camera-time window as path lengths.
+    camera_m: (f64, f64),
+    /// World-time window as path lengths less the first segment (world time is camera time
+    /// less the first segment's flight), when a world-time cube is rendered.
+    world_m: Option<(f64, f64)>,
+}
+
+impl PathWindow {
+    /// No window: every contribution counts (steady-state renders).
+    const UNBOUNDED: PathWindow = PathWindow {
+        camera_m: (f64::NEG_INFINITY, f64::INFINITY),
+        world_m: None,
+    };
+
+    fn new(camera: &ResponseTable, world: Option<&ResponseTable>, ps_per_m: f64) -> PathWindow {
+        let to_m = |(a, b): (f64, f64)| (a / ps_per_m, b / ps_per_m);
+        PathWindow {
+            camera_m: to_m(camera.reach_ps()),
+            world_m: world.map(|w| to_m(w.reach_ps())),
+        }
+    }
+
+    /// Shortest and longest useful path lengths of a path whose first segment is `first_m`.
+    fn bounds_m(&self, first_m: f64) -> (f64, f64) {
+        let (a, b) = self.camera_m;
+        match self.world_m {
+            None => (a, b),
+            Some((wa, wb)) => (a.min(wa + first_m), b.max(wb + first_m)),
+        }
     }
 }
 
@@ -479,6 +551,7 @@ impl<'a> Tracer<'a> {
             .collect();
 
         let ps_per_m = flight_time_ps(scene.eta, 1.0);
+        let window = PathWindow::new(cam_resp, self.world_resp.as_ref(), ps_per_m);
         let spp = opts.spp.max(1);
         let inv_spp = 1.0 / spp as f64;
         let row_stats: Vec<TraceStats> = row_outs
@@ -515,39 +588,48 @@ impl<'a> Tracer<'a> {
                         let (du, dv) = ld.sample(i, 0);
                         let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
                         stats.paths += 1;
-                        let rays = k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
-                            let value = c.value * inv_spp;
-                            let t_camera_ps = c.path_m * ps_per_m;
-                            stats.samples += 1;
-                            let b = cam_resp.bin_coord(t_camera_ps);
-                            if !(b >= 0.0 && b < nt as f64) {
-                                stats.samples_outside_window += 1;
-                            }
-                            let Some(first) = cam_resp.weights_at(b, &mut weights) else {
-                                lost += value;
-                                return;
-                            };
-                            lost += add_weighted(&mut acc, first, &weights, value);
-                            grow(&mut touched, first, weights.len(), nt);
-                            if out.direct.is_some() {
-                                let split = if c.bounce == 1 {
-                                    &mut acc_direct
-                                } else {
-                                    &mut acc_multi
-                                };
-                                add_weighted(split, first, &weights, value);
-                            }
-                            if let Some(world_resp) = &self.world_resp {
-                                let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
-                                if let Some(first) =
-                                    world_resp.weights(t_world_ps, &mut weights_world)
-                                {
-                                    add_weighted(&mut acc_world, first, &weights_world, value);
-                                    grow(&mut touched_world, first, weights_world.len(), ntw);
+                        let tally = k.trace_path(
+                            &mut rng,
+                            &ld,
+                            i,
+                            (u, v),
+                            &window,
+                            &mut |c: Contribution| {
+                                let value = c.value * inv_spp;
+                                let t_camera_ps = c.path_m * ps_per_m;
+                                stats.samples += 1;
+                                let b = cam_resp.bin_coord(t_camera_ps);
+                                if !(b >= 0.0 && b < nt as f64) {
+                                    stats.samples_outside_window += 1;
                                 }
-                            }
-                        });
-                        stats.rays += rays;
+                                let Some(first) = cam_resp.weights_at(b, &mut weights) else {
+                                    lost += value;
+                                    return;
+                                };
+                                lost += add_weighted(&mut acc, first, &weights, value);
+                                grow(&mut touched, first, weights.len(), nt);
+                                if out.direct.is_some() {
+                                    let split = if c.bounce == 1 {
+                                        &mut acc_direct
+                                    } else {
+                                        &mut acc_multi
+                                    };
+                                    add_weighted(split, first, &weights, value);
+                                }
+                                if let Some(world_resp) = &self.world_resp {
+                                    let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
+                                    if let Some(first) =
+                                        world_resp.weights(t_world_ps, &mut weights_world)
+                                    {
+                                        add_weighted(&mut acc_world, first, &weights_world, value);
+                                        grow(&mut touched_world, first, weights_world.len(), ntw);
+                                    }
+                                }
+                            },
+                        );
+                        stats.rays += tally.rays;
+                        stats.samples_outside_window += tally.skipped_early;
+                        stats.paths_ended_late += tally.ended_late as u64;
                     }
                     stats.energy_outside_window += lost;
                     let store = |dst: &mut [f32], src: &mut [f64], (lo, hi): (usize, usize)| {
@@ -623,9 +705,14 @@ pub fn render_steady(
                 for i in 0..spp {
                     let (du, dv) = ld.sample(i, 0);
                     let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
-                    k.trace_path(&mut rng, &ld, i, u, v, &mut |c: Contribution| {
-                        sum += c.value
-                    });
+                    k.trace_path(
+                        &mut rng,
+                        &ld,
+                        i,
+                        (u, v),
+                        &PathWindow::UNBOUNDED,
+                        &mut |c: Contribution| sum += c.value,
+                    );
                 }
                 *px = sum / spp as f64;
             }
@@ -661,5 +748,68 @@ mod tests {
         let mut distorted = *cam;
         distorted.intrinsics.k1 = 0.1;
         assert!(world_from_pixel(&distorted).is_none());
+    }
+
+    /// Every contribution of 256 paths of one pixel, each path's random stream started
+    /// afresh: `(path, bounce, first_m, path_m, value)`.
+    fn contributions(k: &PathKernel, window: &PathWindow) -> Vec<(u32, u32, f64, f64, f64)> {
+        let mut out = Vec::new();
+        let ld = PixelSampler::new(1, Stream::Transient, 7, 256);
+        for i in 0..256 {
+            let mut rng = pixel_rng(1, Stream::Transient, 1000 + i as u64);
+            let (du, dv) = ld.sample(i, 0);
+            let (u, v) = (20.0 + du as f64, 30.0 + dv as f64);
+            k.trace_path(&mut rng, &ld, i, (u, v), window, &mut |c: Contribution| {
+                out.push((i, c.bounce, c.first_m, c.path_m, c.value))
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn a_window_drops_exactly_the_contributions_outside_it() {
+        // The same paths traced without a window and with one (camera time, and camera plus
+        // world time) give exactly the unwindowed contributions that land inside it: ending
+        // a path whose length plus the straight line to the spot is already past the window
+        // loses nothing that could land in it.
+        let scene = Scene::builtin("cornell", None).unwrap();
+        let bvh = Bvh::new(scene.mesh.clone());
+        let opts = TraceOptions {
+            max_bounces: 8,
+            rr_start_bounce: 8,
+            ..TraceOptions::default()
+        };
+        let k = kernel(&scene, &bvh, &opts);
+        let all = contributions(&k, &PathWindow::UNBOUNDED);
+        assert!(all.iter().any(|c| c.1 >= 5), "long paths are sampled");
+        let lo = all.iter().map(|c| c.3).fold(f64::INFINITY, f64::min);
+        let hi = all.iter().map(|c| c.3).fold(0.0, f64::max);
+        let narrow = (lo + 0.2 * (hi - lo), lo + 0.4 * (hi - lo));
+        for window in [
+            PathWindow {
+                camera_m: narrow,
+                world_m: None,
+            },
+            PathWindow {
+                camera_m: narrow,
+                world_m: Some((narrow.0 - 0.5, narrow.1 - 0.3)),
+            },
+        ] {
+            let kept = contributions(&k, &window);
+            let expected: Vec<_> = all
+                .iter()
+                .filter(|c| {
+                    let (a, b) = window.bounds_m(c.2);
+                    a <= c.3 && c.3 <= b
+                })
+                .cloned()
+                .collect();
+            assert_eq!(kept, expected);
+            assert!(
+                kept.len() > 50 && kept.len() + 50 < all.len(),
+                "{}",
+                kept.len()
+            );
+        }
     }
 }
