@@ -10,8 +10,11 @@
 //! child until it has four (or eight). A node stores its child boxes lane by lane, so one slab
 //! test of vectors (the private `geometry::simd`: SSE2 or AVX lanes, plain arrays elsewhere)
 //! tests all of them; the hit children are visited nearest first and subtrees that start
-//! beyond the current closest hit are culled. Leaves hold packets of four triangles, also
-//! stored lane by lane and tested against the ray at once.
+//! beyond the current closest hit are culled. Leaves hold one or two packets of four triangles,
+//! also stored lane by lane and tested against the ray at once; the eight-wide tree tests a
+//! leaf's two packets side by side in one eight-lane (AVX) test, which halves the number of
+//! triangle tests on leaves of five to eight triangles without making packets of small leaves
+//! larger in memory.
 //!
 //! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
 //! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
@@ -35,10 +38,8 @@
 //! (`benches/tracer_results.md`).
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::Avx;
-#[cfg(any(test, not(target_arch = "x86_64")))]
-use super::simd::Portable;
-use super::simd::{Lanes, Native};
+use super::simd::{Avx, Sse};
+use super::simd::{Lanes, Native, Pairs, Portable};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use nalgebra::{Point3, Vector3};
 use std::mem::MaybeUninit;
@@ -237,7 +238,7 @@ fn intersect_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u3
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        w.intersect::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+        w.intersect::<Portable<8>, Portable<8>>(ray, t_min, t_max)
     }
 }
 
@@ -251,35 +252,35 @@ fn occluded_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        w.occluded::<Portable<8>, Portable<4>>(ray, t_min, t_max)
+        w.occluded::<Portable<8>, Portable<8>>(ray, t_min, t_max)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn intersect_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
-    w.intersect::<Avx, Native>(ray, t_min, t_max)
+    w.intersect::<Avx, Avx>(ray, t_min, t_max)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    w.occluded::<Avx, Native>(ray, t_min, t_max)
+    w.occluded::<Avx, Avx>(ray, t_min, t_max)
 }
 
 impl<const N: usize> Wide<N> {
-    /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and packet lanes `T`.
+    /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and leaf lanes `T`.
     #[inline(always)]
-    fn intersect<V: Lanes<N>, T: Lanes<PACKET>>(
+    fn intersect<V: Lanes<N>, T: LeafLanes>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
     ) -> Option<(u32, f32, f32, f32)> {
-        // (packet, lane, t, u, v) of the closest hit so far.
+        // (first packet of the leaf, lane, t, u, v) of the closest hit so far.
         let mut best: Option<(usize, usize, f32, f32, f32)> = None;
-        self.traverse::<V, T, _, true>(ray, t_min, t_max, |pk, tri_ray, t_far| {
-            let h = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far);
+        self.traverse::<V, T, _, true>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
+            let h = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, false);
             let mut t_best = t_far;
             let mut m = h.mask;
             while m != 0 {
@@ -287,45 +288,48 @@ impl<const N: usize> Wide<N> {
                 m &= m - 1;
                 if h.t[j] < t_best {
                     t_best = h.t[j];
-                    best = Some((pk, j, h.t[j], h.u[j], h.v[j]));
+                    best = Some((first, j, h.t[j], h.u[j], h.v[j]));
                 }
             }
             (t_best, false)
         });
-        best.map(|(pk, j, t, u, v)| (self.packet_ids[pk][j], t, u, v))
+        best.map(|(first, j, t, u, v)| (self.packet_ids[first + j / PACKET][j % PACKET], t, u, v))
     }
 
-    /// Whether anything lies on the ray, with node lanes `V` and packet lanes `T`.
+    /// Whether anything lies on the ray, with node lanes `V` and leaf lanes `T`.
     #[inline(always)]
-    fn occluded<V: Lanes<N>, T: Lanes<PACKET>>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    fn occluded<V: Lanes<N>, T: LeafLanes>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        self.traverse::<V, T, _, false>(ray, t_min, t_max, |pk, tri_ray, t_far| {
-            hit = packet_test::<T>(&self.packets[pk], tri_ray, t_min, t_far).mask != 0;
+        self.traverse::<V, T, _, false>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
+            hit = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, true).mask != 0;
             (t_far, hit)
         });
         hit
     }
 
-    /// Walk the tree, calling `visit(packet, ray, t_far)` for each packet of a leaf whose box
-    /// the ray enters before `t_far`. `visit` returns the new `t_far` and whether to stop.
+    /// Walk the tree, calling `visit(first, count, ray, t_far)` for each leaf (packets
+    /// `first .. first + count`) whose box the ray enters before `t_far`. `visit` returns the
+    /// new `t_far` and whether to stop.
     /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
     /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    fn traverse<V: Lanes<N>, T: Lanes<PACKET>, F, const ORDERED: bool>(
+    fn traverse<V: Lanes<N>, T: LeafLanes, F, const ORDERED: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
         mut visit: F,
     ) where
-        F: FnMut(usize, &TriRay<T>, f32) -> (f32, bool),
+        F: FnMut(usize, usize, &TriRay<T>, f32) -> (f32, bool),
     {
-        if t_min.is_nan() || t_max.is_nan() || t_min >= t_max {
+        // An empty tree's root is the one leaf of no packets that can be reached (an empty child
+        // slot's box is never entered); leaf tests need at least one packet.
+        if t_min.is_nan() || t_max.is_nan() || t_min >= t_max || self.root == EMPTY_CHILD {
             return;
         }
         let consts = RayConsts::new(ray);
         let node_ray = NodeRay::<V, N>::new(&consts);
-        let tri_ray = TriRay::<T>::new(&consts);
+        let tri_ray = T::ray(&consts);
         let t_min_v = V::splat(t_min);
         let mut t_far = t_max;
         // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
@@ -381,13 +385,11 @@ impl<const N: usize> Wide<N> {
             } else {
                 let first = (cur & LEAF_FIRST_MASK) as usize;
                 let count = ((cur & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
-                for pk in first..first + count {
-                    let (t, stop) = visit(pk, &tri_ray, t_far);
-                    if stop {
-                        return;
-                    }
-                    t_far = t;
+                let (t, stop) = visit(first, count, &tri_ray, t_far);
+                if stop {
+                    return;
                 }
+                t_far = t;
             }
             // Pop the next subtree that still starts before the closest hit.
             loop {
@@ -594,9 +596,12 @@ struct TriRay<T> {
     sz: T,
 }
 
-impl<T: Lanes<PACKET>> TriRay<T> {
+impl<T> TriRay<T> {
     #[inline(always)]
-    fn new(c: &RayConsts) -> Self {
+    fn new<const M: usize>(c: &RayConsts) -> Self
+    where
+        T: Lanes<M>,
+    {
         TriRay {
             o: c.origin.map(T::splat),
             kx: c.kx,
@@ -635,38 +640,220 @@ fn slab<V: Lanes<N>, const N: usize>(
     (t0.le(t1).bits(), t0.to_array())
 }
 
-/// Result of [`packet_test`]: a bit per lane that hits, and each lane's distance and
-/// barycentrics (meaningful where the bit is set).
-struct PacketHits {
-    mask: u32,
-    t: [f32; PACKET],
-    u: [f32; PACKET],
-    v: [f32; PACKET],
+/// How the triangle test reads the packets of a leaf: packet by packet in four lanes, or
+/// (eight-wide tree, AVX) the leaf's one or two packets side by side in eight lanes, which
+/// halves the number of tests while the packets stay four wide in memory (a leaf of one to
+/// four triangles reads no more than in the four-wide tree).
+trait LeafLanes: Sized {
+    /// The ray splatted into these lanes.
+    fn ray(c: &RayConsts) -> TriRay<Self>;
+
+    /// Hits of the triangles of `packets[first .. first + count]` (`count` is 1 or 2; lane
+    /// `4 i + j` is lane `j` of packet `first + i`) with `t_min < t < t_max`. With `any`
+    /// (shadow rays) the test may stop at the first packet that has a hit.
+    fn test_leaf(
+        packets: &[TriPacket],
+        first: usize,
+        count: usize,
+        r: &TriRay<Self>,
+        t_min: f32,
+        t_max: f32,
+        any: bool,
+    ) -> PacketHits<8>;
 }
 
-/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the triangles of
-/// `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
-/// would (see the module doc).
+/// [`LeafLanes::test_leaf`] one four-lane packet at a time.
 #[inline(always)]
-fn packet_test<T: Lanes<PACKET>>(
-    p: &TriPacket,
+fn leaf_by_packets<T: Lanes<PACKET>>(
+    packets: &[TriPacket],
+    first: usize,
+    count: usize,
     r: &TriRay<T>,
     t_min: f32,
     t_max: f32,
-) -> PacketHits {
-    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
-    let o = &r.o;
-    // Corner k relative to the origin, sheared and scaled into the ray's frame (the ray
-    // becomes the +z axis).
-    let corner = |k: usize| {
-        let pz = T::load(&p.v[k][kz]).sub(o[kz]);
-        let px = T::load(&p.v[k][kx]).sub(o[kx]).sub(r.sx.mul(pz));
-        let py = T::load(&p.v[k][ky]).sub(o[ky]).sub(r.sy.mul(pz));
-        (px, py, pz)
+    any: bool,
+) -> PacketHits<8> {
+    let mut out = PacketHits::<8>::NONE;
+    for (i, p) in packets[first..first + count].iter().enumerate() {
+        let h = packet_test::<T, PACKET, _>(p, r, t_min, t_max);
+        if h.mask != 0 {
+            out.mask |= h.mask << (PACKET * i);
+            let lanes = PACKET * i..PACKET * (i + 1);
+            out.t[lanes.clone()].copy_from_slice(&h.t);
+            out.u[lanes.clone()].copy_from_slice(&h.u);
+            out.v[lanes].copy_from_slice(&h.v);
+            if any {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// [`LeafLanes::test_leaf`] in one test of eight lanes: packet `first` in lanes 0..4, the
+/// leaf's last packet in lanes 4..8. A leaf of one packet tests it twice and keeps the lower
+/// half, which costs less than a branch on the count that random rays mispredict.
+#[inline(always)]
+fn leaf_by_pairs<T: Pairs>(
+    packets: &[TriPacket],
+    first: usize,
+    count: usize,
+    r: &TriRay<T>,
+    t_min: f32,
+    t_max: f32,
+) -> PacketHits<8> {
+    let pair = PacketPair(&packets[first], &packets[first + count - 1]);
+    let mut h = packet_test::<T, 8, _>(&pair, r, t_min, t_max);
+    h.mask &= if count == 2 { 0xff } else { 0x0f };
+    h
+}
+
+impl LeafLanes for Portable<4> {
+    #[inline(always)]
+    fn ray(c: &RayConsts) -> TriRay<Self> {
+        TriRay::new(c)
+    }
+    #[inline(always)]
+    fn test_leaf(
+        packets: &[TriPacket],
+        first: usize,
+        count: usize,
+        r: &TriRay<Self>,
+        t_min: f32,
+        t_max: f32,
+        any: bool,
+    ) -> PacketHits<8> {
+        leaf_by_packets(packets, first, count, r, t_min, t_max, any)
+    }
+}
+
+impl LeafLanes for Portable<8> {
+    #[inline(always)]
+    fn ray(c: &RayConsts) -> TriRay<Self> {
+        TriRay::new(c)
+    }
+    #[inline(always)]
+    fn test_leaf(
+        packets: &[TriPacket],
+        first: usize,
+        count: usize,
+        r: &TriRay<Self>,
+        t_min: f32,
+        t_max: f32,
+        _any: bool,
+    ) -> PacketHits<8> {
+        leaf_by_pairs(packets, first, count, r, t_min, t_max)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl LeafLanes for Sse {
+    #[inline(always)]
+    fn ray(c: &RayConsts) -> TriRay<Self> {
+        TriRay::new(c)
+    }
+    #[inline(always)]
+    fn test_leaf(
+        packets: &[TriPacket],
+        first: usize,
+        count: usize,
+        r: &TriRay<Self>,
+        t_min: f32,
+        t_max: f32,
+        any: bool,
+    ) -> PacketHits<8> {
+        leaf_by_packets(packets, first, count, r, t_min, t_max, any)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl LeafLanes for Avx {
+    #[inline(always)]
+    fn ray(c: &RayConsts) -> TriRay<Self> {
+        TriRay::new(c)
+    }
+    #[inline(always)]
+    fn test_leaf(
+        packets: &[TriPacket],
+        first: usize,
+        count: usize,
+        r: &TriRay<Self>,
+        t_min: f32,
+        t_max: f32,
+        _any: bool,
+    ) -> PacketHits<8> {
+        leaf_by_pairs(packets, first, count, r, t_min, t_max)
+    }
+}
+
+/// Where [`packet_test`] reads corner `k`, axis `a` of its triangles.
+trait Corners<T> {
+    fn load(&self, k: usize, a: usize) -> T;
+}
+
+impl<T: Lanes<PACKET>> Corners<T> for TriPacket {
+    #[inline(always)]
+    fn load(&self, k: usize, a: usize) -> T {
+        T::load(&self.v[k][a])
+    }
+}
+
+/// Two packets side by side, eight lanes.
+struct PacketPair<'a>(&'a TriPacket, &'a TriPacket);
+
+impl<T: Pairs> Corners<T> for PacketPair<'_> {
+    #[inline(always)]
+    fn load(&self, k: usize, a: usize) -> T {
+        T::load_pair(&self.0.v[k][a], &self.1.v[k][a])
+    }
+}
+
+/// Corner `k` of each triangle relative to the ray origin, sheared and scaled into the ray's
+/// frame (the ray becomes the +z axis). A function rather than a closure so that it is always
+/// inlined into its caller, whose target features (AVX) the lane operations need.
+#[inline(always)]
+fn sheared_corner<T: Lanes<M>, const M: usize, C: Corners<T>>(
+    p: &C,
+    k: usize,
+    r: &TriRay<T>,
+) -> (T, T, T) {
+    let pz = p.load(k, r.kz).sub(r.o[r.kz]);
+    let px = p.load(k, r.kx).sub(r.o[r.kx]).sub(r.sx.mul(pz));
+    let py = p.load(k, r.ky).sub(r.o[r.ky]).sub(r.sy.mul(pz));
+    (px, py, pz)
+}
+
+/// Result of [`packet_test`]: a bit per lane that hits, and each lane's distance and
+/// barycentrics (meaningful where the bit is set).
+struct PacketHits<const M: usize> {
+    mask: u32,
+    t: [f32; M],
+    u: [f32; M],
+    v: [f32; M],
+}
+
+impl<const M: usize> PacketHits<M> {
+    const NONE: Self = PacketHits {
+        mask: 0,
+        t: [0.0; M],
+        u: [0.0; M],
+        v: [0.0; M],
     };
-    let (ax, ay, az) = corner(0);
-    let (bx, by, bz) = corner(1);
-    let (cx, cy, cz) = corner(2);
+}
+
+/// Watertight two-sided ray-triangle test (Woop, Benthin and Wald 2013) of the `M` triangles
+/// of `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
+/// would (see the module doc).
+#[inline(always)]
+fn packet_test<T: Lanes<M>, const M: usize, C: Corners<T>>(
+    p: &C,
+    r: &TriRay<T>,
+    t_min: f32,
+    t_max: f32,
+) -> PacketHits<M> {
+    let (ax, ay, az) = sheared_corner(p, 0, r);
+    let (bx, by, bz) = sheared_corner(p, 1, r);
+    let (cx, cy, cz) = sheared_corner(p, 2, r);
     // Scaled barycentric coordinates (2D edge functions).
     let mut u = cx.mul(by).sub(cy.mul(bx));
     let mut v = ax.mul(cy).sub(ay.mul(cx));
@@ -685,7 +872,7 @@ fn packet_test<T: Lanes<PACKET>>(
             cy.to_array(),
         );
         let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-        for j in 0..PACKET {
+        for j in 0..M {
             if on_edge & (1 << j) != 0 {
                 ua[j] = f(cx[j], by[j], cy[j], bx[j]);
                 va[j] = f(ax[j], cy[j], ay[j], cx[j]);
@@ -708,12 +895,7 @@ fn packet_test<T: Lanes<PACKET>>(
     let in_range = t.gt(T::splat(t_min)).and(t.lt(T::splat(t_max)));
     let mask = neg.and(pos).or(det.eq(zero)).andnot(in_range).bits();
     if mask == 0 {
-        return PacketHits {
-            mask,
-            t: [0.0; PACKET],
-            u: [0.0; PACKET],
-            v: [0.0; PACKET],
-        };
+        return PacketHits::NONE;
     }
     PacketHits {
         mask,
@@ -1348,7 +1530,7 @@ mod tests {
             let consts = RayConsts::new(&ray);
             let tri_ray = TriRay::<T>::new(&consts);
             for (p, ids) in w.packets.iter().zip(&w.packet_ids) {
-                let h = packet_test::<T>(p, &tri_ray, 0.0, t_max);
+                let h = packet_test::<T, PACKET, _>(p, &tri_ray, 0.0, t_max);
                 for (j, &id) in ids.iter().enumerate() {
                     let scalar = if id == u32::MAX {
                         None
@@ -1380,6 +1562,78 @@ mod tests {
     #[test]
     fn packet_lanes_are_the_scalar_test_portable() {
         packet_lanes_are_the_scalar_test::<Portable<4>>();
+    }
+
+    /// Each lane of the eight-lane leaf test (two packets side by side, or one packet whose
+    /// upper half is masked off) is the scalar test of its triangle, bit for bit.
+    fn pair_lanes_are_the_scalar_test<T: LeafLanes>() {
+        let mut rng = Uniforms(13);
+        let mesh = test_mesh(&mut rng);
+        let bvh = Bvh::with_width(mesh, 4);
+        let w = four(&bvh);
+        let mut compared = 0;
+        for (ray, t_max) in test_rays(&mut rng, 300) {
+            let consts = RayConsts::new(&ray);
+            let tri_ray = T::ray(&consts);
+            for first in 0..w.packets.len() {
+                for count in 1..=2.min(w.packets.len() - first) {
+                    let h = T::test_leaf(&w.packets, first, count, &tri_ray, 0.0, t_max, false);
+                    for lane in 0..8 {
+                        let (pk, j) = (first + lane / PACKET, lane % PACKET);
+                        let id = if lane < PACKET * count {
+                            w.packet_ids[pk][j]
+                        } else {
+                            u32::MAX
+                        };
+                        let scalar = if id == u32::MAX {
+                            None
+                        } else {
+                            intersect_triangle(&w.packets[pk].corners(j), &consts, 0.0, t_max)
+                        };
+                        match scalar {
+                            None => assert_eq!(h.mask & (1 << lane), 0),
+                            Some(s) => {
+                                compared += 1;
+                                assert_ne!(h.mask & (1 << lane), 0);
+                                assert_eq!(
+                                    (h.t[lane].to_bits(), h.u[lane].to_bits()),
+                                    (s.t.to_bits(), s.u.to_bits())
+                                );
+                                assert_eq!(h.v[lane].to_bits(), s.v.to_bits());
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 300, "{compared}");
+    }
+
+    #[test]
+    fn pair_lanes_are_the_scalar_test_portable() {
+        pair_lanes_are_the_scalar_test::<Portable<8>>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn pair_lanes_are_the_scalar_test_avx() {
+        if !has_avx() {
+            println!("skipped: no AVX on this CPU");
+            return;
+        }
+        // SAFETY: AVX was detected just above.
+        unsafe { pair_lanes_avx() }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn pair_lanes_avx() {
+        pair_lanes_are_the_scalar_test::<Avx>();
+    }
+
+    #[test]
+    fn leaf_lanes_native_are_the_scalar_test() {
+        pair_lanes_are_the_scalar_test::<Native>();
     }
 
     #[test]

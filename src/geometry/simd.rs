@@ -42,6 +42,20 @@ pub(crate) trait Lanes<const N: usize>: Copy {
     fn bits(self) -> u32;
 }
 
+/// Eight lanes that can be loaded as two halves of four from different places: the eight-wide
+/// tree tests the two four-lane triangle packets of a leaf at once.
+pub(crate) trait Pairs: Lanes<8> {
+    /// Lanes 0..4 from `lo`, lanes 4..8 from `hi`.
+    fn load_pair(lo: &[f32; 4], hi: &[f32; 4]) -> Self;
+}
+
+impl Pairs for Portable<8> {
+    #[inline(always)]
+    fn load_pair(lo: &[f32; 4], hi: &[f32; 4]) -> Self {
+        Portable(std::array::from_fn(|i| if i < 4 { lo[i] } else { hi[i - 4] }))
+    }
+}
+
 /// Plain arrays: every architecture (on x86_64 only the tests use the four-lane one).
 #[derive(Clone, Copy, Debug)]
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
@@ -232,7 +246,7 @@ pub(crate) use avx::Avx;
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::Lanes;
+    use super::{Lanes, Pairs};
     use core::arch::x86_64::*;
 
     /// AVX registers of eight lanes. Only for code compiled with AVX enabled
@@ -316,6 +330,14 @@ mod avx {
         #[inline(always)]
         fn bits(self) -> u32 {
             (unsafe { _mm256_movemask_ps(self.0) }) as u32
+        }
+    }
+
+    impl Pairs for Avx {
+        #[inline(always)]
+        fn load_pair(lo: &[f32; 4], hi: &[f32; 4]) -> Self {
+            // SAFETY: as for `Lanes` above; each pointer is to four readable f32s.
+            Avx(unsafe { _mm256_loadu2_m128(hi.as_ptr(), lo.as_ptr()) })
         }
     }
 }
@@ -421,6 +443,23 @@ mod tests {
     #[target_feature(enable = "avx")]
     fn agree_avx() {
         agree::<8, Avx, Portable<8>>();
+        pairs_are_halves::<Avx>();
+    }
+
+    /// `load_pair(lo, hi)` holds `lo` in lanes 0..4 and `hi` in lanes 4..8, bit for bit.
+    fn pairs_are_halves<P: Pairs>() {
+        let lo = [1.0f32, -0.0, f32::INFINITY, 1e-40];
+        let hi = [f32::NAN, 3.0e38, -1.5, 0.1];
+        let got = P::load_pair(&lo, &hi).to_array();
+        let want = [lo, hi].concat();
+        for k in 0..8 {
+            assert_eq!(got[k].to_bits(), want[k].to_bits(), "lane {k}");
+        }
+    }
+
+    #[test]
+    fn portable_pairs_are_halves() {
+        pairs_are_halves::<Portable<8>>();
     }
 
     #[test]
