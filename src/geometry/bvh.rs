@@ -3,7 +3,8 @@
 //! A wide bounding volume hierarchy (Wald, Benthin and Boulos 2008, "Getting rid of packets";
 //! Embree's layouts): four children per node (BVH4) with SSE2 on x86_64 and on other
 //! architectures, eight (BVH8) where the CPU has AVX (detected at run time with
-//! `is_x86_feature_detected!`). It is built as a binary tree with the binned surface area
+//! `is_x86_feature_detected!`; where it also has AVX-512, the same eight-lane code is compiled
+//! a second time for it, which gives it 32 vector registers instead of 16). It is built as a binary tree with the binned surface area
 //! heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding volume
 //! hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed: each
 //! wide node takes the two children of a binary node and keeps opening its largest interior
@@ -131,8 +132,29 @@ struct Wide<const N: usize> {
 enum Tree {
     /// Four children per node (SSE2, or plain arrays off x86_64).
     Four(Wide<4>),
-    /// Eight children per node, traversed with AVX (only built where the CPU has it).
-    Eight(Wide<8>),
+    /// Eight children per node, traversed with AVX (only built where the CPU has it), compiled
+    /// for the instruction set `Isa` says.
+    Eight(Wide<8>, Isa),
+}
+
+/// Values of the `INSTANCE` parameter of [`Wide::intersect`] and [`Wide::occluded`].
+const PORTABLE_OR_SSE: u8 = 0;
+#[cfg(target_arch = "x86_64")]
+const AVX: u8 = 1;
+#[cfg(target_arch = "x86_64")]
+const AVX512: u8 = 2;
+
+/// The instructions the eight-wide traversal is compiled for. Both run the same lane
+/// operations (AVX intrinsics), so they return the same hits bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Isa {
+    /// AVX: sixteen vector registers.
+    Avx,
+    /// AVX-512 F and VL (with AVX2, BMI1, BMI2 and POPCNT, which every such CPU has): the same
+    /// eight-lane operations, EVEX-encoded, with thirty-two vector registers, so the ray's
+    /// constants for the node and triangle tests stay in registers instead of being spilled
+    /// to the stack and reloaded at every node and leaf.
+    Avx512,
 }
 
 /// An acceleration structure that owns its mesh.
@@ -157,6 +179,23 @@ fn has_avx() -> bool {
     }
 }
 
+/// The best instruction set for the eight-wide traversal on this CPU (where [`has_avx`]).
+fn eight_isa() -> Isa {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx512f")
+            && is_x86_feature_detected!("avx512vl")
+            && is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("bmi1")
+            && is_x86_feature_detected!("bmi2")
+            && is_x86_feature_detected!("popcnt")
+        {
+            return Isa::Avx512;
+        }
+    }
+    Isa::Avx
+}
+
 impl Bvh {
     /// Build over `mesh` (takes ownership; read it back with [`Bvh::mesh`]).
     ///
@@ -171,7 +210,7 @@ impl Bvh {
         let (binary, order) = build(&mesh);
         let corners = |i: u32| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]);
         let tree = if width == 8 {
-            Tree::Eight(Wide::collapse(&binary, &order, &corners))
+            Tree::Eight(Wide::collapse(&binary, &order, &corners), eight_isa())
         } else {
             Tree::Four(Wide::collapse(&binary, &order, &corners))
         };
@@ -205,8 +244,8 @@ impl Bvh {
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let found = match &self.tree {
-            Tree::Four(w) => w.intersect::<Native, Native>(ray, t_min, t_max),
-            Tree::Eight(w) => intersect_eight(w, ray, t_min, t_max),
+            Tree::Four(w) => w.intersect::<Native, Native, PORTABLE_OR_SSE>(ray, t_min, t_max),
+            Tree::Eight(w, isa) => intersect_eight(w, *isa, ray, t_min, t_max),
         };
         found.map(|(triangle, t, u, v)| Hit {
             t,
@@ -220,58 +259,102 @@ impl Bvh {
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         match &self.tree {
-            Tree::Four(w) => w.occluded::<Native, Native>(ray, t_min, t_max),
-            Tree::Eight(w) => occluded_eight(w, ray, t_min, t_max),
+            Tree::Four(w) => w.occluded::<Native, Native, PORTABLE_OR_SSE>(ray, t_min, t_max),
+            Tree::Eight(w, isa) => occluded_eight(w, *isa, ray, t_min, t_max),
         }
     }
 }
 
-/// [`Wide::intersect`] of an eight-wide tree: AVX on x86_64 (a tree of eight is only built
-/// where the CPU has it), plain arrays elsewhere.
+/// [`Wide::intersect`] of an eight-wide tree: AVX or AVX-512 (`isa`) on x86_64 (a tree of
+/// eight is only built where the CPU has AVX, with the `isa` it has), plain arrays elsewhere.
 #[inline]
-fn intersect_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+fn intersect_eight(
+    w: &Wide<8>,
+    isa: Isa,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, f32, f32, f32)> {
     #[cfg(target_arch = "x86_64")]
     {
-        // SAFETY: `Tree::Eight` is only built by `Bvh::new` when `has_avx()`; tests that build
-        // one directly check for AVX first.
-        unsafe { intersect_avx(w, ray, t_min, t_max) }
+        // SAFETY: `Tree::Eight` is only built by `Bvh::new` when `has_avx()`, with the `isa`
+        // that `eight_isa()` detected; tests that build one or choose an `isa` directly check
+        // for them first.
+        unsafe {
+            match isa {
+                Isa::Avx => intersect_avx(w, ray, t_min, t_max),
+                Isa::Avx512 => intersect_avx512(w, ray, t_min, t_max),
+            }
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        w.intersect::<Portable<8>, Portable<8>>(ray, t_min, t_max)
+        let _ = isa;
+        w.intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(ray, t_min, t_max)
     }
 }
 
 /// [`Wide::occluded`] of an eight-wide tree (see [`intersect_eight`]).
 #[inline]
-fn occluded_eight(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+fn occluded_eight(w: &Wide<8>, isa: Isa, ray: &Ray, t_min: f32, t_max: f32) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: as in `intersect_eight`.
-        unsafe { occluded_avx(w, ray, t_min, t_max) }
+        unsafe {
+            match isa {
+                Isa::Avx => occluded_avx(w, ray, t_min, t_max),
+                Isa::Avx512 => occluded_avx512(w, ray, t_min, t_max),
+            }
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        w.occluded::<Portable<8>, Portable<8>>(ray, t_min, t_max)
+        let _ = isa;
+        w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(ray, t_min, t_max)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn intersect_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
-    w.intersect::<Avx, Avx>(ray, t_min, t_max)
+    w.intersect::<Avx, Avx, AVX>(ray, t_min, t_max)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    w.occluded::<Avx, Avx>(ray, t_min, t_max)
+    w.occluded::<Avx, Avx, AVX>(ray, t_min, t_max)
+}
+
+/// [`intersect_avx`] compiled for [`Isa::Avx512`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,bmi1,bmi2,popcnt,avx512f,avx512vl")]
+fn intersect_avx512(
+    w: &Wide<8>,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, f32, f32, f32)> {
+    w.intersect::<Avx, Avx, AVX512>(ray, t_min, t_max)
+}
+
+/// [`occluded_avx`] compiled for [`Isa::Avx512`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,bmi1,bmi2,popcnt,avx512f,avx512vl")]
+fn occluded_avx512(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    w.occluded::<Avx, Avx, AVX512>(ray, t_min, t_max)
 }
 
 impl<const N: usize> Wide<N> {
     /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and leaf lanes `T`.
+    ///
+    /// `INSTANCE` gives each caller compiled with its own target features (the AVX and the
+    /// AVX-512 function) its own copy of this code, and so of the closure inside: a closure is
+    /// compiled without its caller's target features unless LLVM inlines it, and it did not
+    /// inline one closure shared by two callers, whose lane operations then all became calls
+    /// (ten times slower).
     #[inline(always)]
-    fn intersect<V: Lanes<N>, T: LeafLanes>(
+    fn intersect<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(
         &self,
         ray: &Ray,
         t_min: f32,
@@ -296,9 +379,10 @@ impl<const N: usize> Wide<N> {
         best.map(|(first, j, t, u, v)| (self.packet_ids[first + j / PACKET][j % PACKET], t, u, v))
     }
 
-    /// Whether anything lies on the ray, with node lanes `V` and leaf lanes `T`.
+    /// Whether anything lies on the ray, with node lanes `V` and leaf lanes `T` (`INSTANCE`
+    /// as in [`Wide::intersect`]).
     #[inline(always)]
-    fn occluded<V: Lanes<N>, T: LeafLanes>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    fn occluded<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
         self.traverse::<V, T, _, false>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
             hit = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, true).mask != 0;
@@ -1272,7 +1356,7 @@ mod tests {
             let bvh = Bvh::with_width(mesh.clone(), width);
             match &bvh.tree {
                 Tree::Four(w) => check_leaves(w, 1000),
-                Tree::Eight(w) => check_leaves(w, 1000),
+                Tree::Eight(w, _) => check_leaves(w, 1000),
             }
             if width == 4 || has_avx() {
                 let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
@@ -1462,13 +1546,13 @@ mod tests {
     fn four(b: &Bvh) -> &Wide<4> {
         match &b.tree {
             Tree::Four(w) => w,
-            Tree::Eight(_) => unreachable!("built with width 4"),
+            Tree::Eight(..) => unreachable!("built with width 4"),
         }
     }
 
     fn eight(b: &Bvh) -> &Wide<8> {
         match &b.tree {
-            Tree::Eight(w) => w,
+            Tree::Eight(w, _) => w,
             Tree::Four(_) => unreachable!("built with width 8"),
         }
     }
@@ -1478,8 +1562,8 @@ mod tests {
         agrees_with_brute_force(4, &|b, r, t| {
             let w = four(b);
             (
-                w.intersect::<Native, Native>(r, 0.0, t),
-                w.occluded::<Native, Native>(r, 0.0, t),
+                w.intersect::<Native, Native, PORTABLE_OR_SSE>(r, 0.0, t),
+                w.occluded::<Native, Native, PORTABLE_OR_SSE>(r, 0.0, t),
             )
         });
     }
@@ -1489,8 +1573,8 @@ mod tests {
         agrees_with_brute_force(4, &|b, r, t| {
             let w = four(b);
             (
-                w.intersect::<Portable<4>, Portable<4>>(r, 0.0, t),
-                w.occluded::<Portable<4>, Portable<4>>(r, 0.0, t),
+                w.intersect::<Portable<4>, Portable<4>, PORTABLE_OR_SSE>(r, 0.0, t),
+                w.occluded::<Portable<4>, Portable<4>, PORTABLE_OR_SSE>(r, 0.0, t),
             )
         });
     }
@@ -1500,21 +1584,39 @@ mod tests {
         agrees_with_brute_force(8, &|b, r, t| {
             let w = eight(b);
             (
-                w.intersect::<Portable<8>, Portable<4>>(r, 0.0, t),
-                w.occluded::<Portable<8>, Portable<4>>(r, 0.0, t),
+                w.intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, t),
+                w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, t),
             )
         });
     }
 
     #[test]
-    fn eight_wide_tree_agrees_with_brute_force_native() {
+    fn eight_wide_tree_agrees_with_brute_force_avx() {
         if !has_avx() {
             println!("skipped: no AVX on this CPU");
             return;
         }
         agrees_with_brute_force(8, &|b, r, t| {
             let w = eight(b);
-            (intersect_eight(w, r, 0.0, t), occluded_eight(w, r, 0.0, t))
+            (
+                intersect_eight(w, Isa::Avx, r, 0.0, t),
+                occluded_eight(w, Isa::Avx, r, 0.0, t),
+            )
+        });
+    }
+
+    #[test]
+    fn eight_wide_tree_agrees_with_brute_force_avx512() {
+        if !has_avx() || eight_isa() != Isa::Avx512 {
+            println!("skipped: no AVX-512 on this CPU");
+            return;
+        }
+        agrees_with_brute_force(8, &|b, r, t| {
+            let w = eight(b);
+            (
+                intersect_eight(w, Isa::Avx512, r, 0.0, t),
+                occluded_eight(w, Isa::Avx512, r, 0.0, t),
+            )
         });
     }
 
