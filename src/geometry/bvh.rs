@@ -382,7 +382,12 @@ impl<const N: usize> Wide<N> {
     /// Whether anything lies on the ray, with node lanes `V` and leaf lanes `T` (`INSTANCE`
     /// as in [`Wide::intersect`]).
     #[inline(always)]
-    fn occluded<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    fn occluded<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> bool {
         let mut hit = false;
         self.traverse::<V, T, _, false>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
             hit = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, true).mask != 0;

@@ -52,7 +52,9 @@ pub(crate) trait Pairs: Lanes<8> {
 impl Pairs for Portable<8> {
     #[inline(always)]
     fn load_pair(lo: &[f32; 4], hi: &[f32; 4]) -> Self {
-        Portable(std::array::from_fn(|i| if i < 4 { lo[i] } else { hi[i - 4] }))
+        Portable(std::array::from_fn(
+            |i| if i < 4 { lo[i] } else { hi[i - 4] },
+        ))
     }
 }
 
