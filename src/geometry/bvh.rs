@@ -4,18 +4,18 @@
 //! Embree's layouts): four children per node (BVH4) with SSE2 on x86_64 and on other
 //! architectures, eight (BVH8) where the CPU has AVX (detected at run time with
 //! `is_x86_feature_detected!`; where it also has AVX-512, the same eight-lane code is compiled
-//! a second time for it, which gives it 32 vector registers instead of 16). It is built as a binary tree with the binned surface area
-//! heuristic (SAH; Wald 2007, "On fast construction of SAH-based bounding volume
-//! hierarchies"), whose leaf cost counts triangles in blocks of four, and then collapsed: each
-//! wide node takes the two children of a binary node and keeps opening its largest interior
-//! child until it has four (or eight). A node stores its child boxes lane by lane, so one slab
-//! test of vectors (the private `geometry::simd`: SSE2 or AVX lanes, plain arrays elsewhere)
-//! tests all of them; the hit children are visited nearest first and subtrees that start
-//! beyond the current closest hit are culled. Leaves hold one or two packets of four triangles,
-//! also stored lane by lane and tested against the ray at once; the eight-wide tree tests a
-//! leaf's two packets side by side in one eight-lane (AVX) test, which halves the number of
-//! triangle tests on leaves of five to eight triangles without making packets of small leaves
-//! larger in memory.
+//! a second time for it, which gives it 32 vector registers instead of 16). It is built as a
+//! binary tree with the binned surface area heuristic (SAH; Wald 2007, "On fast construction
+//! of SAH-based bounding volume hierarchies"), whose leaf cost counts triangles in blocks of
+//! four, and then collapsed: each wide node takes the two children of a binary node and keeps
+//! opening its largest interior child until it has four (or eight). A node stores its child
+//! boxes lane by lane, so one slab test of vectors (the private `geometry::simd`: SSE2 or AVX
+//! lanes, plain arrays elsewhere) tests all of them; the hit children are visited nearest
+//! first and subtrees that start beyond the current closest hit are culled. Leaves hold one or
+//! two packets of four triangles, also stored lane by lane and tested against the ray at
+//! once; the eight-wide tree tests a leaf's two packets side by side in one eight-lane (AVX)
+//! test, which halves the number of triangle tests on leaves of five to eight triangles
+//! without making packets of small leaves larger in memory.
 //!
 //! The ray-box test is the slab test made conservative as in pbrt-v3 §3.9.2 (far distances
 //! scaled by `1 + 2 gamma(3)`, NaNs from `0 * inf` on a slab boundary ignored), so no box that
@@ -147,6 +147,7 @@ const AVX512: u8 = 2;
 /// The instructions the eight-wide traversal is compiled for. Both run the same lane
 /// operations (AVX intrinsics), so they return the same hits bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 enum Isa {
     /// AVX: sixteen vector registers.
     Avx,

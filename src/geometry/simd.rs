@@ -3,9 +3,11 @@
 //! [`Sse`] wraps SSE2 (`core::arch::x86_64`), which every x86_64 CPU has, so it needs no
 //! runtime feature detection and no extra crate. [`Avx`] wraps AVX (eight lanes) for code
 //! compiled with `#[target_feature(enable = "avx")]` and entered only after
-//! `is_x86_feature_detected!("avx")`. [`Portable`] is the same operations on `[f32; N]`, used
-//! on every other architecture and compiled everywhere so tests can check that the
-//! implementations give identical results. [`Native`] is the four-lane one of this
+//! `is_x86_feature_detected!("avx")` (or compiled with AVX-512 enabled as well, which only
+//! gives it more registers). [`Pairs`] loads eight lanes as two halves of four from different
+//! places (the two triangle packets of a leaf). [`Portable`] is the same operations on
+//! `[f32; N]`, used on every other architecture and compiled everywhere so tests can check
+//! that the implementations give identical results. [`Native`] is the four-lane one of this
 //! architecture.
 //!
 //! Every operation is exactly rounded lane by lane (IEEE add, sub, mul, div; no fused
