@@ -7,11 +7,17 @@
 //! a second time for it, which gives it 32 vector registers instead of 16). It is built as a
 //! binary tree with the binned surface area heuristic (SAH; Wald 2007, "On fast construction
 //! of SAH-based bounding volume hierarchies"), whose leaf cost counts triangles in blocks of
-//! four, and then collapsed: each wide node takes the two children of a binary node and keeps
+//! four, with two rules for rays that start inside the scene (the SAH assumes they come from
+//! outside): a node whose box is more than half the scene's is never a leaf and first puts its
+//! large triangles (the walls of a room) apart from the others, so each wall ends up in a leaf
+//! of its own near the root instead of sharing one whose box is the whole room. The binary
+//! tree is then collapsed: each wide node takes the two children of a binary node and keeps
 //! opening its largest interior child until it has four (or eight). A node stores its child
 //! boxes lane by lane, so one slab test of vectors (the private `geometry::simd`: SSE2 or AVX
 //! lanes, plain arrays elsewhere) tests all of them; the hit children are visited nearest
-//! first and subtrees that start beyond the current closest hit are culled. Leaves hold one or
+//! first and subtrees that start beyond the current closest hit are culled (with a relative
+//! slack of 2^-16, so that rounding never culls a coplanar triangle hit a few ulps nearer,
+//! such as a box's bottom face lying on the floor). Leaves hold one or
 //! two packets of four triangles, also stored lane by lane and tested against the ray at
 //! once; the eight-wide tree tests a leaf's two packets side by side in one eight-lane (AVX)
 //! test, which halves the number of triangle tests on leaves of five to eight triangles
@@ -59,6 +65,23 @@ const SAH_DEPTH: u32 = 64;
 const STACK: usize = 704;
 /// Relative cost of one node visit against one test of a packet of triangles, for the SAH.
 const COST_TRAVERSAL: f32 = 1.0;
+/// A node whose box has more than this fraction of the scene box's half area is never made a
+/// leaf while it can be split, and first puts its large triangles (see [`LARGE_FRACTION`])
+/// apart from the others. The SAH takes the chance that a ray enters a box to be
+/// proportional to its area, as for rays from outside the scene; a ray that starts inside a
+/// room enters every box that holds the room's walls, so a leaf of three walls, whose box is
+/// the whole room, would be tested by nearly every ray.
+const ROOM_FRACTION: f32 = 0.5;
+/// A triangle whose box has more than this fraction of the scene box's half area is large:
+/// under a node of more than [`ROOM_FRACTION`], large triangles go into one subtree and the
+/// others into another, so the walls of a room end up in leaves of their own (each entered
+/// only by the rays that hit that wall) near the root.
+const LARGE_FRACTION: f32 = 0.1;
+/// `1 + 2^-16`: the traversal enters a box, and pops a subtree, when its (rounded) entry
+/// distance is below the closest hit so far times this. The rounding of the slab test's entry
+/// distance and of the triangle test's `t` could otherwise cull a box holding a coplanar
+/// triangle hit a few ulps nearer than the closest hit so far (a box on the floor of a room).
+const CULL_SLACK: f32 = 1.0 + 1.0 / 65536.0;
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24` (pbrt-v3, Eq. 3.9): scaling
 /// the far slab distance by this makes the f32 slab test conservative.
 const SLAB_FAR_SCALE: f32 =
@@ -422,6 +445,7 @@ impl<const N: usize> Wide<N> {
         let tri_ray = T::ray(&consts);
         let t_min_v = V::splat(t_min);
         let mut t_far = t_max;
+        let mut t_cull = t_max * CULL_SLACK;
         // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
         // every ray cost a few per cent of a short ray's traversal.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
@@ -430,7 +454,7 @@ impl<const N: usize> Wide<N> {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, t_enter) = slab::<V, N>(node, &node_ray, t_min_v, V::splat(t_far));
+                let (mask, t_enter) = slab::<V, N>(node, &node_ray, t_min_v, V::splat(t_cull));
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
                         cur = node.child[mask.trailing_zeros() as usize];
@@ -480,6 +504,7 @@ impl<const N: usize> Wide<N> {
                     return;
                 }
                 t_far = t;
+                t_cull = t * CULL_SLACK;
             }
             // Pop the next subtree that still starts before the closest hit.
             loop {
@@ -491,7 +516,7 @@ impl<const N: usize> Wide<N> {
                 // popped by `sp -= 1` before this read, so every entry below the old `sp`
                 // (this one included) was written by this traversal.
                 let (next, t_enter) = unsafe { stack[sp].assume_init() };
-                if t_enter < t_far {
+                if t_enter < t_cull {
                     cur = next;
                     break;
                 }
@@ -1092,6 +1117,14 @@ struct Prim {
     centroid: [f32; 3],
 }
 
+impl Prim {
+    /// Half the surface area of the triangle's box.
+    fn half_area(&self) -> f32 {
+        let d = [0, 1, 2].map(|a| (self.hi[a] - self.lo[a]).max(0.0));
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
+
 #[derive(Clone, Copy)]
 struct Bin {
     count: u32,
@@ -1150,6 +1183,11 @@ fn build(mesh: &TriangleMesh) -> (Vec<BuildNode>, Vec<u32>) {
         prims.push(Prim { lo, hi, centroid });
         order.push(i as u32);
     }
+    let mut scene = Bin::EMPTY;
+    for p in &prims {
+        scene.add(p);
+    }
+    let scene_area = scene.half_area();
     let mut nodes = Vec::new();
     if prims.is_empty() {
         return (nodes, order);
@@ -1183,7 +1221,7 @@ fn build(mesh: &TriangleMesh) -> (Vec<BuildNode>, Vec<u32>) {
         let mid = if count <= 1 {
             None
         } else {
-            split(&prims, &mut idx[s..e], &bounds, &cbounds, depth).map(|m| s + m)
+            split(&prims, &mut idx[s..e], &bounds, &cbounds, depth, scene_area).map(|m| s + m)
         };
         match mid {
             None => {
@@ -1211,14 +1249,16 @@ fn build(mesh: &TriangleMesh) -> (Vec<BuildNode>, Vec<u32>) {
     (nodes, order)
 }
 
-/// Choose how to split `idx` (at least two triangles): partitions it in place and returns the
-/// size of the left part, or `None` to make a leaf.
+/// Choose how to split `idx` (at least two triangles; `scene_area`: half area of the box of
+/// all triangles): partitions it in place and returns the size of the left part, or `None` to
+/// make a leaf.
 fn split(
     prims: &[Prim],
     idx: &mut [u32],
     bounds: &Bin,
     cbounds: &Bin,
     depth: u32,
+    scene_area: f32,
 ) -> Option<usize> {
     let count = idx.len();
     let extent = [0, 1, 2].map(|a| cbounds.hi[a] - cbounds.lo[a]);
@@ -1243,6 +1283,21 @@ fn split(
     }
     if depth >= SAH_DEPTH {
         return median(idx);
+    }
+    let room = bounds.half_area() > ROOM_FRACTION * scene_area;
+    if room {
+        // Large triangles first, the others after.
+        let large = LARGE_FRACTION * scene_area;
+        let mut left = 0;
+        for j in 0..count {
+            if prims[idx[j] as usize].half_area() > large {
+                idx.swap(j, left);
+                left += 1;
+            }
+        }
+        if left > 0 && left < count {
+            return Some(left);
+        }
     }
 
     // Binned SAH over every axis with non-zero centroid extent.
@@ -1284,7 +1339,7 @@ fn split(
     };
     let parent_area = bounds.half_area();
     let split_cost = COST_TRAVERSAL + cost / parent_area;
-    if split_cost >= blocks(count) && count <= MAX_LEAF {
+    if split_cost >= blocks(count) && count <= MAX_LEAF && !room {
         return None;
     }
     let scale = BINS as f32 / extent[a];
@@ -1509,14 +1564,23 @@ mod tests {
     /// The walk `cast` of a tree of `width` finds what brute force finds: the same distance bit
     /// for bit, the same triangle (or, on a tie of distance, one at the same distance) and
     /// barycentrics; `occluded` agrees; the public API gives the same hit with its normal.
+    /// Both on the soup of [`test_mesh`] and inside the room of [`room_mesh`].
     fn agrees_with_brute_force(width: usize, cast: &Cast) {
         let mut rng = Uniforms(11);
         let mesh = test_mesh(&mut rng);
+        let rays = test_rays(&mut rng, 3000);
+        agrees_on(&mesh, &rays, width, cast);
+        let mesh = room_mesh(&mut rng);
+        let rays = room_rays(&mut rng, 2000);
+        agrees_on(&mesh, &rays, width, cast);
+    }
+
+    fn agrees_on(mesh: &TriangleMesh, rays: &[(Ray, f32)], width: usize, cast: &Cast) {
         let bvh = Bvh::with_width(mesh.clone(), width);
         let public = width == 4 || has_avx();
         let mut hits = 0;
-        for (k, (ray, t_max)) in test_rays(&mut rng, 3000).iter().enumerate() {
-            let expected = brute_force(&mesh, ray, *t_max);
+        for (k, (ray, t_max)) in rays.iter().enumerate() {
+            let expected = brute_force(mesh, ray, *t_max);
             let (got, occluded) = cast(&bvh, ray, *t_max);
             assert_eq!(occluded, expected.is_some(), "ray {k}");
             match (expected, got) {
@@ -1547,6 +1611,113 @@ mod tests {
             }
         }
         assert!(hits > 1000, "only {hits} rays hit");
+    }
+
+    /// A room (the unit cube without its front face z = 1: five walls of two triangles each,
+    /// triangles 0..10, wall `i / 2`), an open box standing on its floor (its bottom face is
+    /// coplanar with the floor) and a cluster of 200 small triangles in the air.
+    fn room_mesh(rng: &mut Uniforms) -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        let mut quad = |c: [[f32; 3]; 4]| {
+            let base = mesh.positions.len() as u32;
+            mesh.positions
+                .extend(c.iter().map(|p| Point3::new(p[0], p[1], p[2])));
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.triangles.push([base, base + 2, base + 3]);
+            mesh.material.extend([0, 0]);
+        };
+        // Walls: floor, ceiling, back, left, right.
+        quad([[0., 0., 0.], [1., 0., 0.], [1., 0., 1.], [0., 0., 1.]]);
+        quad([[0., 1., 0.], [1., 1., 0.], [1., 1., 1.], [0., 1., 1.]]);
+        quad([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+        quad([[0., 0., 0.], [0., 1., 0.], [0., 1., 1.], [0., 0., 1.]]);
+        quad([[1., 0., 0.], [1., 1., 0.], [1., 1., 1.], [1., 0., 1.]]);
+        // An open box (no lid) [0.3, 0.5] x [0, 0.2] x [0.3, 0.5]: bottom and four sides.
+        let (l, h, top) = (0.3, 0.5, 0.2);
+        quad([[l, 0., l], [h, 0., l], [h, 0., h], [l, 0., h]]);
+        quad([[l, 0., l], [h, 0., l], [h, top, l], [l, top, l]]);
+        quad([[l, 0., h], [h, 0., h], [h, top, h], [l, top, h]]);
+        quad([[l, 0., l], [l, top, l], [l, top, h], [l, 0., h]]);
+        quad([[h, 0., l], [h, top, l], [h, top, h], [h, 0., h]]);
+        for _ in 0..200 {
+            let o = [0.6, 0.5, 0.6].map(|x| x + rng.range(-0.15, 0.15));
+            let c = [0, 1, 2].map(|_| [0, 1, 2].map(|a| o[a] + rng.range(-0.03, 0.03)));
+            let base = mesh.positions.len() as u32;
+            mesh.positions
+                .extend(c.iter().map(|p| Point3::new(p[0], p[1], p[2])));
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.material.push(0);
+        }
+        mesh
+    }
+
+    /// Rays from inside the room of [`room_mesh`]: every third towards a point of the box's
+    /// bottom face, which lies on the floor, so the floor and the box's bottom are hit at
+    /// distances a few ulps apart; the others in random directions.
+    fn room_rays(rng: &mut Uniforms, n: usize) -> Vec<(Ray, f32)> {
+        (0..n)
+            .map(|k| {
+                let o = Point3::new(
+                    rng.range(0.05, 0.95),
+                    rng.range(0.25, 0.95),
+                    rng.range(0.05, 0.95),
+                );
+                let target = if k % 3 == 0 {
+                    Point3::new(rng.range(0.3, 0.5), 0.0, rng.range(0.3, 0.5))
+                } else {
+                    Point3::new(
+                        rng.range(-1.0, 2.0),
+                        rng.range(-1.0, 2.0),
+                        rng.range(-1.0, 2.0),
+                    )
+                };
+                let t_max = if k % 5 == 0 {
+                    rng.range(0.1, 1.0)
+                } else {
+                    f32::INFINITY
+                };
+                (Ray::new(o, (target - o).normalize()), t_max)
+            })
+            .collect()
+    }
+
+    /// Triangle ids of each leaf of `w`.
+    fn leaf_triangles<const N: usize>(w: &Wide<N>) -> Vec<Vec<u32>> {
+        let refs = w.nodes.iter().flat_map(|n| n.child).chain([w.root]);
+        refs.filter(|&r| r & LEAF != 0 && r != EMPTY_CHILD)
+            .map(|r| {
+                let packets = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+                let first = (r & LEAF_FIRST_MASK) as usize;
+                w.packet_ids[first..first + packets]
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .filter(|&id| id != u32::MAX)
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn walls_of_a_room_are_leaves_of_their_own() {
+        // A leaf holding a wall and anything else would be entered by nearly every ray from
+        // inside the room; each wall's two triangles must be alone in their leaf.
+        let mesh = room_mesh(&mut Uniforms(5));
+        for width in [4, 8] {
+            let bvh = Bvh::with_width(mesh.clone(), width);
+            let leaves = match &bvh.tree {
+                Tree::Four(w) => leaf_triangles(w),
+                Tree::Eight(w, _) => leaf_triangles(w),
+            };
+            for leaf in leaves {
+                if let Some(wall) = leaf.iter().find(|&&id| id < 10).map(|id| id / 2) {
+                    assert!(
+                        leaf.iter().all(|&id| id / 2 == wall && id < 10),
+                        "width {width}: leaf {leaf:?} mixes wall {wall} with other triangles"
+                    );
+                }
+            }
+        }
     }
 
     fn four(b: &Bvh) -> &Wide<4> {
