@@ -128,7 +128,8 @@ pub struct ResponseTable {
     /// sample whose position `f` within the bin has `tent_from <= f <= 1 - tent_from` keeps
     /// its whole (truncated, symmetric) pulse between two bin centres, where the tent is
     /// linear, so its exact weights are the tent's and the table is not read (keeping the
-    /// table's hot part small enough for the cache). 0.5 or more: always the table.
+    /// table's hot part small enough for the cache). 0 for a delta pulse, whose table is the
+    /// tent; 0.5 or more: always the table.
     tent_from: f64,
 }
 
@@ -170,7 +171,7 @@ impl ResponseTable {
         let lo = lo + c0 as isize;
         // The tent's two bins must be columns of the table (they always are: every row's
         // centre bins have weight).
-        let tent_from = if s > 0.0 && lo <= 0 && 1 - lo < len as isize {
+        let tent_from = if lo <= 0 && 1 - lo < len as isize {
             TRUNCATE_SIGMAS * s
         } else {
             1.0
@@ -231,6 +232,14 @@ impl ResponseTable {
     /// [`ResponseTable::bin_coord`]).
     #[inline]
     pub fn weights_at(&self, b: f64, weights: &mut [f64]) -> Option<isize> {
+        let p = self.place(b)?;
+        Some(self.fill(&p, weights))
+    }
+
+    /// Where a sample at bin coordinate `b` (from [`ResponseTable::bin_coord`]) falls, for
+    /// [`ResponseTable::add`]; `None` for a non-finite coordinate.
+    #[inline(always)]
+    pub fn place(&self, b: f64) -> Option<Placement> {
         let tc = b - 0.5;
         if !tc.is_finite() || tc.abs() > 1e15 {
             return None;
@@ -240,24 +249,86 @@ impl ResponseTable {
         let trunc = tc as i64;
         let floor = (trunc - ((trunc as f64) > tc) as i64) as f64;
         let f = tc - floor;
-        if f >= self.tent_from && f <= 1.0 - self.tent_from {
-            let w = &mut weights[..self.len];
+        Some(Placement {
+            floor: floor as isize,
+            f,
+            tent: f >= self.tent_from && f <= 1.0 - self.tent_from,
+        })
+    }
+
+    /// The weights of placement `p` into `weights[..self.len()]`; returns the bin of the
+    /// first.
+    #[inline]
+    fn fill(&self, p: &Placement, weights: &mut [f64]) -> isize {
+        let len = self.len;
+        if p.tent {
+            let w = &mut weights[..len];
             w.fill(0.0);
-            w[(-self.lo) as usize] = 1.0 - f;
-            w[(1 - self.lo) as usize] = f;
-            return Some(floor as isize + self.lo);
+            w[(-self.lo) as usize] = 1.0 - p.f;
+            w[(1 - self.lo) as usize] = p.f;
+            return p.floor + self.lo;
         }
-        let x = f * self.rows as f64;
+        let x = p.f * self.rows as f64;
         let j = (x as usize).min(self.rows - 1);
         let a = x - j as f64;
-        let len = self.len;
         let r0 = &self.table[j * len..(j + 1) * len];
         let r1 = &self.table[(j + 1) * len..(j + 2) * len];
         for ((w, &w0), &w1) in weights[..len].iter_mut().zip(r0).zip(r1) {
             *w = w0 + a * (w1 - w0);
         }
-        Some(floor as isize + self.lo)
+        p.floor + self.lo
     }
+
+    /// Add `value` placed at `p` into `profile` (one value per bin of the axis); returns the
+    /// part of `value` that fell outside it. The same sums, in the same order, as
+    /// [`ResponseTable::weights_at`] followed by [`add_weighted`] (the table's other columns
+    /// add exact zeros), but a tent sample inside the axis adds its two weights directly,
+    /// without filling `scratch` (at least [`ResponseTable::len`] long).
+    #[inline(always)]
+    pub fn add(&self, p: &Placement, profile: &mut [f64], value: f64, scratch: &mut [f64]) -> f64 {
+        if p.tent && p.floor >= 0 && (p.floor as usize) + 1 < profile.len() {
+            let i = p.floor as usize;
+            profile[i] += value * (1.0 - p.f);
+            profile[i + 1] += value * p.f;
+            return 0.0;
+        }
+        self.add_general(p, profile, value, scratch)
+    }
+
+    /// [`ResponseTable::add`] through the weights (kept out of line: the tracer's common
+    /// case is the tent).
+    #[inline(never)]
+    fn add_general(
+        &self,
+        p: &Placement,
+        profile: &mut [f64],
+        value: f64,
+        scratch: &mut [f64],
+    ) -> f64 {
+        let first = self.fill(p, scratch);
+        add_weighted(profile, first, &scratch[..self.len], value)
+    }
+
+    /// The bins placement `p` may add to: `(first, count)`, possibly outside `0..nt`.
+    #[inline]
+    pub fn span(&self, p: &Placement) -> (isize, usize) {
+        if p.tent {
+            (p.floor, 2)
+        } else {
+            (p.floor + self.lo, self.len)
+        }
+    }
+}
+
+/// Where a sample falls on a [`ResponseTable`]'s axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// Bin whose centre is the last at or before the sample (`floor(b - 0.5)`).
+    floor: isize,
+    /// Distance of the sample past that centre, bins, in `[0, 1)`.
+    f: f64,
+    /// Whether the weights are the plain tent: `1 - f` on bin `floor`, `f` on the next.
+    tent: bool,
 }
 
 /// Add `value * weights[k]` to `profile[first + k]`; returns the part that fell outside.
@@ -452,6 +523,61 @@ mod tests {
         let lost = r.splat(&mut p, 100.2, 1.0, &mut scratch);
         assert!(lost > 0.0 && lost < 1.0);
         assert!((p.iter().sum::<f64>() + lost - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn direct_tent_add_equals_weights_then_add_weighted() {
+        // `ResponseTable::add` (a tent sample's two weights added directly) leaves exactly
+        // the profile and lost energy of the general route, `weights_at` + `add_weighted`,
+        // for delta, short and wide pulses, at every sub-bin position, inside the axis and
+        // across both of its ends; and `span` covers every bin it changed.
+        let ax = axis();
+        let nt = ax.nt;
+        for sigma_ps in [0.0, 0.0212, 0.1, 0.6, 7.5] {
+            let table = ResponseTable::new(&TimeResponse::new(ax, sigma_ps));
+            let mut w = vec![0.0; table.len()];
+            let mut scratch = vec![0.0; table.len()];
+            let (mut tents, mut rows) = (0, 0);
+            for k in 0..4001 {
+                let b = -3.0 + (nt as f64 + 6.0) * k as f64 / 4000.0 + 1e-7 * (k % 7) as f64;
+                let value = 0.3 + 0.001 * k as f64;
+                // A profile already holding values, as mid-pixel.
+                let start: Vec<f64> = (0..nt).map(|i| 0.01 * ((i * 7919) % 13) as f64).collect();
+                let mut general = start.clone();
+                let first = table.weights_at(b, &mut w).unwrap();
+                let lost_general = add_weighted(&mut general, first, &w, value);
+                let mut direct = start.clone();
+                let p = table.place(b).unwrap();
+                let lost_direct = table.add(&p, &mut direct, value, &mut scratch);
+                assert_eq!(direct, general, "sigma {sigma_ps} b {b}");
+                assert_eq!(lost_direct.to_bits(), lost_general.to_bits(), "b {b}");
+                let (f, len) = table.span(&p);
+                for i in 0..nt {
+                    if direct[i] != start[i] {
+                        assert!(
+                            (f..f + len as isize).contains(&(i as isize)),
+                            "b {b} bin {i}"
+                        );
+                    }
+                }
+                if p.tent {
+                    tents += 1;
+                } else {
+                    rows += 1;
+                }
+            }
+            // Both routes are exercised where they exist: a delta pulse is all tent, pulses
+            // whose 6 sigma reach stays under half a bin partly, wider ones never.
+            let s = sigma_ps / ax.dt_ps;
+            if s == 0.0 {
+                assert_eq!(rows, 0);
+            } else if 6.0 * s < 0.5 {
+                assert!(tents > 0 && rows > 0, "sigma {sigma_ps}: {tents} {rows}");
+            } else {
+                assert_eq!(tents, 0);
+            }
+            assert!(table.place(f64::INFINITY).is_none());
+        }
     }
 
     #[test]

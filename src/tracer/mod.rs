@@ -55,7 +55,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
-use binning::{add_weighted, ResponseTable, TimeResponse};
+use binning::{ResponseTable, TimeResponse};
 use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -195,8 +195,9 @@ struct PathKernel<'a> {
     /// `max(0, laser_normal . w)` for cosine emission (scene.rs `Laser::intensity`).
     intensity_scale: f32,
     cosine_emission: bool,
-    /// Albedo of each material.
-    albedo: Vec<f32>,
+    /// Albedo of each triangle of the mesh (one load per hit instead of the material's
+    /// index then its albedo).
+    triangle_albedo: Vec<f32>,
     max_bounces: u32,
     rr_start_bounce: u32,
 }
@@ -215,7 +216,6 @@ impl PathKernel<'_> {
         window: &PathWindow,
         sink: &mut impl FnMut(Contribution),
     ) -> PathTally {
-        let materials = &self.bvh.mesh().material;
         let mut dir: Vector3<f32> = match &self.world_from_pixel {
             Some(m) => (m * Vector3::new(u as f32, v as f32, 1.0)).normalize(),
             None => {
@@ -247,7 +247,7 @@ impl PathKernel<'_> {
             if n.dot(&dir) > 0.0 {
                 n = -n;
             }
-            let rho = self.albedo[materials[hit.triangle as usize] as usize];
+            let rho = self.triangle_albedo[hit.triangle as usize];
             if rho <= 0.0 {
                 break;
             }
@@ -386,7 +386,12 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
         laser_normal: laser.normal.into_inner().cast::<f32>(),
         intensity_scale: intensity_scale as f32,
         cosine_emission,
-        albedo: scene.albedo.clone(),
+        triangle_albedo: bvh
+            .mesh()
+            .material
+            .iter()
+            .map(|&m| scene.albedo[m as usize])
+            .collect(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
     }
@@ -602,27 +607,34 @@ impl<'a> Tracer<'a> {
                                 if !(b >= 0.0 && b < nt as f64) {
                                     stats.samples_outside_window += 1;
                                 }
-                                let Some(first) = cam_resp.weights_at(b, &mut weights) else {
+                                let Some(at) = cam_resp.place(b) else {
                                     lost += value;
                                     return;
                                 };
-                                lost += add_weighted(&mut acc, first, &weights, value);
-                                grow(&mut touched, first, weights.len(), nt);
+                                lost += cam_resp.add(&at, &mut acc, value, &mut weights);
+                                let (first, len) = cam_resp.span(&at);
+                                grow(&mut touched, first, len, nt);
                                 if out.direct.is_some() {
                                     let split = if c.bounce == 1 {
                                         &mut acc_direct
                                     } else {
                                         &mut acc_multi
                                     };
-                                    add_weighted(split, first, &weights, value);
+                                    cam_resp.add(&at, split, value, &mut weights);
                                 }
                                 if let Some(world_resp) = &self.world_resp {
                                     let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
-                                    if let Some(first) =
-                                        world_resp.weights(t_world_ps, &mut weights_world)
+                                    if let Some(at) =
+                                        world_resp.place(world_resp.bin_coord(t_world_ps))
                                     {
-                                        add_weighted(&mut acc_world, first, &weights_world, value);
-                                        grow(&mut touched_world, first, weights_world.len(), ntw);
+                                        world_resp.add(
+                                            &at,
+                                            &mut acc_world,
+                                            value,
+                                            &mut weights_world,
+                                        );
+                                        let (first, len) = world_resp.span(&at);
+                                        grow(&mut touched_world, first, len, ntw);
                                     }
                                 }
                             },
