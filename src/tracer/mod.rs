@@ -62,7 +62,9 @@ use binning::{ResponseTable, TimeResponse};
 use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
-use sampling::{cosine_hemisphere, pixel_rng, uniform, uniform_pair, PixelSampler, Stream};
+use sampling::{
+    cosine_hemisphere_in, orthonormal_basis, pixel_rng, uniform, uniform_pair, PixelSampler, Stream,
+};
 use std::ops::Range;
 use std::time::Instant;
 
@@ -198,9 +200,8 @@ struct PathKernel<'a> {
     /// `max(0, laser_normal . w)` for cosine emission (scene.rs `Laser::intensity`).
     intensity_scale: f32,
     cosine_emission: bool,
-    /// Albedo of each triangle of the mesh (one load per hit instead of the material's
-    /// index then its albedo).
-    triangle_albedo: Vec<f32>,
+    /// Albedo and normal's basis of each triangle of the mesh (one load per hit).
+    shading: Vec<TriangleShading>,
     max_bounces: u32,
     rr_start_bounce: u32,
 }
@@ -246,11 +247,13 @@ impl PathKernel<'_> {
                 (early_m, late_m) = window.bounds_m(first_m);
             }
             // Two-sided surfaces: shade the side the ray arrives from.
+            let shading = &self.shading[hit.triangle as usize];
             let mut n = hit.normal;
-            if n.dot(&dir) > 0.0 {
+            let back = n.dot(&dir) > 0.0;
+            if back {
                 n = -n;
             }
-            let rho = self.triangle_albedo[hit.triangle as usize];
+            let rho = shading.albedo;
             if rho <= 0.0 {
                 break;
             }
@@ -311,11 +314,26 @@ impl PathKernel<'_> {
             } else {
                 uniform_pair(rng)
             };
-            dir = cosine_hemisphere(&n, u1, u2);
+            // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
+            let b = if back {
+                -shading.bitangent
+            } else {
+                shading.bitangent
+            };
+            dir = cosine_hemisphere_in(&shading.tangent, &b, &n, u1, u2);
             origin = p_off;
         }
         tally
     }
+}
+
+/// What a path needs of the triangle it hits.
+#[derive(Clone, Copy, Debug)]
+struct TriangleShading {
+    albedo: f32,
+    /// [`orthonormal_basis`] of the triangle's unit normal.
+    tangent: Vector3<f32>,
+    bitangent: Vector3<f32>,
 }
 
 /// What one path cost and skipped (see [`PathKernel::trace_path`]).
@@ -389,14 +407,35 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
         laser_normal: laser.normal.into_inner().cast::<f32>(),
         intensity_scale: intensity_scale as f32,
         cosine_emission,
-        triangle_albedo: bvh
+        shading: bvh
             .mesh()
             .material
             .iter()
-            .map(|&m| scene.albedo[m as usize])
+            .enumerate()
+            .map(|(i, &m)| {
+                let normal = unit_normal(bvh.mesh().corners(i));
+                let (tangent, bitangent) = orthonormal_basis(&normal);
+                TriangleShading {
+                    albedo: scene.albedo[m as usize],
+                    tangent,
+                    bitangent,
+                }
+            })
             .collect(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
+    }
+}
+
+/// The unit normal of a triangle as the BVH reports it in [`crate::geometry::Hit`] (the
+/// double-precision cross product of its edges, normalised; zero for a degenerate one).
+fn unit_normal(corners: [Point3<f32>; 3]) -> Vector3<f32> {
+    let [a, b, c] = corners.map(|p| p.coords.cast::<f64>());
+    let n = (b - a).cross(&(c - a));
+    if n.norm_squared() > 0.0 && n.norm_squared().is_finite() {
+        n.normalize().cast::<f32>()
+    } else {
+        Vector3::zeros()
     }
 }
 
@@ -851,6 +890,38 @@ mod tests {
         let (mut sw, mut sb) = (wide.stats, base.stats);
         (sw.seconds, sb.seconds) = (0.0, 0.0);
         assert_eq!(sw, sb);
+    }
+
+    #[test]
+    fn triangle_bases_are_those_of_the_hit_normals() {
+        // The per-triangle basis the kernel precomputes is, bit for bit, the basis of the
+        // normal the BVH reports for hits on that triangle (so shading with it is the same
+        // as computing it per hit), for rays in all directions from inside the room.
+        let scene = Scene::builtin("cornell", None).unwrap();
+        let bvh = Bvh::new(scene.mesh.clone());
+        let k = kernel(&scene, &bvh, &TraceOptions::default());
+        let mut rng = pixel_rng(3, Stream::Steady, 0);
+        let mut seen = std::collections::HashSet::new();
+        for _ in 0..4000 {
+            let (u1, u2) = uniform_pair(&mut rng);
+            let z = 1.0 - 2.0 * u1;
+            let phi = 2.0 * std::f32::consts::PI * u2;
+            let rxy = (1.0 - z * z).max(0.0).sqrt();
+            let dir = Vector3::new(rxy * phi.cos(), rxy * phi.sin(), z);
+            let Some(hit) = bvh.intersect(&Ray::new(k.laser_m, dir), 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let s = &k.shading[hit.triangle as usize];
+            let (t, b) = orthonormal_basis(&hit.normal);
+            assert_eq!(
+                (s.tangent, s.bitangent),
+                (t, b),
+                "triangle {}",
+                hit.triangle
+            );
+            seen.insert(hit.triangle);
+        }
+        assert!(seen.len() > 20, "{}", seen.len());
     }
 
     /// Every contribution of 256 paths of one pixel, each path's random stream started

@@ -75,9 +75,23 @@ pub fn orthonormal_basis(n: &Vector3<f32>) -> (Vector3<f32>, Vector3<f32>) {
 /// stratified or low-discrepancy points of the square stay well spread over the hemisphere.
 #[inline]
 pub fn cosine_hemisphere(n: &Vector3<f32>, u1: f32, u2: f32) -> Vector3<f32> {
+    let (t, b) = orthonormal_basis(n);
+    cosine_hemisphere_in(&t, &b, n, u1, u2)
+}
+
+/// [`cosine_hemisphere`] about `n` given its [`orthonormal_basis`] `(t, b)` (for normals
+/// whose basis is computed once, e.g. per triangle). The basis of `-n` is `(t, -b)`, bit for
+/// bit (every operation of the basis commutes with negation).
+#[inline]
+pub fn cosine_hemisphere_in(
+    t: &Vector3<f32>,
+    b: &Vector3<f32>,
+    n: &Vector3<f32>,
+    u1: f32,
+    u2: f32,
+) -> Vector3<f32> {
     let (x, y) = concentric_disk(u1, u2);
     let z = (1.0 - x * x - y * y).max(0.0).sqrt();
-    let (t, b) = orthonormal_basis(n);
     t * x + b * y + n * z
 }
 
@@ -265,6 +279,38 @@ mod tests {
                 assert!(x.dot(&y).abs() < 1e-6);
             }
             assert!((t.norm() - 1.0).abs() < 1e-6 && (b.norm() - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn basis_of_the_flipped_normal_is_t_and_minus_b() {
+        // The tracer computes a triangle's basis once and shades its back side with
+        // (t, -b, -n): the same bits as the basis and direction computed for -n.
+        let mut rng = pixel_rng(5, Stream::Steady, 1);
+        for k in 0..2000 {
+            let (a, b) = uniform_pair(&mut rng);
+            let (c, _) = uniform_pair(&mut rng);
+            let mut n = Vector3::new(a - 0.5, b - 0.5, c - 0.5);
+            match k % 4 {
+                0 => n.z = 0.0,
+                1 => n.z = -0.0,
+                _ => {}
+            }
+            let n = n.normalize();
+            let (t, bt) = orthonormal_basis(&n);
+            let (t_flip, b_flip) = orthonormal_basis(&-n);
+            let bits = |v: &Vector3<f32>| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+            assert_eq!(bits(&t_flip), bits(&t), "{n:?}");
+            assert_eq!(bits(&b_flip), bits(&-bt), "{n:?}");
+            let (u1, u2) = uniform_pair(&mut rng);
+            assert_eq!(
+                bits(&cosine_hemisphere(&-n, u1, u2)),
+                bits(&cosine_hemisphere_in(&t, &-bt, &-n, u1, u2))
+            );
+            assert_eq!(
+                bits(&cosine_hemisphere(&n, u1, u2)),
+                bits(&cosine_hemisphere_in(&t, &bt, &n, u1, u2))
+            );
         }
     }
 
