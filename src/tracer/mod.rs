@@ -712,7 +712,7 @@ impl<'a> Tracer<'a> {
                 let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
                 stats.paths += 1;
                 let tally =
-                    k.trace_path(&mut rng, &ld, i, (u, v), &window, &mut |c: Contribution| {
+                    k.trace_path(&mut rng, &ld, i, (u, v), window, &mut |c: Contribution| {
                         let value = c.value * inv_spp;
                         let t_camera_ps = c.path_m * ps_per_m;
                         stats.samples += 1;
