@@ -63,7 +63,7 @@ use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use sampling::{
-    cosine_hemisphere_in, orthonormal_basis, pixel_rng, uniform, uniform_pair, PixelSampler, Stream,
+    cosine_local, orthonormal_basis, pixel_rng, uniform, uniform_pair, PixelSampler, Stream,
 };
 use std::ops::Range;
 use std::time::Instant;
@@ -257,6 +257,12 @@ impl PathKernel<'_> {
             if rho <= 0.0 {
                 break;
             }
+            // The continuation of a low-discrepancy bounce depends on nothing of this vertex
+            // but its frame: drawn now, its latency overlaps the connection to the spot.
+            let ld_local = (bounce <= LD_BOUNCES && bounce < self.max_bounces).then(|| {
+                let (u1, u2) = ld.sample(index, bounce);
+                cosine_local(u1, u2)
+            });
             let p_off = p + n * RAY_OFFSET_M;
             // Next-event estimation towards the spot.
             let to_spot = self.laser_m - p_off;
@@ -308,19 +314,18 @@ impl PathKernel<'_> {
                 beta /= survive;
             }
             // The first two bounces from the pixel's low-discrepancy points, later ones from
-            // its random stream.
-            let (u1, u2) = if bounce <= LD_BOUNCES {
-                ld.sample(index, bounce)
-            } else {
-                uniform_pair(rng)
-            };
+            // its random stream (drawn after Russian roulette's, in this order).
+            let l = ld_local.unwrap_or_else(|| {
+                let (u1, u2) = uniform_pair(rng);
+                cosine_local(u1, u2)
+            });
             // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
             let b = if back {
                 -shading.bitangent
             } else {
                 shading.bitangent
             };
-            dir = cosine_hemisphere_in(&shading.tangent, &b, &n, u1, u2);
+            dir = shading.tangent * l.x + b * l.y + n * l.z;
             origin = p_off;
         }
         tally

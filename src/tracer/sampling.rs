@@ -90,9 +90,16 @@ pub fn cosine_hemisphere_in(
     u1: f32,
     u2: f32,
 ) -> Vector3<f32> {
+    let l = cosine_local(u1, u2);
+    t * l.x + b * l.y + n * l.z
+}
+
+/// The direction of [`cosine_hemisphere`] in the frame of the normal (`z` along it).
+#[inline]
+pub fn cosine_local(u1: f32, u2: f32) -> Vector3<f32> {
     let (x, y) = concentric_disk(u1, u2);
     let z = (1.0 - x * x - y * y).max(0.0).sqrt();
-    t * x + b * y + n * z
+    Vector3::new(x, y, z)
 }
 
 /// Shirley and Chiu's concentric map of the unit square onto the unit disk (area preserving):
