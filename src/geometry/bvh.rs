@@ -823,83 +823,44 @@ fn leaf_by_pairs<T: Pairs>(
     h
 }
 
-impl LeafLanes for Portable<4> {
-    #[inline(always)]
-    fn ray(c: &RayConsts) -> TriRay<Self> {
-        TriRay::new(c)
-    }
-    #[inline(always)]
-    fn test_leaf(
-        packets: &[TriPacket],
-        first: usize,
-        count: usize,
-        r: &TriRay<Self>,
-        t_min: f32,
-        t_max: f32,
-        any: bool,
-    ) -> PacketHits<8> {
-        leaf_by_packets(packets, first, count, r, t_min, t_max, any)
-    }
+/// `impl LeafLanes` for a lane type that tests a leaf `by_packets` (one four-lane packet at a
+/// time: four-lane types) or `by_pairs` (two packets side by side: eight-lane types).
+macro_rules! leaf_lanes {
+    ($lanes:ty, $test:ident) => {
+        impl LeafLanes for $lanes {
+            #[inline(always)]
+            fn ray(c: &RayConsts) -> TriRay<Self> {
+                TriRay::new(c)
+            }
+            #[inline(always)]
+            fn test_leaf(
+                packets: &[TriPacket],
+                first: usize,
+                count: usize,
+                r: &TriRay<Self>,
+                t_min: f32,
+                t_max: f32,
+                any: bool,
+            ) -> PacketHits<8> {
+                leaf_lanes!(@$test packets, first, count, r, t_min, t_max, any)
+            }
+        }
+    };
+    (@by_packets $($arg:expr),*) => {
+        leaf_by_packets($($arg),*)
+    };
+    (@by_pairs $p:expr, $f:expr, $c:expr, $r:expr, $a:expr, $b:expr, $any:expr) => {{
+        let _ = $any; // a pair is one test: nothing to stop early
+        leaf_by_pairs($p, $f, $c, $r, $a, $b)
+    }};
 }
 
-impl LeafLanes for Portable<8> {
-    #[inline(always)]
-    fn ray(c: &RayConsts) -> TriRay<Self> {
-        TriRay::new(c)
-    }
-    #[inline(always)]
-    fn test_leaf(
-        packets: &[TriPacket],
-        first: usize,
-        count: usize,
-        r: &TriRay<Self>,
-        t_min: f32,
-        t_max: f32,
-        _any: bool,
-    ) -> PacketHits<8> {
-        leaf_by_pairs(packets, first, count, r, t_min, t_max)
-    }
-}
-
+leaf_lanes!(Portable<4>, by_packets);
+leaf_lanes!(Portable<8>, by_pairs);
 #[cfg(target_arch = "x86_64")]
-impl LeafLanes for Sse {
-    #[inline(always)]
-    fn ray(c: &RayConsts) -> TriRay<Self> {
-        TriRay::new(c)
-    }
-    #[inline(always)]
-    fn test_leaf(
-        packets: &[TriPacket],
-        first: usize,
-        count: usize,
-        r: &TriRay<Self>,
-        t_min: f32,
-        t_max: f32,
-        any: bool,
-    ) -> PacketHits<8> {
-        leaf_by_packets(packets, first, count, r, t_min, t_max, any)
-    }
-}
-
+leaf_lanes!(Sse, by_packets);
 #[cfg(target_arch = "x86_64")]
-impl LeafLanes for Avx {
-    #[inline(always)]
-    fn ray(c: &RayConsts) -> TriRay<Self> {
-        TriRay::new(c)
-    }
-    #[inline(always)]
-    fn test_leaf(
-        packets: &[TriPacket],
-        first: usize,
-        count: usize,
-        r: &TriRay<Self>,
-        t_min: f32,
-        t_max: f32,
-        _any: bool,
-    ) -> PacketHits<8> {
-        leaf_by_pairs(packets, first, count, r, t_min, t_max)
-    }
-}
+leaf_lanes!(Avx, by_pairs);
 
 /// Where [`packet_test`] reads corner `k`, axis `a` of its triangles.
 trait Corners<T> {
