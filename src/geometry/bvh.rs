@@ -261,6 +261,12 @@ impl Bvh {
         &self.mesh
     }
 
+    /// The unit normal that hits on `triangle` report ([`Hit::normal`]; zero for a
+    /// degenerate triangle).
+    pub fn normal(&self, triangle: u32) -> Vector3<f32> {
+        self.normals[triangle as usize]
+    }
+
     pub fn bounds(&self) -> Aabb {
         self.bounds
     }

@@ -418,7 +418,7 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
             .iter()
             .enumerate()
             .map(|(i, &m)| {
-                let normal = unit_normal(bvh.mesh().corners(i));
+                let normal = bvh.normal(i as u32);
                 let (tangent, bitangent) = orthonormal_basis(&normal);
                 TriangleShading {
                     albedo: scene.albedo[m as usize],
@@ -429,18 +429,6 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
             .collect(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
-    }
-}
-
-/// The unit normal of a triangle as the BVH reports it in [`crate::geometry::Hit`] (the
-/// double-precision cross product of its edges, normalised; zero for a degenerate one).
-fn unit_normal(corners: [Point3<f32>; 3]) -> Vector3<f32> {
-    let [a, b, c] = corners.map(|p| p.coords.cast::<f64>());
-    let n = (b - a).cross(&(c - a));
-    if n.norm_squared() > 0.0 && n.norm_squared().is_finite() {
-        n.normalize().cast::<f32>()
-    } else {
-        Vector3::zeros()
     }
 }
 
