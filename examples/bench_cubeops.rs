@@ -4,6 +4,7 @@
 //! numpy baselines; release build only.
 //!
 //! Usage: bench_cubeops [--nx 672] [--ny 600] [--nt 512] [--threads 2] [--reps 3]
+//!                      [--only copy|unwarp|pyramid]
 //!
 //! GB/s counts bytes read plus bytes written (1 GB = 1e9 bytes), from the best of `reps`
 //! runs; the median and the mean CPU seconds per run (time on a CPU of all threads, which a
@@ -11,7 +12,7 @@
 //! that page faults are not counted.
 
 use femto::cube::TimeAxis;
-use femto::pyramid::{level_nt, pyramid_rows, top_level};
+use femto::pyramid::{level_nt, pyramid_rows, top_level, PrefixSums};
 use femto::unwarp::{covering_axis, unwarp_rows, Direction};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -75,6 +76,11 @@ fn main() {
     let nt = arg(&args, "--nt", 512);
     let threads = arg(&args, "--threads", 2);
     let reps = arg(&args, "--reps", 3).max(1);
+    let only = args
+        .iter()
+        .position(|a| a == "--only")
+        .map(|i| args.get(i + 1).expect("--only needs copy, unwarp or pyramid").as_str());
+    let run = |name: &str| only.is_none_or(|o| o == name);
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build_global()
@@ -110,7 +116,7 @@ fn main() {
     };
 
     // Plain copies of the cube: one thread (copy_from_slice) and the pool.
-    {
+    if run("copy") {
         let mut dst = vec![0.0f32; src.len()];
         touch(&mut dst, 1.0);
         let bytes = 2 * src.len() * 4;
@@ -129,7 +135,7 @@ fn main() {
     }
 
     // Unwarp camera -> world onto the covering axis.
-    {
+    if run("unwarp") {
         let dst_axis = covering_axis(&src_axis, 1.0, 1.1, 1.0, Direction::CameraToWorld);
         let mut dst = vec![0.0f32; n_pix * dst_axis.nt];
         let mut mask = vec![0u8; n_pix];
@@ -159,29 +165,31 @@ fn main() {
         println!("  check: total {a:.6e} -> {b:.6e}");
     }
 
-    // The pyramid: prefix sums (f64) alone, then prefix sums and every mip level in the one
-    // pass `femto pyramid` makes.
-    {
-        let mut prefix = vec![0.0f64; n_pix * (nt + 1)];
-        touch(&mut prefix, 1.0);
-        let t = time(reps, || pyramid_rows(&src, nt, &mut prefix, &mut []));
-        report("prefix only (f64)", t, src.len() * 4 + prefix.len() * 8);
-        println!("  check: P_end(0) {:.6e}", prefix[nt]);
+    // The pyramid: prefix sums (two-level, f64 + f32) alone, then prefix sums and every mip
+    // level in the one pass `femto pyramid` makes.
+    if run("pyramid") {
+        let mut prefix = PrefixSums::zeros(n_pix, nt);
+        touch(&mut prefix.coarse, 1.0);
+        touch(&mut prefix.fine, 1.0);
+        let prefix_bytes = prefix.coarse.len() * 8 + prefix.fine.len() * 4;
+        let t = time(reps, || pyramid_rows(&src, nt, prefix.slices(), &mut []));
+        report("prefix only (2-level)", t, src.len() * 4 + prefix_bytes);
+        println!("  check: P_end(0) {:.6e}", prefix.pixel(0).total());
         let mut levels: Vec<Vec<f32>> = (1..=top_level(nt))
             .map(|k| vec![1.0f32; n_pix * level_nt(nt, k)])
             .collect();
         levels.iter_mut().for_each(|l| touch(l, 1.0));
         let bytes =
-            src.len() * 4 + prefix.len() * 8 + levels.iter().map(|l| l.len() * 4).sum::<usize>();
+            src.len() * 4 + prefix_bytes + levels.iter().map(|l| l.len() * 4).sum::<usize>();
         let t = time(reps, || {
             let mut outs: Vec<&mut [f32]> = levels.iter_mut().map(|l| &mut l[..]).collect();
-            pyramid_rows(&src, nt, &mut prefix, &mut outs)
+            pyramid_rows(&src, nt, prefix.slices(), &mut outs)
         });
         report(&format!("pyramid ({} levels)", levels.len()), t, bytes);
         let top = levels.last().map_or(0.0, |l| l[0] as f64);
         println!(
             "  check: top level(0) {top:.6e}, P_end(0) {:.6e}",
-            prefix[nt]
+            prefix.pixel(0).total()
         );
     }
 }

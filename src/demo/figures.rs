@@ -187,7 +187,7 @@ pub fn receive_quantiles_ps(
         let p = w.pixel_prefix(pix % w.nx, pix / w.nx);
         let k0 = ((shift - lo) / dt).round() as usize;
         for i in 0..nt {
-            hist[k0 + i] += (p[i + 1] - p[i]).max(0.0);
+            hist[k0 + i] += p.bin(i).max(0.0);
         }
     }
     let total: f64 = hist.iter().sum();

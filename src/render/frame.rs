@@ -267,8 +267,7 @@ impl<'s> FrameCtx<'s> {
         let d_light = if e.searchlight { doppler } else { 1.0 };
         let value = match settings.view {
             View::Integrated => {
-                let nt = scene.world.axis.nt;
-                let total = scene.world.pixel_prefix(x, y)[nt];
+                let total = scene.world.pixel_prefix(x, y).total();
                 let factor = if e.searchlight {
                     constant_light_factor(d_light, settings.radiometry)
                 } else {

@@ -521,21 +521,9 @@ impl<'a> RenderScene<'a> {
     #[inline]
     pub fn emitted_energy(&self, x: usize, y: usize, t_a_ps: f64, t_b_ps: f64) -> f64 {
         let w = self.world;
-        let nt = w.axis.nt;
-        let base = (y * w.nx + x) * (nt + 1);
-        let p = &w.prefix[base..base + nt + 1];
+        let p = w.pixel_prefix(x, y);
         let at = |t_ps: f64| {
-            let c = (self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps;
-            if c <= 0.0 {
-                0.0
-            } else if c >= nt as f64 {
-                p[nt]
-            } else if c.is_nan() {
-                f64::NAN
-            } else {
-                let i = c as usize;
-                p[i] + (c - i as f64) * (p[i + 1] - p[i])
-            }
+            p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps)
         };
         at(t_b_ps) - at(t_a_ps)
     }
@@ -677,7 +665,7 @@ pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
     let nt = w.axis.nt;
     let values: Vec<f64> = match view {
         View::Isochrones(_) => return 1.0,
-        View::Integrated => w.prefix.chunks_exact(nt + 1).map(|p| p[nt]).collect(),
+        View::Integrated => (0..w.nx * w.ny).map(|p| w.prefix.pixel(p).total()).collect(),
         View::Transient | View::Naive => {
             let bins = w.nx * w.ny * nt;
             let step = (bins / (1 << 20)).max(1);
@@ -685,8 +673,7 @@ pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
                 .step_by(step)
                 .map(|b| {
                     let (pix, i) = (b / nt, b % nt);
-                    let p = &w.prefix[pix * (nt + 1)..(pix + 1) * (nt + 1)];
-                    (p[i + 1] - p[i]) / w.axis.dt_ps
+                    w.prefix.pixel(pix).bin(i) / w.axis.dt_ps
                 })
                 .collect()
         }

@@ -90,7 +90,45 @@ impl GroupView<'_> {
         }
         Ok(buf)
     }
+
+    /// Dataset `name`, which must have shape `shape` and elements of type `T`.
+    pub fn typed<T: Elem>(&self, name: &str, shape: &[usize]) -> Result<&[T], StoreError> {
+        let buf = self.dataset(name, shape)?;
+        T::of(buf).ok_or_else(|| {
+            self.schema(format!(
+                "dataset '{name}' holds {}, expected {}",
+                buf.type_name(),
+                T::NAME
+            ))
+        })
+    }
 }
+
+/// Element types of a dataset read through [`GroupView::typed`].
+pub(crate) trait Elem: Sized {
+    /// The type's name in errors, as [`DataBuf::type_name`] gives it.
+    const NAME: &'static str;
+    /// The values of `buf` when it holds this type.
+    fn of(buf: &DataBuf) -> Option<&[Self]>;
+}
+
+macro_rules! elem {
+    ($t:ty, $variant:ident, $name:literal) => {
+        impl Elem for $t {
+            const NAME: &'static str = $name;
+            fn of(buf: &DataBuf) -> Option<&[Self]> {
+                match buf {
+                    DataBuf::$variant(v) => Some(v),
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+elem!(f32, F32, "f32");
+elem!(f64, F64, "f64");
+elem!(u8, U8, "u8");
+elem!(u32, U32, "u32");
 
 /// An attribute entry.
 pub(crate) fn attr(name: &str, value: AttrValue) -> (String, AttrValue) {

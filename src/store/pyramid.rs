@@ -10,11 +10,16 @@
 //!
 //! Schema (docs/cube-format.md), `[y][x][t]` in C order:
 //!
-//! | dataset   | type | shape                          | meaning                                |
-//! |-----------|------|--------------------------------|----------------------------------------|
-//! | `prefix`  | f64  | `(ny, nx, nt + 1)`             | `P[i]` = sum of bins `0 .. i`, `P[0] = 0` |
-//! | `level_k` | f32  | `(ny, nx, ceil(nt / 2^k))`     | sums of `2^k` bins, `k = 1 ..= levels` |
-//! | `mask`    | u8   | `(ny, nx)`                     | the cube's mask, when it has one       |
+//! | dataset         | type | shape                      | meaning                                  |
+//! |-----------------|------|----------------------------|------------------------------------------|
+//! | `prefix_coarse` | f64  | `(ny, nx, floor(nt/8) + 1)` | `P[8 k]`, `P[i]` = sum of bins `0 .. i` |
+//! | `prefix_fine`   | f32  | `(ny, nx, nt + 1)`         | `P[i] - P[8 floor(i / 8)]`               |
+//! | `level_k`       | f32  | `(ny, nx, ceil(nt / 2^k))` | sums of `2^k` bins, `k = 1 ..= levels`   |
+//! | `mask`          | u8   | `(ny, nx)`                 | the cube's mask, when it has one         |
+//!
+//! so `P[i] = prefix_coarse[i / 8] + prefix_fine[i]` (the two-level prefix of
+//! [`crate::pyramid::PrefixSums`]). Pyramids written before the two levels hold one f64
+//! dataset `prefix`, `(ny, nx, nt + 1)`, instead; [`from_group`] reads those too.
 //!
 //! Attributes: `nx`, `ny`, `nt`, `levels` (integers), `t0_ps`, `dt_ps` (the cube's time axis),
 //! `time_frame`, `source` (the cube file the pyramid was built from).
@@ -25,11 +30,22 @@ use crate::container::{
     GroupReader, GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
-use crate::pyramid::{level_nt, pyramid_rows, top_level, Level, Pyramid};
+use crate::pyramid::{
+    coarse_len, level_nt, pyramid_rows, top_level, Level, PrefixSlices, PrefixSums, Pyramid,
+};
 use std::path::Path;
 
 /// Name of the group.
 pub const GROUP: &str = "pyramid";
+
+/// Dataset of the f64 prefix values at every 8th bin.
+pub const COARSE: &str = "prefix_coarse";
+
+/// Dataset of the f32 prefix values within each block of 8 bins.
+pub const FINE: &str = "prefix_fine";
+
+/// Dataset of the single f64 prefix that pyramids held before the two levels.
+const LEGACY_PREFIX: &str = "prefix";
 
 /// Largest prefix slab computed at once, bytes.
 const SLAB_TARGET_BYTES: usize = 32 << 20;
@@ -59,6 +75,20 @@ impl PyramidInfo {
         (1..=self.levels)
             .map(|k| level_nt(self.axis.nt, k))
             .collect()
+    }
+
+    /// The group's attributes.
+    fn attrs(&self) -> Vec<(String, AttrValue)> {
+        vec![
+            attr("nx", AttrValue::I64(self.nx as i64)),
+            attr("ny", AttrValue::I64(self.ny as i64)),
+            attr("nt", AttrValue::I64(self.axis.nt as i64)),
+            attr("t0_ps", AttrValue::F64(self.axis.t0_ps)),
+            attr("dt_ps", AttrValue::F64(self.axis.dt_ps)),
+            attr("time_frame", AttrValue::Str(self.frame.as_str().into())),
+            attr("levels", AttrValue::I64(self.levels as i64)),
+            attr("source", AttrValue::Str(self.source.clone())),
+        ]
     }
 
     /// Refuse a pyramid built from a cube of another shape or time axis than `meta`.
@@ -147,7 +177,8 @@ pub fn write_pyramid(
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
     let meta = reader.meta();
-    let rows_per_slab = SLAB_TARGET_BYTES / (meta.nx * (meta.axis.nt + 1) * 8);
+    let row_bytes = meta.nx * (coarse_len(meta.axis.nt) * 8 + (meta.axis.nt + 1) * 4);
+    let rows_per_slab = SLAB_TARGET_BYTES / row_bytes;
     write_pyramid_slabs(
         reader,
         out,
@@ -189,19 +220,12 @@ fn write_pyramid_slabs(
         levels,
         source: source.to_string(),
     };
-    let attrs = vec![
-        attr("nx", AttrValue::I64(nx as i64)),
-        attr("ny", AttrValue::I64(ny as i64)),
-        attr("nt", AttrValue::I64(nt as i64)),
-        attr("t0_ps", AttrValue::F64(meta.axis.t0_ps)),
-        attr("dt_ps", AttrValue::F64(meta.axis.dt_ps)),
-        attr("time_frame", AttrValue::Str(meta.frame.as_str().into())),
-        attr("levels", AttrValue::I64(levels as i64)),
-        attr("source", AttrValue::Str(source.to_string())),
-    ];
+    let attrs = info.attrs();
     let mask = reader.read_mask()?;
     let mut specs = vec![
-        DatasetSpec::new("prefix", &[ny, nx, nt + 1], GroupElem::F64).with_compression(compression),
+        DatasetSpec::new(COARSE, &[ny, nx, coarse_len(nt)], GroupElem::F64)
+            .with_compression(compression),
+        DatasetSpec::new(FINE, &[ny, nx, nt + 1], GroupElem::F32).with_compression(compression),
     ];
     for (k, &nt_k) in (1..=levels).zip(&info.level_nts()) {
         specs.push(
@@ -220,7 +244,8 @@ fn write_pyramid_slabs(
     // One set of slab buffers for the whole cube (page faults and allocation once): the
     // source rows, the prefix and each level, resized (down, for the last slab) in place.
     let mut src = vec![0.0f32; rows_per_slab * nx * nt];
-    let mut prefix = vec![0.0f64; rows_per_slab * nx * (nt + 1)];
+    let mut coarse = vec![0.0f64; rows_per_slab * nx * coarse_len(nt)];
+    let mut fine = vec![0.0f32; rows_per_slab * nx * (nt + 1)];
     let mut level_bufs: Vec<Vec<f32>> = (1..=levels)
         .map(|k| vec![0.0f32; rows_per_slab * nx * level_nt(nt, k)])
         .collect();
@@ -228,17 +253,27 @@ fn write_pyramid_slabs(
         let n = rows_per_slab.min(ny - y0);
         let src = &mut src[..n * nx * nt];
         reader.read_rows_into(y0, src)?;
-        prefix.truncate(n * nx * (nt + 1));
+        coarse.truncate(n * nx * coarse_len(nt));
+        fine.truncate(n * nx * (nt + 1));
         for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
             l.truncate(n * nx * level_nt(nt, k));
         }
         let mut outs: Vec<&mut [f32]> = level_bufs.iter_mut().map(|l| &mut l[..]).collect();
-        pyramid_rows(src, nt, &mut prefix, &mut outs);
+        let prefix = PrefixSlices {
+            coarse: &mut coarse,
+            fine: &mut fine,
+        };
+        pyramid_rows(src, nt, prefix, &mut outs);
         // The buffers are moved into a `DataBuf` for the write and back out after it.
-        let written = DataBuf::F64(std::mem::take(&mut prefix));
-        out.write_group_rows(GROUP, "prefix", y0, &written)?;
-        if let DataBuf::F64(p) = written {
-            prefix = p;
+        let written = DataBuf::F64(std::mem::take(&mut coarse));
+        out.write_group_rows(GROUP, COARSE, y0, &written)?;
+        if let DataBuf::F64(c) = written {
+            coarse = c;
+        }
+        let written = DataBuf::F32(std::mem::take(&mut fine));
+        out.write_group_rows(GROUP, FINE, y0, &written)?;
+        if let DataBuf::F32(f) = written {
+            fine = f;
         }
         for (k, l) in (1..=levels).zip(level_bufs.iter_mut()) {
             let written = DataBuf::F32(std::mem::take(l));
@@ -261,43 +296,26 @@ pub fn from_group(path: &Path, data: GroupData) -> Result<Pyramid, StoreError> {
         data: &data,
     };
     let (nx, ny, nt) = (info.nx, info.ny, info.axis.nt);
-    let prefix = match v.dataset("prefix", &[ny, nx, nt + 1])? {
-        DataBuf::F64(p) => p.clone(),
-        other => {
-            return Err(v.schema(format!(
-                "dataset 'prefix' holds {}, expected f64",
-                other.type_name()
-            )))
+    let prefix = if data.dataset(COARSE).is_none() && data.dataset(LEGACY_PREFIX).is_some() {
+        PrefixSums::from_plain(v.typed(LEGACY_PREFIX, &[ny, nx, nt + 1])?, nt)
+    } else {
+        PrefixSums {
+            nt,
+            coarse: v.typed(COARSE, &[ny, nx, coarse_len(nt)])?.to_vec(),
+            fine: v.typed(FINE, &[ny, nx, nt + 1])?.to_vec(),
         }
     };
     let mut levels = Vec::with_capacity(info.levels);
     for (k, nt_k) in (1..=info.levels).zip(info.level_nts()) {
-        let name = level_name(k);
-        match v.dataset(&name, &[ny, nx, nt_k])? {
-            DataBuf::F32(d) => levels.push(Level {
-                bins_per_sample: 1 << k,
-                nt: nt_k,
-                data: d.clone(),
-            }),
-            other => {
-                return Err(v.schema(format!(
-                    "dataset '{name}' holds {}, expected f32",
-                    other.type_name()
-                )))
-            }
-        }
+        levels.push(Level {
+            bins_per_sample: 1 << k,
+            nt: nt_k,
+            data: v.typed(&level_name(k), &[ny, nx, nt_k])?.to_vec(),
+        });
     }
     let mask = match data.dataset("mask") {
         None => None,
-        Some(_) => match v.dataset("mask", &[ny, nx])? {
-            DataBuf::U8(m) => Some(m.clone()),
-            other => {
-                return Err(v.schema(format!(
-                    "dataset 'mask' holds {}, expected u8",
-                    other.type_name()
-                )))
-            }
-        },
+        Some(_) => Some(v.typed::<u8>("mask", &[ny, nx])?.to_vec()),
     };
     Ok(Pyramid {
         nx,
@@ -372,10 +390,10 @@ mod tests {
                 let prof = cube.profile(x, y);
                 let mut acc = 0.0f64;
                 let p = pyr.pixel_prefix(x, y);
-                assert_eq!(p[0], 0.0);
+                assert_eq!(p.get(0), 0.0);
                 for i in 0..axis.nt {
                     acc += prof[i] as f64;
-                    assert_eq!(p[i + 1], acc);
+                    assert_eq!(p.get(i + 1), acc);
                 }
                 for (k1, level) in pyr.levels.iter().enumerate() {
                     let w = 1 << (k1 + 1);
@@ -394,5 +412,47 @@ mod tests {
         let mut up = GroupUpdate::open(&path).unwrap();
         let e = write_pyramid(&reader, &mut up, 5, "c.h5", compression, &|_| {}).unwrap_err();
         assert!(e.to_string().contains("at most 4"), "{e}");
+    }
+
+    /// A pyramid stored before the two-level prefix (one f64 dataset `prefix`) reads back as
+    /// the two levels the kernel builds now.
+    #[test]
+    fn a_stored_f64_prefix_is_read_as_two_levels() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.h5");
+        let axis = TimeAxis {
+            t0_ps: 0.0,
+            dt_ps: 2.0,
+            nt: 21,
+        };
+        let (nx, ny) = (3, 2);
+        let mut cube = Cube::zeros(nx, ny, axis, TimeFrame::World);
+        for (i, v) in cube.data.iter_mut().enumerate() {
+            *v = ((i * 13) % 11) as f32 * 0.5;
+        }
+        write_cube(&path, &cube, &Provenance::new("test")).unwrap();
+        let mut plain = vec![0.0f64; nx * ny * (axis.nt + 1)];
+        for (p, prof) in cube.data.chunks_exact(axis.nt).enumerate() {
+            for (i, &v) in prof.iter().enumerate() {
+                let o = p * (axis.nt + 1) + i;
+                plain[o + 1] = plain[o] + v as f64;
+            }
+        }
+        let info = PyramidInfo {
+            nx,
+            ny,
+            axis,
+            frame: TimeFrame::World,
+            levels: 0,
+            source: "old.h5".into(),
+        };
+        let spec = DatasetSpec::new(LEGACY_PREFIX, &[ny, nx, axis.nt + 1], GroupElem::F64);
+        let mut up = GroupUpdate::open(&path).unwrap();
+        up.begin_group(GROUP, &info.attrs(), &[spec]).unwrap();
+        up.write_group_rows(GROUP, LEGACY_PREFIX, 0, &DataBuf::F64(plain))
+            .unwrap();
+        up.finish().unwrap();
+        let pyr = read_pyramid_for(&path, None).unwrap();
+        assert_eq!(pyr.prefix, Pyramid::build(&cube).prefix);
     }
 }

@@ -171,38 +171,13 @@ pub fn from_group(path: &Path, data: &GroupData) -> Result<StoredRegistration, S
     };
     let calibration = stored_calibration(path, data)?;
     let (nx, ny) = (calibration.intrinsics.width, calibration.intrinsics.height);
-    let f32s = |name: &str, shape: &[usize]| -> Result<Vec<f32>, StoreError> {
-        match v.dataset(name, shape)? {
-            DataBuf::F32(x) => Ok(x.clone()),
-            other => Err(v.schema(format!(
-                "dataset '{name}' holds {}, expected f32",
-                other.type_name()
-            ))),
-        }
-    };
     let triples =
-        |x: Vec<f32>| -> Vec<[f32; 3]> { x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
-    let point_m = triples(f32s("point_m", &[ny, nx, 3])?);
-    let normal = triples(f32s("normal", &[ny, nx, 3])?);
-    let dist_m = f32s("dist_m", &[ny, nx])?;
-    let triangle = match v.dataset("triangle", &[ny, nx])? {
-        DataBuf::U32(x) => x.clone(),
-        other => {
-            return Err(v.schema(format!(
-                "dataset 'triangle' holds {}, expected u32",
-                other.type_name()
-            )))
-        }
-    };
-    let mask = match v.dataset("mask", &[ny, nx])? {
-        DataBuf::U8(x) => x.clone(),
-        other => {
-            return Err(v.schema(format!(
-                "dataset 'mask' holds {}, expected u8",
-                other.type_name()
-            )))
-        }
-    };
+        |x: &[f32]| -> Vec<[f32; 3]> { x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
+    let point_m = triples(v.typed("point_m", &[ny, nx, 3])?);
+    let normal = triples(v.typed("normal", &[ny, nx, 3])?);
+    let dist_m = v.typed::<f32>("dist_m", &[ny, nx])?.to_vec();
+    let triangle = v.typed::<u32>("triangle", &[ny, nx])?.to_vec();
+    let mask = v.typed::<u8>("mask", &[ny, nx])?.to_vec();
     let camera_m = match data.attr("camera_m") {
         Some(AttrValue::F64Array(c)) if c.len() == 3 => Point3::new(c[0], c[1], c[2]),
         _ => return Err(v.schema("attribute 'camera_m' is not 3 numbers")),
