@@ -76,10 +76,11 @@ fn main() {
     let nt = arg(&args, "--nt", 512);
     let threads = arg(&args, "--threads", 2);
     let reps = arg(&args, "--reps", 3).max(1);
-    let only = args
-        .iter()
-        .position(|a| a == "--only")
-        .map(|i| args.get(i + 1).expect("--only needs copy, unwarp or pyramid").as_str());
+    let only = args.iter().position(|a| a == "--only").map(|i| {
+        args.get(i + 1)
+            .expect("--only needs copy, unwarp or pyramid")
+            .as_str()
+    });
     let run = |name: &str| only.is_none_or(|o| o == name);
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

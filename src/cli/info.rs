@@ -11,6 +11,7 @@ use femto::container::{AttrValue, CubeMeta, CubeReader, DataBuf, GroupReader};
 use femto::formats::{read_streak, PixelType, StreakImage};
 use femto::geometry::load::load_mesh;
 use femto::geometry::TriangleMesh;
+use femto::pyramid::coarse_len;
 use femto::store::{pyramid as stored_pyramid, registration as stored_registration};
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
@@ -126,7 +127,8 @@ fn cube_summary(path: &Path) -> anyhow::Result<CubeSummary> {
     };
     let pyramid = if has(stored_pyramid::GROUP) {
         let attrs = reader.read_group_attrs(stored_pyramid::GROUP)?;
-        Some(pyramid_summary(path, attrs, Some(&meta)))
+        let names = reader.group_dataset_names(stored_pyramid::GROUP)?;
+        Some(pyramid_summary(path, attrs, &names, Some(&meta)))
     } else {
         None
     };
@@ -232,13 +234,28 @@ fn registration_summary(
     }))
 }
 
-/// The pyramid group from its attributes; `meta` is the cube it is checked against.
-fn pyramid_summary(path: &Path, attrs: Vec<(String, AttrValue)>, meta: Option<&CubeMeta>) -> Value {
+/// The pyramid group from its attributes and dataset names; `meta` is the cube it is checked
+/// against.
+fn pyramid_summary(
+    path: &Path,
+    attrs: Vec<(String, AttrValue)>,
+    datasets: &[String],
+    meta: Option<&CubeMeta>,
+) -> Value {
+    let has = |name: &str| datasets.iter().any(|d| d == name);
     match stored_pyramid::info_from_attrs(path, attrs) {
         Ok(info) => json!({
             "levels": info.levels,
             "level_nt": info.level_nts(),
-            "prefix_shape": [info.ny, info.nx, info.axis.nt + 1],
+            "prefix": if has(stored_pyramid::COARSE) || !has("prefix") {
+                json!({
+                    "layout": "two-level",
+                    "coarse_shape": [info.ny, info.nx, coarse_len(info.axis.nt)],
+                    "fine_shape": [info.ny, info.nx, info.axis.nt + 1],
+                })
+            } else {
+                json!({"layout": "f64", "shape": [info.ny, info.nx, info.axis.nt + 1]})
+            },
             "time_axis": {
                 "t0_ps": info.axis.t0_ps,
                 "dt_ps": info.axis.dt_ps,
@@ -256,7 +273,8 @@ fn pyramid_summary(path: &Path, attrs: Vec<(String, AttrValue)>, meta: Option<&C
 fn side_file_info(path: &Path) -> anyhow::Result<(Value, String)> {
     let reader = GroupReader::open(path)?;
     let attrs = reader.read_group_attrs(stored_pyramid::GROUP)?;
-    let p = pyramid_summary(path, attrs, None);
+    let names = reader.group_dataset_names(stored_pyramid::GROUP)?;
+    let p = pyramid_summary(path, attrs, &names, None);
     let j = json!({
         "file": path.display().to_string(),
         "kind": "pyramid",
@@ -275,9 +293,17 @@ fn pyramid_text(p: &Value) -> String {
     if let Some(e) = p["error"].as_str() {
         return format!("unreadable: {e}");
     }
+    let prefix = &p["prefix"];
+    let prefix = if prefix["layout"] == "f64" {
+        format!("{} (f64, an older femto's layout)", prefix["shape"])
+    } else {
+        format!(
+            "{} (f32 within blocks of 8 bins, f64 {} at their starts)",
+            prefix["fine_shape"], prefix["coarse_shape"]
+        )
+    };
     let mut s = format!(
-        "prefix sums {} (f64), {} mip level(s) with {} samples per pixel; built from {}",
-        p["prefix_shape"],
+        "prefix sums {prefix}, {} mip level(s) with {} samples per pixel; built from {}",
         p["levels"],
         p["level_nt"],
         p["source"].as_str().unwrap_or("?")

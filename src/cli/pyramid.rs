@@ -74,7 +74,8 @@ pub fn run(args: PyramidArgs) -> anyhow::Result<()> {
     out.finish()?;
     let dest = args.side_file.as_ref().unwrap_or(&args.cube);
     println!(
-        "wrote /{} of {}: prefix sums ({} x {} x {}, f64) and {} mip level(s) {:?} samples per pixel",
+        "wrote /{} of {}: prefix sums ({} x {} x {}, f32 within blocks of 8 bins, f64 at their \
+         starts) and {} mip level(s) {:?} samples per pixel",
         stored::GROUP,
         dest.display(),
         info.ny,

@@ -522,9 +522,8 @@ impl<'a> RenderScene<'a> {
     pub fn emitted_energy(&self, x: usize, y: usize, t_a_ps: f64, t_b_ps: f64) -> f64 {
         let w = self.world;
         let p = w.pixel_prefix(x, y);
-        let at = |t_ps: f64| {
-            p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps)
-        };
+        let at =
+            |t_ps: f64| p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps);
         at(t_b_ps) - at(t_a_ps)
     }
 
@@ -665,7 +664,9 @@ pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
     let nt = w.axis.nt;
     let values: Vec<f64> = match view {
         View::Isochrones(_) => return 1.0,
-        View::Integrated => (0..w.nx * w.ny).map(|p| w.prefix.pixel(p).total()).collect(),
+        View::Integrated => (0..w.nx * w.ny)
+            .map(|p| w.prefix.pixel(p).total())
+            .collect(),
         View::Transient | View::Naive => {
             let bins = w.nx * w.ny * nt;
             let step = (bins / (1 << 20)).max(1);

@@ -391,8 +391,8 @@ mod tests {
                 let mut acc = 0.0f64;
                 let p = pyr.pixel_prefix(x, y);
                 assert_eq!(p.get(0), 0.0);
-                for i in 0..axis.nt {
-                    acc += prof[i] as f64;
+                for (i, &v) in prof.iter().enumerate() {
+                    acc += v as f64;
                     assert_eq!(p.get(i + 1), acc);
                 }
                 for (k1, level) in pyr.levels.iter().enumerate() {
