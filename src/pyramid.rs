@@ -266,9 +266,11 @@ fn prefix_one(src: &[f32], coarse: &mut [f64], fine: &mut [f32]) {
 /// One block of 8 bins `v`: writes its exclusive prefix sums `[0, v0, v0 + v1, ...]` into `f`
 /// and returns its total in f64. The sums are f32, as a log-depth scan over each half of the
 /// block (at most three roundings, so within `3 * 2^-24` of the block's light); the total is
-/// the f64 sum of the bins. SSE2 on x86-64 (four sums per instruction; it made the pyramid
-/// kernel 1.9x faster than one scalar f64 sum per bin on one thread), [`block_sums_scalar`]
-/// (the same additions in the same order) elsewhere.
+/// the f64 sum of the bins. SSE2 on x86-64, four sums per instruction: against the same
+/// sums formed one by one in f64 and rounded to f32, the whole pyramid kernel took 0.144
+/// instead of 0.157 s on one thread and 0.072-0.092 instead of 0.086-0.110 s on two
+/// (tools/bench_cubeops_results.md). [`block_sums_scalar`] (the same additions in the same
+/// order) elsewhere.
 #[inline(always)]
 fn block_sums(v: &[f32; PREFIX_BLOCK_BINS], f: &mut [f32; PREFIX_BLOCK_BINS]) -> f64 {
     #[cfg(target_arch = "x86_64")]
@@ -299,8 +301,9 @@ fn block_sums(v: &[f32; PREFIX_BLOCK_BINS], f: &mut [f32; PREFIX_BLOCK_BINS]) ->
     block_sums_scalar(v, f)
 }
 
-/// [`block_sums`] without SIMD: the same additions in the same order.
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+/// [`block_sums`] without SIMD: the same additions in the same order (bit-identical results,
+/// `block_sums_simd_and_scalar_agree`).
+#[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
 fn block_sums_scalar(v: &[f32; PREFIX_BLOCK_BINS], f: &mut [f32; PREFIX_BLOCK_BINS]) -> f64 {
     let scan = |x: &[f32]| {
         let s = [x[0], x[1] + x[0], x[2] + x[1], x[3] + x[2]];
@@ -459,7 +462,7 @@ pub struct PrefixSums {
     /// `[y][x][k]`, [`coarse_len`]`(nt)` values per pixel: `P[8 k]`, in f64.
     pub coarse: Vec<f64>,
     /// `[y][x][i]`, `nt + 1` values per pixel: `P[i] - P[8 floor(i / 8)]`, the sum of the bins
-    /// before `i` in its own block of 8 (0 where `i` starts a block), rounded to f32.
+    /// before `i` in its own block of 8 (0 where `i` starts a block), in f32.
     pub fine: Vec<f32>,
 }
 
@@ -494,11 +497,6 @@ impl PrefixSums {
             }
         }
         out
-    }
-
-    /// Number of pixels.
-    pub fn n_pix(&self) -> usize {
-        self.fine.len() / (self.nt + 1)
     }
 
     /// The prefix of pixel `p` (flat index `y * nx + x`). Panics past the last pixel.
@@ -1155,6 +1153,21 @@ mod tests {
                 + 1e-15 * v.iter().map(|&x| x as f64).sum::<f64>();
             let got = two.pixel(0).get(b) - two.pixel(0).get(a);
             prop_assert!((got - exact).abs() <= bound, "[{}, {}): {} vs {}", a, b, got, exact);
+        }
+    }
+
+    /// The SSE2 block scan and its scalar form (the one other targets use) agree bit for bit.
+    #[test]
+    fn block_sums_simd_and_scalar_agree() {
+        let mut rng = Pcg64::seed_from_u64(4);
+        for _ in 0..1000 {
+            let v: [f32; 8] = std::array::from_fn(|_| {
+                rng.random_range(-1.0f32..1.0) * 10f32.powi(rng.random_range(-6..6))
+            });
+            let (mut a, mut b) = ([f32::NAN; 8], [f32::NAN; 8]);
+            let (ta, tb) = (block_sums(&v, &mut a), block_sums_scalar(&v, &mut b));
+            assert_eq!(ta.to_bits(), tb.to_bits(), "{v:?}");
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "{v:?}");
         }
     }
 
