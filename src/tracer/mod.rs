@@ -26,6 +26,17 @@
 //! radiance of the same pixel (see [`render_steady`]). Cube values are radiance integrated
 //! over each bin (`energy` units per m^2 per sr).
 //!
+//! Light vertices ([`TraceOptions::light_vertex`], on by default). Two-bounce light is also
+//! sampled from the light's side: an emission ray from the spot (direction density
+//! `I(w) / energy`) lands on a point `y`, which the path's first vertex `x_1` joins by a
+//! shadow ray, contributing `rho_1 / pi * G(x_1, y) * rho_y / pi * energy` (the spot's
+//! intensity over the emission density). A bounce that lands next to the spot gives the
+//! camera's strategy a `1 / r^2` spike; `y` next to `x_1` gives the light's a `1 / d^2`
+//! one. Both estimates of each two-bounce path are weighted by the balance heuristic of
+//! their densities per unit area at the second vertex (camera: `cos_1 / pi * cos_2 / d^2`;
+//! light: `I(w) / energy * cos_2' / r^2`), which sum to one, so the sum stays unbiased
+//! (Veach 1997, ch. 9). Both contributions arrive at the same time and land in the same bins.
+//!
 //! Outputs: the total transient (camera time), optionally its split into one-bounce (`direct`)
 //! and two-or-more-bounce (`multi`) light, and optionally the same samples binned at world
 //! time `t_world = t_camera - eta |x_1 - o| / c` (physics.md, "two clocks"), `x_1` being the
@@ -75,7 +86,10 @@ const RAY_OFFSET_M: f32 = 1e-4;
 const SHADOW_END_M: f32 = 1e-4;
 /// Bounces whose directions come from the pixel's low-discrepancy points (2D dimensions 1 and
 /// 2; dimension 0 is the position in the pixel).
-const LD_BOUNCES: u32 = PixelSampler::DIMS - 1;
+const LD_BOUNCES: u32 = 2;
+/// The pixel's low-discrepancy dimension of the light vertex's emission direction
+/// ([`TraceOptions::light_vertex`]).
+const LIGHT_DIM: u32 = 3;
 /// `1 / pi` in single precision.
 const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 
@@ -97,6 +111,12 @@ pub struct TraceOptions {
     pub split_bounces: bool,
     /// Also produce the world-time cube.
     pub world_time: bool,
+    /// Also estimate two-bounce light from the light's side: each path's first vertex is
+    /// joined to a point lit by the spot (where an emission ray from the spot lands), and
+    /// this and the path's own two-bounce connection are weighted by multiple importance
+    /// sampling (balance heuristic). Unbiased either way; it removes the spikes of bounces
+    /// that land next to the spot, at the cost of two more rays per path.
+    pub light_vertex: bool,
 }
 
 impl Default for TraceOptions {
@@ -109,6 +129,7 @@ impl Default for TraceOptions {
             rr_start_bounce: 3,
             split_bounces: true,
             world_time: true,
+            light_vertex: true,
         }
     }
 }
@@ -204,6 +225,14 @@ struct PathKernel<'a> {
     shading: Vec<TriangleShading>,
     max_bounces: u32,
     rr_start_bounce: u32,
+    /// [`TraceOptions::light_vertex`].
+    light_vertex: bool,
+    /// The spot's energy (its radiant intensity over the emission's direction density, for
+    /// both profiles).
+    energy: f32,
+    /// [`orthonormal_basis`] of `laser_normal`.
+    laser_tangent: Vector3<f32>,
+    laser_bitangent: Vector3<f32>,
 }
 
 impl PathKernel<'_> {
@@ -234,6 +263,9 @@ impl PathKernel<'_> {
         let mut beta = 1.0f32;
         let mut tally = PathTally::default();
         let (mut early_m, mut late_m) = (f64::NEG_INFINITY, f64::INFINITY);
+        // With light vertices, the solid-angle density of the first bounce's direction,
+        // for the two-bounce connection's weight against the light's strategy.
+        let mut first_bounce_pdf = 0.0f32;
         for bounce in 1..=self.max_bounces {
             tally.rays += 1;
             let ray = Ray::new(origin, dir);
@@ -291,7 +323,12 @@ impl PathKernel<'_> {
                     tally.rays += 1;
                     let shadow = Ray::new(p_off, w);
                     if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
-                        let value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
+                        let mut value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
+                        if bounce == 2 && self.light_vertex {
+                            let pdf_camera = first_bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
+                            let pdf_light = self.emission_area_pdf(&p, &n);
+                            value *= pdf_camera / (pdf_camera + pdf_light);
+                        }
                         sink(Contribution {
                             bounce,
                             path_m: arrival_m,
@@ -303,6 +340,17 @@ impl PathKernel<'_> {
             }
             if bounce == self.max_bounces {
                 break;
+            }
+            if bounce == 1 && self.light_vertex {
+                self.connect_light_vertex(
+                    ld,
+                    index,
+                    (p, p_off, n, rho),
+                    first_m,
+                    (early_m, late_m),
+                    &mut tally,
+                    sink,
+                );
             }
             // Cosine-weighted continuation: BRDF * cos / pdf = rho.
             beta *= rho;
@@ -319,6 +367,7 @@ impl PathKernel<'_> {
                 let (u1, u2) = uniform_pair(rng);
                 cosine_local(u1, u2)
             });
+            first_bounce_pdf = l.z * FRAC_1_PI;
             // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
             let b = if back {
                 -shading.bitangent
@@ -329,6 +378,116 @@ impl PathKernel<'_> {
             origin = p_off;
         }
         tally
+    }
+
+    /// Density, per unit area at the surface point `p` (unit normal `n`, either side), of
+    /// the spot's emission ray landing there: the emission's direction density times the
+    /// cosine at `p` over the squared distance. The direction density is the radiant
+    /// intensity over the energy for both emission profiles (`cos / pi`, `1 / (4 pi)`).
+    #[inline(always)]
+    fn emission_area_pdf(&self, p: &Point3<f32>, n: &Vector3<f32>) -> f32 {
+        let to_spot = self.laser_m - p;
+        let inv_r = 1.0 / to_spot.norm_squared().sqrt();
+        let w = to_spot * inv_r;
+        let per_sr = if self.cosine_emission {
+            (-self.laser_normal.dot(&w)).max(0.0) * FRAC_1_PI
+        } else {
+            0.25 * FRAC_1_PI
+        };
+        per_sr * n.dot(&w).abs() * inv_r * inv_r
+    }
+
+    /// The light's strategy for two-bounce light ([`TraceOptions::light_vertex`]): a point
+    /// `y` lit by the spot, where an emission ray from it lands (direction from the pixel's
+    /// low-discrepancy dimension [`LIGHT_DIM`], point `index`), is joined to the path's first
+    /// vertex `x` (point `x_m`, moved off the surface `x_off`, unit normal `n_x` of the side
+    /// seen, albedo `rho_x`) by a shadow ray. Its contribution, and the camera's own
+    /// two-bounce one (a bounce from `x` that lands on `y`, connected to the spot), are
+    /// weighted by the balance heuristic of their densities per unit area at `y`, so that
+    /// together they count two-bounce light once, without the camera strategy's spikes where
+    /// a bounce lands next to the spot (its `1 / r^2`) nor the light strategy's where `y` is
+    /// next to `x` (`1 / d^2`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn connect_light_vertex(
+        &self,
+        ld: &PixelSampler,
+        index: u32,
+        (x_m, x_off, n_x, rho_x): (Point3<f32>, Point3<f32>, Vector3<f32>, f32),
+        first_m: f64,
+        (early_m, late_m): (f64, f64),
+        tally: &mut PathTally,
+        sink: &mut impl FnMut(Contribution),
+    ) {
+        let (u1, u2) = ld.sample(index, LIGHT_DIM);
+        let dir = if self.cosine_emission {
+            let l = cosine_local(u1, u2);
+            self.laser_tangent * l.x + self.laser_bitangent * l.y + self.laser_normal * l.z
+        } else {
+            let z = 1.0 - 2.0 * u1;
+            let rxy = (1.0 - z * z).max(0.0).sqrt();
+            let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
+            Vector3::new(rxy * cos, rxy * sin, z)
+        };
+        tally.rays += 1;
+        let Some(hit) =
+            self.bvh
+                .intersect(&Ray::new(self.laser_m, dir), SHADOW_END_M, f32::INFINITY)
+        else {
+            return;
+        };
+        let rho_y = self.shading[hit.triangle as usize].albedo;
+        if rho_y <= 0.0 {
+            return;
+        }
+        let y = self.laser_m + dir * hit.t;
+        // The lit side of `y` faces the spot.
+        let n_y = if hit.normal.dot(&dir) > 0.0 {
+            -hit.normal
+        } else {
+            hit.normal
+        };
+        let to_y = y - x_m;
+        let d2 = to_y.norm_squared();
+        let inv_d = 1.0 / d2.sqrt();
+        let w = to_y * inv_d;
+        let (cos_x, cos_y) = (n_x.dot(&w), -n_y.dot(&w));
+        // A surface does not light its own plane (grazing connections carry nothing).
+        if cos_x <= 1e-5 || cos_y <= 1e-5 {
+            return;
+        }
+        let arrival_m = first_m + (d2 * inv_d) as f64 + hit.t as f64;
+        if arrival_m < early_m || arrival_m > late_m {
+            tally.skipped_early += (arrival_m < early_m) as u64;
+            return;
+        }
+        let span = (y + n_y * RAY_OFFSET_M) - x_off;
+        let span_m = span.norm();
+        tally.rays += 1;
+        if self
+            .bvh
+            .occluded(&Ray::new(x_off, span / span_m), 0.0, span_m - SHADOW_END_M)
+        {
+            return;
+        }
+        let g = cos_x * cos_y * inv_d * inv_d;
+        let pdf_light = self.emission_area_pdf(&y, &n_y);
+        let pdf_camera = FRAC_1_PI * g;
+        // rho_x / pi G(x, y) rho_y / pi times the spot's intensity over the emission
+        // density (its energy, for both profiles), and the strategy's weight.
+        let value = rho_x
+            * FRAC_1_PI
+            * g
+            * rho_y
+            * FRAC_1_PI
+            * self.energy
+            * (pdf_light / (pdf_light + pdf_camera));
+        sink(Contribution {
+            bounce: 2,
+            path_m: arrival_m,
+            first_m,
+            value: value as f64,
+        });
     }
 }
 
@@ -399,6 +558,7 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
     );
     let emission = opts.emission.unwrap_or(scene.laser.emission);
     let laser = &scene.laser;
+    let laser_basis = orthonormal_basis(&laser.normal.into_inner().cast::<f32>());
     let (intensity_scale, cosine_emission) = match emission {
         Emission::Cosine => (laser.energy * FRAC_1_PI as f64, true),
         Emission::Isotropic => (laser.energy / (4.0 * std::f64::consts::PI), false),
@@ -429,6 +589,10 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
             .collect(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
+        light_vertex: opts.light_vertex,
+        energy: laser.energy as f32,
+        laser_tangent: laser_basis.0,
+        laser_bitangent: laser_basis.1,
     }
 }
 
