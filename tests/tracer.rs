@@ -352,8 +352,8 @@ fn time_integrated_cube_equals_the_steady_state_render() {
 
 #[test]
 fn light_vertices_keep_the_time_integral_of_the_steady_state_render() {
-    // Two-bounce light estimated by both strategies, weighted by multiple importance
-    // sampling, against steady renders of the camera's strategy alone.
+    // Light of two and three bounces estimated by both strategies, weighted by multiple
+    // importance sampling, against steady renders of the camera's strategy alone.
     check_time_integral_against_steady(true);
 }
 

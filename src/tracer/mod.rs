@@ -26,16 +26,17 @@
 //! radiance of the same pixel (see [`render_steady`]). Cube values are radiance integrated
 //! over each bin (`energy` units per m^2 per sr).
 //!
-//! Light vertices ([`TraceOptions::light_vertex`], on by default). Two-bounce light is also
-//! sampled from the light's side: an emission ray from the spot (direction density
-//! `I(w) / energy`) lands on a point `y`, which the path's first vertex `x_1` joins by a
-//! shadow ray, contributing `rho_1 / pi * G(x_1, y) * rho_y / pi * energy` (the spot's
-//! intensity over the emission density). A bounce that lands next to the spot gives the
-//! camera's strategy a `1 / r^2` spike; `y` next to `x_1` gives the light's a `1 / d^2`
-//! one. Both estimates of each two-bounce path are weighted by the balance heuristic of
-//! their densities per unit area at the second vertex (camera: `cos_1 / pi * cos_2 / d^2`;
-//! light: `I(w) / energy * cos_2' / r^2`), which sum to one, so the sum stays unbiased
-//! (Veach 1997, ch. 9). Both contributions arrive at the same time and land in the same bins.
+//! Light vertices ([`TraceOptions::light_vertex`], on by default). Light of two or more
+//! bounces is also sampled from the light's side: once per path, an emission ray from the
+//! spot (direction density `I(w) / energy`) lands on a point `y`, which every vertex `x_k`
+//! of the path but the last joins by a shadow ray, contributing
+//! `beta_k * rho_k / pi * G(x_k, y) * rho_y / pi * energy` (the spot's intensity over the
+//! emission density) as light of `k + 1` bounces. A bounce that lands next to the spot gives
+//! the camera's strategy a `1 / r^2` spike; `y` next to `x_k` gives the light's a `1 / d^2`
+//! one. Both estimates of each path are weighted by the balance heuristic of their densities
+//! per unit area at its last surface vertex (camera: `cos_k / pi * cos' / d^2`; light:
+//! `I(w) / energy * cos' / r^2`), which sum to one, so the sum stays unbiased (Veach 1997,
+//! ch. 9; Russian roulette left out of both densities alike). Both arrive at the same time.
 //!
 //! Outputs: the total transient (camera time), optionally its split into one-bounce (`direct`)
 //! and two-or-more-bounce (`multi`) light, and optionally the same samples binned at world
@@ -111,11 +112,11 @@ pub struct TraceOptions {
     pub split_bounces: bool,
     /// Also produce the world-time cube.
     pub world_time: bool,
-    /// Also estimate two-bounce light from the light's side: each path's first vertex is
-    /// joined to a point lit by the spot (where an emission ray from the spot lands), and
-    /// this and the path's own two-bounce connection are weighted by multiple importance
-    /// sampling (balance heuristic). Unbiased either way; it removes the spikes of bounces
-    /// that land next to the spot, at the cost of two more rays per path.
+    /// Also estimate light of two or more bounces from the light's side: each path's
+    /// vertices (all but the last) are joined to a point lit by the spot (where one emission
+    /// ray from the spot lands), weighted against the path's own connections by multiple
+    /// importance sampling (balance heuristic). Unbiased either way; it removes the spikes of
+    /// bounces that land next to the spot, for one emission ray and a shadow ray per vertex.
     pub light_vertex: bool,
 }
 
@@ -263,9 +264,10 @@ impl PathKernel<'_> {
         let mut beta = 1.0f32;
         let mut tally = PathTally::default();
         let (mut early_m, mut late_m) = (f64::NEG_INFINITY, f64::INFINITY);
-        // With light vertices, the solid-angle density of the first bounce's direction,
-        // for the two-bounce connection's weight against the light's strategy.
-        let mut first_bounce_pdf = 0.0f32;
+        // With light vertices: the path's light point, and the solid-angle density of the
+        // last bounce's direction, for the connection's weight against the light's strategy.
+        let mut light = None;
+        let mut bounce_pdf = 0.0f32;
         for bounce in 1..=self.max_bounces {
             tally.rays += 1;
             let ray = Ray::new(origin, dir);
@@ -324,8 +326,8 @@ impl PathKernel<'_> {
                     let shadow = Ray::new(p_off, w);
                     if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
                         let mut value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
-                        if bounce == 2 && self.light_vertex {
-                            let pdf_camera = first_bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
+                        if bounce >= 2 && self.light_vertex {
+                            let pdf_camera = bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
                             let pdf_light = self.emission_area_pdf(&p, &n);
                             value *= pdf_camera / (pdf_camera + pdf_light);
                         }
@@ -341,16 +343,20 @@ impl PathKernel<'_> {
             if bounce == self.max_bounces {
                 break;
             }
-            if bounce == 1 && self.light_vertex {
-                self.connect_light_vertex(
-                    ld,
-                    index,
-                    (p, p_off, n, rho),
-                    first_m,
-                    (early_m, late_m),
-                    &mut tally,
-                    sink,
-                );
+            if self.light_vertex {
+                if bounce == 1 {
+                    light = self.light_point(ld, index, &mut tally);
+                }
+                if let Some(y) = &light {
+                    self.connect_light_point(
+                        y,
+                        (p, p_off, n, rho),
+                        (bounce, beta, path_m, first_m),
+                        (early_m, late_m),
+                        &mut tally,
+                        sink,
+                    );
+                }
             }
             // Cosine-weighted continuation: BRDF * cos / pdf = rho.
             beta *= rho;
@@ -367,7 +373,7 @@ impl PathKernel<'_> {
                 let (u1, u2) = uniform_pair(rng);
                 cosine_local(u1, u2)
             });
-            first_bounce_pdf = l.z * FRAC_1_PI;
+            bounce_pdf = l.z * FRAC_1_PI;
             // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
             let b = if back {
                 -shading.bitangent
@@ -397,28 +403,16 @@ impl PathKernel<'_> {
         per_sr * n.dot(&w).abs() * inv_r * inv_r
     }
 
-    /// The light's strategy for two-bounce light ([`TraceOptions::light_vertex`]): a point
-    /// `y` lit by the spot, where an emission ray from it lands (direction from the pixel's
-    /// low-discrepancy dimension [`LIGHT_DIM`], point `index`), is joined to the path's first
-    /// vertex `x` (point `x_m`, moved off the surface `x_off`, unit normal `n_x` of the side
-    /// seen, albedo `rho_x`) by a shadow ray. Its contribution, and the camera's own
-    /// two-bounce one (a bounce from `x` that lands on `y`, connected to the spot), are
-    /// weighted by the balance heuristic of their densities per unit area at `y`, so that
-    /// together they count two-bounce light once, without the camera strategy's spikes where
-    /// a bounce lands next to the spot (its `1 / r^2`) nor the light strategy's where `y` is
-    /// next to `x` (`1 / d^2`).
-    #[allow(clippy::too_many_arguments)]
+    /// The light point of path `index` ([`TraceOptions::light_vertex`]): where an emission
+    /// ray from the spot lands (its direction from the pixel's low-discrepancy dimension
+    /// [`LIGHT_DIM`]), on a surface that reflects; `None` if it lands nowhere.
     #[inline(never)]
-    fn connect_light_vertex(
+    fn light_point(
         &self,
         ld: &PixelSampler,
         index: u32,
-        (x_m, x_off, n_x, rho_x): (Point3<f32>, Point3<f32>, Vector3<f32>, f32),
-        first_m: f64,
-        (early_m, late_m): (f64, f64),
         tally: &mut PathTally,
-        sink: &mut impl FnMut(Contribution),
-    ) {
+    ) -> Option<LightPoint> {
         let (u1, u2) = ld.sample(index, LIGHT_DIM);
         let dir = if self.cosine_emission {
             let l = cosine_local(u1, u2);
@@ -430,38 +424,64 @@ impl PathKernel<'_> {
             Vector3::new(rxy * cos, rxy * sin, z)
         };
         tally.rays += 1;
-        let Some(hit) =
-            self.bvh
-                .intersect(&Ray::new(self.laser_m, dir), SHADOW_END_M, f32::INFINITY)
-        else {
-            return;
-        };
-        let rho_y = self.shading[hit.triangle as usize].albedo;
-        if rho_y <= 0.0 {
-            return;
+        let hit = self
+            .bvh
+            .intersect(&Ray::new(self.laser_m, dir), SHADOW_END_M, f32::INFINITY)?;
+        let albedo = self.shading[hit.triangle as usize].albedo;
+        if albedo <= 0.0 {
+            return None;
         }
-        let y = self.laser_m + dir * hit.t;
-        // The lit side of `y` faces the spot.
-        let n_y = if hit.normal.dot(&dir) > 0.0 {
+        let p = self.laser_m + dir * hit.t;
+        // The lit side faces the spot.
+        let normal = if hit.normal.dot(&dir) > 0.0 {
             -hit.normal
         } else {
             hit.normal
         };
-        let to_y = y - x_m;
+        Some(LightPoint {
+            p,
+            p_off: p + normal * RAY_OFFSET_M,
+            normal,
+            albedo,
+            spot_m: hit.t,
+            pdf_area: self.emission_area_pdf(&p, &normal),
+        })
+    }
+
+    /// The light's strategy for the light of `bounce + 1` bounces: vertex `bounce` of a path
+    /// (point `x_m`, moved off the surface `x_off`, unit normal `n_x` of the side seen,
+    /// albedo `rho_x`, throughput `beta`, path length `path_m` so far) joined to the light
+    /// point `y` by a shadow ray. Its contribution, and the camera's own (a bounce from `x`
+    /// that lands on `y`, connected to the spot), are weighted by the balance heuristic of
+    /// their densities per unit area at `y`, so that together they count that light once,
+    /// without the camera strategy's spikes where a bounce lands next to the spot (its
+    /// `1 / r^2`) nor the light strategy's where `y` is next to `x` (`1 / d^2`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn connect_light_point(
+        &self,
+        y: &LightPoint,
+        (x_m, x_off, n_x, rho_x): (Point3<f32>, Point3<f32>, Vector3<f32>, f32),
+        (bounce, beta, path_m, first_m): (u32, f32, f64, f64),
+        (early_m, late_m): (f64, f64),
+        tally: &mut PathTally,
+        sink: &mut impl FnMut(Contribution),
+    ) {
+        let to_y = y.p - x_m;
         let d2 = to_y.norm_squared();
         let inv_d = 1.0 / d2.sqrt();
         let w = to_y * inv_d;
-        let (cos_x, cos_y) = (n_x.dot(&w), -n_y.dot(&w));
+        let (cos_x, cos_y) = (n_x.dot(&w), -y.normal.dot(&w));
         // A surface does not light its own plane (grazing connections carry nothing).
         if cos_x <= 1e-5 || cos_y <= 1e-5 {
             return;
         }
-        let arrival_m = first_m + (d2 * inv_d) as f64 + hit.t as f64;
+        let arrival_m = path_m + (d2 * inv_d) as f64 + y.spot_m as f64;
         if arrival_m < early_m || arrival_m > late_m {
             tally.skipped_early += (arrival_m < early_m) as u64;
             return;
         }
-        let span = (y + n_y * RAY_OFFSET_M) - x_off;
+        let span = y.p_off - x_off;
         let span_m = span.norm();
         tally.rays += 1;
         if self
@@ -471,24 +491,39 @@ impl PathKernel<'_> {
             return;
         }
         let g = cos_x * cos_y * inv_d * inv_d;
-        let pdf_light = self.emission_area_pdf(&y, &n_y);
         let pdf_camera = FRAC_1_PI * g;
-        // rho_x / pi G(x, y) rho_y / pi times the spot's intensity over the emission
+        // beta rho_x / pi G(x, y) rho_y / pi times the spot's intensity over the emission
         // density (its energy, for both profiles), and the strategy's weight.
-        let value = rho_x
+        let value = beta
+            * rho_x
             * FRAC_1_PI
             * g
-            * rho_y
+            * y.albedo
             * FRAC_1_PI
             * self.energy
-            * (pdf_light / (pdf_light + pdf_camera));
+            * (y.pdf_area / (y.pdf_area + pdf_camera));
         sink(Contribution {
-            bounce: 2,
+            bounce: bounce + 1,
             path_m: arrival_m,
             first_m,
             value: value as f64,
         });
     }
+}
+
+/// Where an emission ray from the spot lands ([`PathKernel::light_point`]).
+#[derive(Clone, Copy, Debug)]
+struct LightPoint {
+    p: Point3<f32>,
+    /// `p` moved off the surface along `normal`.
+    p_off: Point3<f32>,
+    /// Unit normal of the side facing the spot.
+    normal: Vector3<f32>,
+    albedo: f32,
+    /// Distance from the spot, metres.
+    spot_m: f32,
+    /// Density of the emission ray landing here, per unit area.
+    pdf_area: f32,
 }
 
 /// What a path needs of the triangle it hits.
