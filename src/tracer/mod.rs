@@ -406,7 +406,7 @@ impl PathKernel<'_> {
     /// The light point of path `index` ([`TraceOptions::light_vertex`]): where an emission
     /// ray from the spot lands (its direction from the pixel's low-discrepancy dimension
     /// [`LIGHT_DIM`]), on a surface that reflects; `None` if it lands nowhere.
-    #[inline(never)]
+    #[inline(always)]
     fn light_point(
         &self,
         ld: &PixelSampler,
@@ -457,7 +457,7 @@ impl PathKernel<'_> {
     /// without the camera strategy's spikes where a bounce lands next to the spot (its
     /// `1 / r^2`) nor the light strategy's where `y` is next to `x` (`1 / d^2`).
     #[allow(clippy::too_many_arguments)]
-    #[inline(never)]
+    #[inline(always)]
     fn connect_light_point(
         &self,
         y: &LightPoint,
