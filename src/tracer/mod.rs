@@ -329,7 +329,11 @@ impl PathKernel<'_> {
                         if bounce >= 2 && self.light_vertex {
                             let pdf_camera = bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
                             let pdf_light = self.emission_area_pdf(&p, &n);
-                            value *= pdf_camera / (pdf_camera + pdf_light);
+                            // A direction tangent to the surface (cosine 0) that the light
+                            // cannot reach either keeps its whole weight.
+                            if pdf_camera + pdf_light > 0.0 {
+                                value *= pdf_camera / (pdf_camera + pdf_light);
+                            }
                         }
                         sink(Contribution {
                             bounce,
@@ -472,8 +476,9 @@ impl PathKernel<'_> {
         let inv_d = 1.0 / d2.sqrt();
         let w = to_y * inv_d;
         let (cos_x, cos_y) = (n_x.dot(&w), -y.normal.dot(&w));
-        // A surface does not light its own plane (grazing connections carry nothing).
-        if cos_x <= 1e-5 || cos_y <= 1e-5 {
+        // A surface does not light its own plane (grazing connections carry nothing); `y`
+        // at `x` itself (a NaN direction) is not joined either.
+        if !(cos_x > 1e-5 && cos_y > 1e-5) {
             return;
         }
         let arrival_m = path_m + (d2 * inv_d) as f64 + y.spot_m as f64;
