@@ -36,7 +36,8 @@
 //! one. Both estimates of each path are weighted by the balance heuristic of their densities
 //! per unit area at its last surface vertex (camera: `cos_k / pi * cos' / d^2`; light:
 //! `I(w) / energy * cos' / r^2`), which sum to one, so the sum stays unbiased (Veach 1997,
-//! ch. 9; Russian roulette left out of both densities alike). Both arrive at the same time.
+//! ch. 9; the camera's density includes Russian roulette's survival probability). Both
+//! arrive at the same time.
 //!
 //! Outputs: the total transient (camera time), optionally its split into one-bounce (`direct`)
 //! and two-or-more-bounce (`multi`) light, and optionally the same samples binned at world
@@ -364,8 +365,9 @@ impl PathKernel<'_> {
             }
             // Cosine-weighted continuation: BRDF * cos / pdf = rho.
             beta *= rho;
+            let mut survive = 1.0;
             if bounce >= self.rr_start_bounce {
-                let survive = beta.min(0.95);
+                survive = beta.min(0.95);
                 if uniform(rng) >= survive {
                     break;
                 }
@@ -377,7 +379,7 @@ impl PathKernel<'_> {
                 let (u1, u2) = uniform_pair(rng);
                 cosine_local(u1, u2)
             });
-            bounce_pdf = l.z * FRAC_1_PI;
+            bounce_pdf = survive * l.z * FRAC_1_PI;
             // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
             let b = if back {
                 -shading.bitangent
@@ -496,7 +498,14 @@ impl PathKernel<'_> {
             return;
         }
         let g = cos_x * cos_y * inv_d * inv_d;
-        let pdf_camera = FRAC_1_PI * g;
+        // The camera's density of the same path: its bounce from `x`, times the chance that
+        // Russian roulette lets it bounce (the same expression as in `trace_path`).
+        let survive = if bounce >= self.rr_start_bounce {
+            (beta * rho_x).min(0.95)
+        } else {
+            1.0
+        };
+        let pdf_camera = survive * FRAC_1_PI * g;
         // beta rho_x / pi G(x, y) rho_y / pi times the spot's intensity over the emission
         // density (its energy, for both profiles), and the strategy's weight.
         let value = beta
