@@ -1,7 +1,9 @@
 //! Transient path tracer throughput (pbrt-style counters): camera paths and rays per second
 //! on the built-in `cornell` scene at 64 x 64 pixels and 300 time bins, with 1 and 2 rayon
 //! threads. Run with `cargo bench --bench tracer`; `FEMTO_BENCH_SPP` sets the samples per
-//! pixel (default 16), `FEMTO_BENCH_BOUNCES` the maximum bounces (default 4).
+//! pixel (default 16), `FEMTO_BENCH_BOUNCES` the maximum bounces (default 4),
+//! `FEMTO_BENCH_LIGHT_VERTEX` 0 or 1 for `TraceOptions::light_vertex` (default: the
+//! library's; the comparison dump too).
 //!
 //! With `FEMTO_BENCH_DUMP=<dir>` it instead writes what `tools/compare_mitsuba.py` needs to
 //! compare against Mitsuba 3 transient: the scene (one OBJ per material, `scene.json`) and
@@ -21,6 +23,14 @@ fn env_or(name: &str, default: u32) -> u32 {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
+}
+
+/// `TraceOptions::light_vertex` from `FEMTO_BENCH_LIGHT_VERTEX` (0 or 1), else the default.
+fn light_vertex() -> bool {
+    env_or(
+        "FEMTO_BENCH_LIGHT_VERTEX",
+        TraceOptions::default().light_vertex as u32,
+    ) != 0
 }
 
 /// CPU seconds (user + system, all threads) this process has used so far, from
@@ -49,13 +59,15 @@ fn main() {
         spp: env_or("FEMTO_BENCH_SPP", 16),
         max_bounces: env_or("FEMTO_BENCH_BOUNCES", 4),
         seed: 1,
+        light_vertex: light_vertex(),
         ..TraceOptions::default()
     };
     println!(
-        "tracer bench: scene cornell, {} triangles, 64x64 px, 300 bins, spp {}, max bounces {}, BVH build {:.3} s",
+        "tracer bench: scene cornell, {} triangles, 64x64 px, 300 bins, spp {}, max bounces {}, light vertex {}, BVH build {:.3} s",
         scene.mesh.triangle_count(),
         opts.spp,
         opts.max_bounces,
+        opts.light_vertex,
         build_s
     );
     for threads in [1, 2] {
@@ -125,6 +137,7 @@ fn dump_for_comparison(scene: &Scene, bvh: &Bvh, dir: &Path) {
             emission: Some(Emission::Isotropic),
             split_bounces: false,
             world_time: false,
+            light_vertex: light_vertex(),
             ..TraceOptions::default()
         };
         let cpu0 = cpu_seconds();

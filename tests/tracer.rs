@@ -347,6 +347,22 @@ fn first_arrival_of_direct_light_in_camera_and_world_time() {
 
 #[test]
 fn time_integrated_cube_equals_the_steady_state_render() {
+    check_time_integral_against_steady(false, 256);
+}
+
+#[test]
+fn light_vertices_keep_the_time_integral_of_the_steady_state_render() {
+    // Light of two and three bounces estimated by both strategies, weighted by multiple
+    // importance sampling, against steady renders of the camera's strategy alone.
+    // More paths than the plain test, so that a 50 % error in the light strategy's
+    // share of three-bounce light alone shows.
+    check_time_integral_against_steady(true, 1024);
+}
+
+/// A transient render (with or without light vertices), integrated over time, against
+/// eight independent steady-state renders without them: per-pixel z-scores and the image
+/// sums agree within noise.
+fn check_time_integral_against_steady(light_vertex: bool, spp: u32) {
     let mut s = Scene::builtin("cube", None)
         .unwrap()
         .with_resolution(16, 12, 1, 20.0);
@@ -358,14 +374,23 @@ fn time_integrated_cube_equals_the_steady_state_render() {
     };
     let bvh = Bvh::new(s.mesh.clone());
     let opts = TraceOptions {
-        spp: 256,
+        spp,
         max_bounces: 3,
         rr_start_bounce: 2,
         seed: 5,
         world_time: false,
+        light_vertex: false,
         ..TraceOptions::default()
     };
-    let r = trace(&s, &bvh, &opts, &no_progress);
+    let r = trace(
+        &s,
+        &bvh,
+        &TraceOptions {
+            light_vertex,
+            ..opts
+        },
+        &no_progress,
+    );
     assert_eq!(r.stats.energy_outside_window, 0.0);
     assert!(r.stats.samples > 0);
     let a = r.camera_time.time_integral();
@@ -409,7 +434,7 @@ fn time_integrated_cube_equals_the_steady_state_render() {
     // pixels has a standard deviation near 0.2.
     let mean_z2 = z2 / n as f64;
     println!(
-        "energy: mean z^2 {mean_z2:.3}, image sum {:.5e}, difference {diff_sum:.3e}, sd {:.3e}",
+        "light vertex {light_vertex}: mean z^2 {mean_z2:.3}, image sum {:.5e}, difference {diff_sum:.3e}, sd {:.3e}",
         a.iter().sum::<f64>(),
         var_sum.sqrt()
     );

@@ -26,6 +26,19 @@
 //! radiance of the same pixel (see [`render_steady`]). Cube values are radiance integrated
 //! over each bin (`energy` units per m^2 per sr).
 //!
+//! Light vertices ([`TraceOptions::light_vertex`], on by default). Light of two or more
+//! bounces is also sampled from the light's side: once per path, an emission ray from the
+//! spot (direction density `I(w) / energy`) lands on a point `y`, which every vertex `x_k`
+//! of the path but the last joins by a shadow ray, contributing
+//! `beta_k * rho_k / pi * G(x_k, y) * rho_y / pi * energy` (the spot's intensity over the
+//! emission density) as light of `k + 1` bounces. A bounce that lands next to the spot gives
+//! the camera's strategy a `1 / r^2` spike; `y` next to `x_k` gives the light's a `1 / d^2`
+//! one. Both estimates of each path are weighted by the balance heuristic of their densities
+//! per unit area at its last surface vertex (camera: `cos_k / pi * cos' / d^2`; light:
+//! `I(w) / energy * cos' / r^2`), which sum to one, so the sum stays unbiased (Veach 1997,
+//! ch. 9; the camera's density includes Russian roulette's survival probability). Both
+//! arrive at the same time.
+//!
 //! Outputs: the total transient (camera time), optionally its split into one-bounce (`direct`)
 //! and two-or-more-bounce (`multi`) light, and optionally the same samples binned at world
 //! time `t_world = t_camera - eta |x_1 - o| / c` (physics.md, "two clocks"), `x_1` being the
@@ -75,7 +88,10 @@ const RAY_OFFSET_M: f32 = 1e-4;
 const SHADOW_END_M: f32 = 1e-4;
 /// Bounces whose directions come from the pixel's low-discrepancy points (2D dimensions 1 and
 /// 2; dimension 0 is the position in the pixel).
-const LD_BOUNCES: u32 = PixelSampler::DIMS - 1;
+const LD_BOUNCES: u32 = 2;
+/// The pixel's low-discrepancy dimension of the light vertex's emission direction
+/// ([`TraceOptions::light_vertex`]).
+const LIGHT_DIM: u32 = 3;
 /// `1 / pi` in single precision.
 const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 
@@ -97,6 +113,12 @@ pub struct TraceOptions {
     pub split_bounces: bool,
     /// Also produce the world-time cube.
     pub world_time: bool,
+    /// Also estimate light of two or more bounces from the light's side: each path's
+    /// vertices (all but the last) are joined to a point lit by the spot (where one emission
+    /// ray from the spot lands), weighted against the path's own connections by multiple
+    /// importance sampling (balance heuristic). Unbiased either way; it removes the spikes of
+    /// bounces that land next to the spot, for one emission ray and a shadow ray per vertex.
+    pub light_vertex: bool,
 }
 
 impl Default for TraceOptions {
@@ -109,6 +131,7 @@ impl Default for TraceOptions {
             rr_start_bounce: 3,
             split_bounces: true,
             world_time: true,
+            light_vertex: true,
         }
     }
 }
@@ -204,6 +227,14 @@ struct PathKernel<'a> {
     shading: Vec<TriangleShading>,
     max_bounces: u32,
     rr_start_bounce: u32,
+    /// [`TraceOptions::light_vertex`].
+    light_vertex: bool,
+    /// The spot's energy (its radiant intensity over the emission's direction density, for
+    /// both profiles).
+    energy: f32,
+    /// [`orthonormal_basis`] of `laser_normal`.
+    laser_tangent: Vector3<f32>,
+    laser_bitangent: Vector3<f32>,
 }
 
 impl PathKernel<'_> {
@@ -234,6 +265,10 @@ impl PathKernel<'_> {
         let mut beta = 1.0f32;
         let mut tally = PathTally::default();
         let (mut early_m, mut late_m) = (f64::NEG_INFINITY, f64::INFINITY);
+        // With light vertices: the path's light point, and the solid-angle density of the
+        // last bounce's direction, for the connection's weight against the light's strategy.
+        let mut light = None;
+        let mut bounce_pdf = 0.0f32;
         for bounce in 1..=self.max_bounces {
             tally.rays += 1;
             let ray = Ray::new(origin, dir);
@@ -291,7 +326,16 @@ impl PathKernel<'_> {
                     tally.rays += 1;
                     let shadow = Ray::new(p_off, w);
                     if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
-                        let value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
+                        let mut value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
+                        if bounce >= 2 && self.light_vertex {
+                            let pdf_camera = bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
+                            let pdf_light = self.emission_area_pdf(&p, &n);
+                            // A direction tangent to the surface (cosine 0) that the light
+                            // cannot reach either keeps its whole weight.
+                            if pdf_camera + pdf_light > 0.0 {
+                                value *= pdf_camera / (pdf_camera + pdf_light);
+                            }
+                        }
                         sink(Contribution {
                             bounce,
                             path_m: arrival_m,
@@ -304,10 +348,26 @@ impl PathKernel<'_> {
             if bounce == self.max_bounces {
                 break;
             }
+            if self.light_vertex {
+                if bounce == 1 {
+                    light = self.light_point(ld, index, &mut tally);
+                }
+                if let Some(y) = &light {
+                    self.connect_light_point(
+                        y,
+                        (p, p_off, n, rho),
+                        (bounce, beta, path_m, first_m),
+                        (early_m, late_m),
+                        &mut tally,
+                        sink,
+                    );
+                }
+            }
             // Cosine-weighted continuation: BRDF * cos / pdf = rho.
             beta *= rho;
+            let mut survive = 1.0;
             if bounce >= self.rr_start_bounce {
-                let survive = beta.min(0.95);
+                survive = beta.min(0.95);
                 if uniform(rng) >= survive {
                     break;
                 }
@@ -319,6 +379,7 @@ impl PathKernel<'_> {
                 let (u1, u2) = uniform_pair(rng);
                 cosine_local(u1, u2)
             });
+            bounce_pdf = survive * l.z * FRAC_1_PI;
             // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
             let b = if back {
                 -shading.bitangent
@@ -330,6 +391,153 @@ impl PathKernel<'_> {
         }
         tally
     }
+
+    /// Density, per unit area at the surface point `p` (unit normal `n`, either side), of
+    /// the spot's emission ray landing there: the emission's direction density times the
+    /// cosine at `p` over the squared distance. The direction density is the radiant
+    /// intensity over the energy for both emission profiles (`cos / pi`, `1 / (4 pi)`).
+    #[inline(always)]
+    fn emission_area_pdf(&self, p: &Point3<f32>, n: &Vector3<f32>) -> f32 {
+        let to_spot = self.laser_m - p;
+        let inv_r = 1.0 / to_spot.norm_squared().sqrt();
+        let w = to_spot * inv_r;
+        let per_sr = if self.cosine_emission {
+            (-self.laser_normal.dot(&w)).max(0.0) * FRAC_1_PI
+        } else {
+            0.25 * FRAC_1_PI
+        };
+        per_sr * n.dot(&w).abs() * inv_r * inv_r
+    }
+
+    /// The light point of path `index` ([`TraceOptions::light_vertex`]): where an emission
+    /// ray from the spot lands (its direction from the pixel's low-discrepancy dimension
+    /// [`LIGHT_DIM`]), on a surface that reflects; `None` if it lands nowhere.
+    #[inline(always)]
+    fn light_point(
+        &self,
+        ld: &PixelSampler,
+        index: u32,
+        tally: &mut PathTally,
+    ) -> Option<LightPoint> {
+        let (u1, u2) = ld.sample(index, LIGHT_DIM);
+        let dir = if self.cosine_emission {
+            let l = cosine_local(u1, u2);
+            self.laser_tangent * l.x + self.laser_bitangent * l.y + self.laser_normal * l.z
+        } else {
+            let z = 1.0 - 2.0 * u1;
+            let rxy = (1.0 - z * z).max(0.0).sqrt();
+            let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
+            Vector3::new(rxy * cos, rxy * sin, z)
+        };
+        tally.rays += 1;
+        let hit = self
+            .bvh
+            .intersect(&Ray::new(self.laser_m, dir), SHADOW_END_M, f32::INFINITY)?;
+        let albedo = self.shading[hit.triangle as usize].albedo;
+        if albedo <= 0.0 {
+            return None;
+        }
+        let p = self.laser_m + dir * hit.t;
+        // The lit side faces the spot.
+        let normal = if hit.normal.dot(&dir) > 0.0 {
+            -hit.normal
+        } else {
+            hit.normal
+        };
+        Some(LightPoint {
+            p,
+            p_off: p + normal * RAY_OFFSET_M,
+            normal,
+            albedo,
+            spot_m: hit.t,
+            pdf_area: self.emission_area_pdf(&p, &normal),
+        })
+    }
+
+    /// The light's strategy for the light of `bounce + 1` bounces: vertex `bounce` of a path
+    /// (point `x_m`, moved off the surface `x_off`, unit normal `n_x` of the side seen,
+    /// albedo `rho_x`, throughput `beta`, path length `path_m` so far) joined to the light
+    /// point `y` by a shadow ray. Its contribution, and the camera's own (a bounce from `x`
+    /// that lands on `y`, connected to the spot), are weighted by the balance heuristic of
+    /// their densities per unit area at `y`, so that together they count that light once,
+    /// without the camera strategy's spikes where a bounce lands next to the spot (its
+    /// `1 / r^2`) nor the light strategy's where `y` is next to `x` (`1 / d^2`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn connect_light_point(
+        &self,
+        y: &LightPoint,
+        (x_m, x_off, n_x, rho_x): (Point3<f32>, Point3<f32>, Vector3<f32>, f32),
+        (bounce, beta, path_m, first_m): (u32, f32, f64, f64),
+        (early_m, late_m): (f64, f64),
+        tally: &mut PathTally,
+        sink: &mut impl FnMut(Contribution),
+    ) {
+        let to_y = y.p - x_m;
+        let d2 = to_y.norm_squared();
+        let inv_d = 1.0 / d2.sqrt();
+        let w = to_y * inv_d;
+        let (cos_x, cos_y) = (n_x.dot(&w), -y.normal.dot(&w));
+        // A surface does not light its own plane (grazing connections carry nothing); `y`
+        // at `x` itself (a NaN direction) is not joined either.
+        if !(cos_x > 1e-5 && cos_y > 1e-5) {
+            return;
+        }
+        let arrival_m = path_m + (d2 * inv_d) as f64 + y.spot_m as f64;
+        if arrival_m < early_m || arrival_m > late_m {
+            tally.skipped_early += (arrival_m < early_m) as u64;
+            return;
+        }
+        let span = y.p_off - x_off;
+        let span_m = span.norm();
+        tally.rays += 1;
+        if self
+            .bvh
+            .occluded(&Ray::new(x_off, span / span_m), 0.0, span_m - SHADOW_END_M)
+        {
+            return;
+        }
+        let g = cos_x * cos_y * inv_d * inv_d;
+        // The camera's density of the same path: its bounce from `x`, times the chance that
+        // Russian roulette lets it bounce (the same expression as in `trace_path`).
+        let survive = if bounce >= self.rr_start_bounce {
+            (beta * rho_x).min(0.95)
+        } else {
+            1.0
+        };
+        let pdf_camera = survive * FRAC_1_PI * g;
+        // beta rho_x / pi G(x, y) rho_y / pi times the spot's intensity over the emission
+        // density (its energy, for both profiles), and the strategy's weight.
+        let value = beta
+            * rho_x
+            * FRAC_1_PI
+            * g
+            * y.albedo
+            * FRAC_1_PI
+            * self.energy
+            * (y.pdf_area / (y.pdf_area + pdf_camera));
+        sink(Contribution {
+            bounce: bounce + 1,
+            path_m: arrival_m,
+            first_m,
+            value: value as f64,
+        });
+    }
+}
+
+/// Where an emission ray from the spot lands ([`PathKernel::light_point`]).
+#[derive(Clone, Copy, Debug)]
+struct LightPoint {
+    p: Point3<f32>,
+    /// `p` moved off the surface along `normal`.
+    p_off: Point3<f32>,
+    /// Unit normal of the side facing the spot.
+    normal: Vector3<f32>,
+    albedo: f32,
+    /// Distance from the spot, metres.
+    spot_m: f32,
+    /// Density of the emission ray landing here, per unit area.
+    pdf_area: f32,
 }
 
 /// What a path needs of the triangle it hits.
@@ -399,6 +607,7 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
     );
     let emission = opts.emission.unwrap_or(scene.laser.emission);
     let laser = &scene.laser;
+    let laser_basis = orthonormal_basis(&laser.normal.into_inner().cast::<f32>());
     let (intensity_scale, cosine_emission) = match emission {
         Emission::Cosine => (laser.energy * FRAC_1_PI as f64, true),
         Emission::Isotropic => (laser.energy / (4.0 * std::f64::consts::PI), false),
@@ -429,6 +638,10 @@ fn kernel<'a>(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> PathKernel
             .collect(),
         max_bounces: opts.max_bounces,
         rr_start_bounce: opts.rr_start_bounce.max(1),
+        light_vertex: opts.light_vertex,
+        energy: laser.energy as f32,
+        laser_tangent: laser_basis.0,
+        laser_bitangent: laser_basis.1,
     }
 }
 

@@ -162,8 +162,9 @@ pub struct PixelSampler {
 }
 
 impl PixelSampler {
-    /// Number of 2D dimensions a pixel sampler provides.
-    pub const DIMS: u32 = 3;
+    /// Number of 2D dimensions a pixel sampler provides: 0 the position in the pixel, 1 and
+    /// 2 the first two bounces, 3 the spot's emission direction of the light vertex.
+    pub const DIMS: u32 = 4;
 
     /// The sampler of one pixel rendered with `spp` paths (independent of its
     /// [`pixel_rng`] stream).
