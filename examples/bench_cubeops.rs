@@ -12,7 +12,7 @@
 //! that page faults are not counted.
 
 use femto::cube::TimeAxis;
-use femto::pyramid::{level_nt, pyramid_rows, top_level, PrefixSums};
+use femto::pyramid::{level_nt, pyramid_rows, top_level, PrefixRead, PrefixSums};
 use femto::unwarp::{covering_axis, unwarp_rows, Direction};
 use rayon::prelude::*;
 use std::time::Instant;

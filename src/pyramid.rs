@@ -525,36 +525,31 @@ pub struct PixelPrefix<'a> {
     fine: &'a [f32],
 }
 
-impl PixelPrefix<'_> {
+/// Reading one pixel's prefix sums `P[0 ..= nt]`, whatever their storage: the two levels a
+/// pyramid stores ([`PixelPrefix`]) or a plain f64 slice (the renderer's expanded copy).
+pub trait PrefixRead {
     /// Bins of the profile.
-    #[inline]
-    pub fn nt(&self) -> usize {
-        self.fine.len() - 1
-    }
+    fn nt(&self) -> usize;
 
     /// `P[i]`, the sum of bins `0 .. i`, for `i <= nt`.
+    fn get(&self, i: usize) -> f64;
+
+    /// Bin `i`'s value, `P[i + 1] - P[i]`.
     #[inline]
-    pub fn get(&self, i: usize) -> f64 {
-        self.coarse[i / PREFIX_BLOCK_BINS] + self.fine[i] as f64
+    fn bin(&self, i: usize) -> f64 {
+        self.get(i + 1) - self.get(i)
     }
 
     /// The pixel's total, `P[nt]`.
     #[inline]
-    pub fn total(&self) -> f64 {
+    fn total(&self) -> f64 {
         self.get(self.nt())
-    }
-
-    /// Bin `i`'s value, `P[i + 1] - P[i]`.
-    #[inline]
-    pub fn bin(&self, i: usize) -> f64 {
-        let (ka, kb) = (i / PREFIX_BLOCK_BINS, (i + 1) / PREFIX_BLOCK_BINS);
-        (self.coarse[kb] - self.coarse[ka]) + (self.fine[i + 1] as f64 - self.fine[i] as f64)
     }
 
     /// `P` at the fractional bin coordinate `c` (0 at the axis start): 0 before the axis, the
     /// total after it, linear inside a bin; NaN for a NaN coordinate.
     #[inline]
-    pub fn at_coord(&self, c: f64) -> f64 {
+    fn at_coord(&self, c: f64) -> f64 {
         let nt = self.nt();
         if c <= 0.0 {
             0.0
@@ -568,10 +563,42 @@ impl PixelPrefix<'_> {
         }
     }
 
-    /// `P(t_ps)` on `axis` (see [`PixelPrefix::at_coord`]).
+    /// `P(t_ps)` on `axis` (see [`PrefixRead::at_coord`]).
     #[inline]
-    pub fn at(&self, axis: &TimeAxis, t_ps: f64) -> f64 {
+    fn at(&self, axis: &TimeAxis, t_ps: f64) -> f64 {
         self.at_coord(axis.bin_coord(t_ps))
+    }
+}
+
+impl PrefixRead for PixelPrefix<'_> {
+    #[inline]
+    fn nt(&self) -> usize {
+        self.fine.len() - 1
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> f64 {
+        self.coarse[i / PREFIX_BLOCK_BINS] + self.fine[i] as f64
+    }
+
+    /// The block totals' difference plus the f32 values' (not two large sums subtracted).
+    #[inline]
+    fn bin(&self, i: usize) -> f64 {
+        let (ka, kb) = (i / PREFIX_BLOCK_BINS, (i + 1) / PREFIX_BLOCK_BINS);
+        (self.coarse[kb] - self.coarse[ka]) + (self.fine[i + 1] as f64 - self.fine[i] as f64)
+    }
+}
+
+/// A plain prefix, `nt + 1` values with `P[0] = 0`.
+impl PrefixRead for [f64] {
+    #[inline]
+    fn nt(&self) -> usize {
+        self.len() - 1
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> f64 {
+        self[i]
     }
 }
 

@@ -14,6 +14,7 @@ use femto::cube::{Cube, TimeAxis, TimeFrame};
 use femto::formats::StreakImage;
 use femto::geometry::glb::write_glb;
 use femto::geometry::TriangleMesh;
+use femto::pyramid::PrefixRead;
 use nalgebra::{DMatrix, Point3, Rotation3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};

@@ -24,6 +24,7 @@ use crate::camera::Pose;
 use crate::camera_path::{
     CameraPath, Clock, FrameSpec, Interpolation, Keyframe, Motion, Orientation,
 };
+use crate::pyramid::PrefixRead;
 use crate::relativity::{gamma, Radiometry, RotationAxis, SensorRotation};
 use crate::render::paths::scene_target;
 use crate::render::{

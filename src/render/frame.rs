@@ -10,6 +10,7 @@ use super::{ColourOutput, RenderScene, RenderSettings, View};
 use crate::camera_path::FrameState;
 use crate::color;
 use crate::geometry::Ray;
+use crate::pyramid::PrefixRead;
 use crate::relativity::{constant_light_factor, Boost};
 use crate::units::flight_time_ps;
 use nalgebra::{Matrix3, Point3, Vector2, Vector3};

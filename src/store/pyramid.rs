@@ -350,6 +350,7 @@ mod tests {
     use super::*;
     use crate::container::{write_cube, Provenance};
     use crate::cube::Cube;
+    use crate::pyramid::PrefixRead;
 
     /// Streams of 2 rows give the prefix sums and box sums computed here directly from the
     /// cube's values, stored compressed or not.
