@@ -10,7 +10,6 @@ use super::{ColourOutput, RenderScene, RenderSettings, View};
 use crate::camera_path::FrameState;
 use crate::color;
 use crate::geometry::Ray;
-use crate::pyramid::PrefixRead;
 use crate::relativity::{constant_light_factor, Boost};
 use crate::units::flight_time_ps;
 use nalgebra::{Matrix3, Point3, Vector2, Vector3};
@@ -268,7 +267,7 @@ impl<'s> FrameCtx<'s> {
         let d_light = if e.searchlight { doppler } else { 1.0 };
         let value = match settings.view {
             View::Integrated => {
-                let total = scene.world.pixel_prefix(x, y).total();
+                let total = scene.pixel_total(x, y);
                 let factor = if e.searchlight {
                     constant_light_factor(d_light, settings.radiometry)
                 } else {

@@ -536,11 +536,24 @@ impl<'a> RenderScene<'a> {
     #[inline]
     pub fn emitted_energy(&self, x: usize, y: usize, t_a_ps: f64, t_b_ps: f64) -> f64 {
         let w = self.world;
-        let n = w.axis.nt + 1;
-        let p = &self.prefix[(y * w.nx + x) * n..(y * w.nx + x + 1) * n];
+        let p = self.pixel_prefix(x, y);
         let at =
             |t_ps: f64| p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps);
         at(t_b_ps) - at(t_a_ps)
+    }
+
+    /// The time integral of cube pixel `(x, y)`'s signal (its prefix's last value).
+    #[inline]
+    pub fn pixel_total(&self, x: usize, y: usize) -> f64 {
+        self.pixel_prefix(x, y).total()
+    }
+
+    /// Pixel `(x, y)`'s expanded prefix sums, `nt + 1` values.
+    #[inline]
+    fn pixel_prefix(&self, x: usize, y: usize) -> &[f64] {
+        let n = self.world.axis.nt + 1;
+        let o = (y * self.world.nx + x) * n;
+        &self.prefix[o..o + n]
     }
 
     /// Cube time of a physical world time: `capture.t0_ps + capture.time_scale * t_world_ps`.

@@ -76,7 +76,8 @@ use nalgebra::{Matrix3, Point3, Vector3};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use sampling::{
-    cosine_local, orthonormal_basis, pixel_rng, uniform, uniform_pair, PixelSampler, Stream,
+    cosine_hemisphere_in, cosine_local, orthonormal_basis, pixel_rng, uniform, uniform_pair,
+    uniform_sphere, PixelSampler, Stream,
 };
 use std::ops::Range;
 use std::time::Instant;
@@ -421,13 +422,15 @@ impl PathKernel<'_> {
     ) -> Option<LightPoint> {
         let (u1, u2) = ld.sample(index, LIGHT_DIM);
         let dir = if self.cosine_emission {
-            let l = cosine_local(u1, u2);
-            self.laser_tangent * l.x + self.laser_bitangent * l.y + self.laser_normal * l.z
+            cosine_hemisphere_in(
+                &self.laser_tangent,
+                &self.laser_bitangent,
+                &self.laser_normal,
+                u1,
+                u2,
+            )
         } else {
-            let z = 1.0 - 2.0 * u1;
-            let rxy = (1.0 - z * z).max(0.0).sqrt();
-            let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
-            Vector3::new(rxy * cos, rxy * sin, z)
+            uniform_sphere(u1, u2)
         };
         tally.rays += 1;
         let hit = self
@@ -699,6 +702,22 @@ struct RowOut<'a> {
     world: Option<&'a mut [f32]>,
 }
 
+/// Pixel `(x, y)`'s random stream and low-discrepancy sampler in `stream`, for an image `nx`
+/// pixels wide rendered with `spp` paths per pixel.
+fn pixel_streams(
+    seed: u64,
+    stream: Stream,
+    nx: usize,
+    (x, y): (usize, usize),
+    spp: u32,
+) -> (Pcg64Mcg, PixelSampler) {
+    let pixel = (y * nx + x) as u64;
+    (
+        pixel_rng(seed, stream, pixel),
+        PixelSampler::new(seed, stream, pixel, spp),
+    )
+}
+
 fn row_slices(cube: &mut Option<Cube>, ny: usize) -> Vec<Option<&mut [f32]>> {
     match cube {
         Some(c) => {
@@ -909,47 +928,43 @@ impl<'a> Tracer<'a> {
             }
         };
         for x in 0..nx {
-            let pixel = (y * nx + x) as u64;
-            let mut rng = pixel_rng(opts.seed, Stream::Transient, pixel);
-            let ld = PixelSampler::new(opts.seed, Stream::Transient, pixel, spp);
+            let (mut rng, ld) = pixel_streams(opts.seed, Stream::Transient, nx, (x, y), spp);
             let mut lost = 0.0;
             for i in 0..spp {
-                let (du, dv) = ld.sample(i, 0);
-                let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
+                let uv = ld.image_position(i, x, y);
                 stats.paths += 1;
-                let tally =
-                    k.trace_path(&mut rng, &ld, i, (u, v), window, &mut |c: Contribution| {
-                        let value = c.value * inv_spp;
-                        let t_camera_ps = c.path_m * ps_per_m;
-                        stats.samples += 1;
-                        let b = cam_resp.bin_coord(t_camera_ps);
-                        if !(b >= 0.0 && b < nt as f64) {
-                            stats.samples_outside_window += 1;
-                        }
-                        let Some(at) = cam_resp.place(b) else {
-                            lost += value;
-                            return;
+                let tally = k.trace_path(&mut rng, &ld, i, uv, window, &mut |c: Contribution| {
+                    let value = c.value * inv_spp;
+                    let t_camera_ps = c.path_m * ps_per_m;
+                    stats.samples += 1;
+                    let b = cam_resp.bin_coord(t_camera_ps);
+                    if !(b >= 0.0 && b < nt as f64) {
+                        stats.samples_outside_window += 1;
+                    }
+                    let Some(at) = cam_resp.place(b) else {
+                        lost += value;
+                        return;
+                    };
+                    lost += cam_resp.add(&at, &mut acc, value, &mut weights);
+                    let (first, len) = cam_resp.span(&at);
+                    grow(&mut touched, first, len, nt);
+                    if out.direct.is_some() {
+                        let split = if c.bounce == 1 {
+                            &mut acc_direct
+                        } else {
+                            &mut acc_multi
                         };
-                        lost += cam_resp.add(&at, &mut acc, value, &mut weights);
-                        let (first, len) = cam_resp.span(&at);
-                        grow(&mut touched, first, len, nt);
-                        if out.direct.is_some() {
-                            let split = if c.bounce == 1 {
-                                &mut acc_direct
-                            } else {
-                                &mut acc_multi
-                            };
-                            cam_resp.add(&at, split, value, &mut weights);
+                        cam_resp.add(&at, split, value, &mut weights);
+                    }
+                    if let Some(world_resp) = &self.world_resp {
+                        let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
+                        if let Some(at) = world_resp.place(world_resp.bin_coord(t_world_ps)) {
+                            world_resp.add(&at, &mut acc_world, value, &mut weights_world);
+                            let (first, len) = world_resp.span(&at);
+                            grow(&mut touched_world, first, len, ntw);
                         }
-                        if let Some(world_resp) = &self.world_resp {
-                            let t_world_ps = t_camera_ps - c.first_m * ps_per_m;
-                            if let Some(at) = world_resp.place(world_resp.bin_coord(t_world_ps)) {
-                                world_resp.add(&at, &mut acc_world, value, &mut weights_world);
-                                let (first, len) = world_resp.span(&at);
-                                grow(&mut touched_world, first, len, ntw);
-                            }
-                        }
-                    });
+                    }
+                });
                 stats.rays += tally.rays;
                 stats.samples_outside_window += tally.skipped_early;
                 stats.paths_ended_late += tally.ended_late as u64;
@@ -1005,18 +1020,14 @@ pub fn render_steady(
         .enumerate()
         .for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let pixel = (y * nx + x) as u64;
-                let mut rng = pixel_rng(opts.seed, Stream::Steady, pixel);
-                let ld = PixelSampler::new(opts.seed, Stream::Steady, pixel, spp);
+                let (mut rng, ld) = pixel_streams(opts.seed, Stream::Steady, nx, (x, y), spp);
                 let mut sum = 0.0;
                 for i in 0..spp {
-                    let (du, dv) = ld.sample(i, 0);
-                    let (u, v) = (x as f64 + du as f64, y as f64 + dv as f64);
                     k.trace_path(
                         &mut rng,
                         &ld,
                         i,
-                        (u, v),
+                        ld.image_position(i, x, y),
                         &PathWindow::UNBOUNDED,
                         &mut |c: Contribution| sum += c.value,
                     );
