@@ -15,6 +15,15 @@ where
     F: FnOnce(&Path) -> Result<T, E>,
     E: From<io::Error>,
 {
+    let tmp = temp_beside(dest)?;
+    let value = write(&tmp)?;
+    persist(tmp, dest)?;
+    Ok(value)
+}
+
+/// A new, empty temporary file in `dest`'s folder, named `.<name>.XXXX.tmp`, deleted when
+/// dropped. The handle is released, so writers that open by path work.
+pub fn temp_beside(dest: &Path) -> io::Result<tempfile::TempPath> {
     let dir = match dest.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -23,21 +32,32 @@ where
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    let tmp = tempfile::Builder::new()
+    Ok(tempfile::Builder::new()
         .prefix(&format!(".{stem}."))
         .suffix(".tmp")
-        .tempfile_in(&dir)?;
-    // Keep the path reserved but release the handle, so writers that open by path work.
-    let tmp_path = tmp.into_temp_path();
-    let value = write(&tmp_path)?;
-    // tempfile creates files readable by the owner only; outputs are ordinary files.
+        .tempfile_in(&dir)?
+        .into_temp_path())
+}
+
+/// Write `bytes` into a temporary file beside `dest` and keep it there, for outputs that
+/// must appear together with others: [`persist`] renames it onto `dest` once everything else
+/// has succeeded; dropping it deletes the temporary file.
+pub fn stage_beside(dest: &Path, bytes: &[u8]) -> io::Result<tempfile::TempPath> {
+    let tmp = temp_beside(dest)?;
+    std::fs::write(&tmp, bytes)?;
+    Ok(tmp)
+}
+
+/// Rename a temporary file ([`temp_beside`], [`stage_beside`]) onto `dest`, as an ordinary
+/// (0644) file: tempfile creates files readable by the owner only.
+pub fn persist(tmp: tempfile::TempPath, dest: &Path) -> io::Result<()> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))?;
+        std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))?;
     }
-    tmp_path.persist(dest).map_err(|e| e.error)?;
-    Ok(value)
+    tmp.persist(dest).map_err(|e| e.error)?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1467,6 +1467,25 @@ impl CubeReader {
     /// Whether `/cube` is stored as femto's writer stores it (chunks `(1, cx, nt)`, shuffle
     /// of 4-byte values then deflate at any level), so that its chunks can be copied as
     /// they are into a new cube of chunk width `cx` ([`GroupUpdate::open`]).
+    /// How `/cube` is stored: shuffle + deflate at its level when its filters hold deflate
+    /// (a cube of another tool's with deflate alone is re-stored with shuffle too), else
+    /// [`CubeCompression::None`]. Stages that rewrite a cube keep this unless told otherwise.
+    pub fn stored_compression(&self) -> CubeCompression {
+        match self.cube.filters() {
+            Ok(filters) => {
+                filters
+                    .iter()
+                    .find(|f| f.id == FILTER_DEFLATE)
+                    .map_or(CubeCompression::None, |f| {
+                        CubeCompression::Deflate(
+                            f.cd_values.first().copied().unwrap_or(DEFLATE_LEVEL).min(9),
+                        )
+                    })
+            }
+            Err(_) => CubeCompression::None,
+        }
+    }
+
     fn stored_as_written(&self, cx: usize) -> bool {
         match &self.row_chunks {
             Some((c, p)) => {
@@ -2396,37 +2415,15 @@ impl GroupSinks {
 /// A temporary file beside `dest`, for a writer that renames it onto `dest` when done (the
 /// scheme of `atomic::write_atomically`, held open across calls).
 fn temp_beside(dest: &Path) -> Result<tempfile::TempPath> {
-    let dir = match dest.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let stem = dest
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    Ok(tempfile::Builder::new()
-        .prefix(&format!(".{stem}."))
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| ContainerError::from(e).at(dest))?
-        .into_temp_path())
+    crate::atomic::temp_beside(dest).map_err(|e| ContainerError::from(e).at(dest))
 }
 
-/// Give a finished temporary file ordinary permissions and rename it onto `dest`.
+/// Rename a finished temporary file onto `dest`.
 fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
-    // As `atomic::write_atomically` does: tempfile creates owner-only files, outputs are
-    // ordinary files.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))
-            .map_err(|e| ContainerError::from(e).at(dest))?;
-    }
-    tmp.persist(dest).map_err(|e| ContainerError::Io {
+    crate::atomic::persist(tmp, dest).map_err(|source| ContainerError::Io {
         path: dest.to_path_buf(),
-        source: e.error,
-    })?;
-    Ok(())
+        source,
+    })
 }
 
 /// What a [`GroupUpdate`] writes into.
@@ -2469,7 +2466,10 @@ impl GroupUpdate {
             command_line: meta.command_line.as_deref(),
             notes: &meta.notes,
         };
-        let mut sink = CubeSink::create(&tmp, cube_path, meta.nx, meta.ny, &attrs)?;
+        // The cube keeps its compression (level included).
+        let compression = reader.stored_compression();
+        let mut sink =
+            CubeSink::create_with(&tmp, cube_path, meta.nx, meta.ny, &attrs, compression)?;
         let row_len = meta.row_len();
         // Chunks stored as this sink stores them are copied as they are (no decompression
         // and recompression); other rows are decoded and written.

@@ -190,3 +190,40 @@ mod tests {
         assert_eq!(c.time_integral()[5], 7.0);
     }
 }
+
+/// Slabs of whole rows for streaming a cube of `ny` rows whose rows are `row_bytes` long:
+/// consecutive row ranges `y0..y1` of at most `target_bytes` (at least one row each) that
+/// cover `0..ny`. Every stage that streams a cube (calibrate, unwarp, pyramid, the
+/// container's copies) walks its rows with this.
+pub fn row_slabs(
+    ny: usize,
+    row_bytes: usize,
+    target_bytes: usize,
+) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let rows = (target_bytes / row_bytes.max(1)).clamp(1, ny.max(1));
+    (0..ny).step_by(rows).map(move |y0| y0..(y0 + rows).min(ny))
+}
+
+#[cfg(test)]
+mod slab_tests {
+    use super::row_slabs;
+
+    #[test]
+    fn slabs_cover_every_row_once_within_the_budget() {
+        for (ny, row, target) in [
+            (10, 4, 12),
+            (10, 4, 1),
+            (1, 100, 10),
+            (7, 3, 1000),
+            (0, 1, 1),
+        ] {
+            let slabs: Vec<_> = row_slabs(ny, row, target).collect();
+            let rows: Vec<usize> = slabs.iter().flat_map(|r| r.clone()).collect();
+            assert_eq!(rows, (0..ny).collect::<Vec<_>>(), "{ny} {row} {target}");
+            for s in &slabs {
+                assert!(!s.is_empty());
+                assert!(s.len() == 1 || s.len() * row <= target);
+            }
+        }
+    }
+}

@@ -17,6 +17,7 @@ pub mod formats;
 pub mod geometry;
 pub mod ingest;
 pub mod manifest;
+pub mod pipeline;
 pub mod pyramid;
 pub mod relativity;
 pub mod render;

@@ -39,6 +39,21 @@ impl Registration {
     pub fn hit_count(&self) -> usize {
         self.mask.iter().filter(|&&m| m != 0).count()
     }
+
+    /// Rows `y0 .. y0 + n` of this registration (a slab of a streamed cube).
+    pub fn rows(&self, y0: usize, n: usize) -> Registration {
+        let (a, b) = (y0 * self.nx, (y0 + n) * self.nx);
+        Registration {
+            nx: self.nx,
+            ny: n,
+            camera_m: self.camera_m,
+            point_m: self.point_m[a..b].to_vec(),
+            dist_m: self.dist_m[a..b].to_vec(),
+            normal: self.normal[a..b].to_vec(),
+            triangle: self.triangle[a..b].to_vec(),
+            mask: self.mask[a..b].to_vec(),
+        }
+    }
 }
 
 /// One pixel's result: (point, distance, normal, triangle) or none.

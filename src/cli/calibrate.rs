@@ -4,21 +4,21 @@
 //! each pixel's footprint), then write the calibration TOML and the cube's
 //! `registration` group, and print the report.
 //!
-//! Glue only: the fits are [`femto::calibrate`], the group schema [`femto::store::registration`].
+//! Flags map onto [`femto::pipeline::calibrate::CalibrateOptions`]; the stage is
+//! [`femto::pipeline::calibrate::calibrate_cube`] and
+//! [`femto::pipeline::calibrate::write_calibration`] (both files or neither).
 
 use anyhow::{bail, Context};
 use clap::Args;
-use femto::calibrate::{
-    arrival_samples, direct_arrival_samples, fit_camera, fit_direct_time, footprints, load_points,
-    register, ArrivalOptions, ArrivalSample, CalibrateError, Footprints, Registration,
-    SpatialOptions,
-};
+use femto::calibrate::load_points;
 use femto::camera::{one_line_toml_error, Intrinsics, LaserFile, MediumFile};
-use femto::container::{self, CubeReader};
-use femto::cube::{Cube, TimeFrame};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
-use femto::store::registration::{self, FitSummary};
+use femto::pipeline::calibrate::{
+    calibrate_cube, write_calibration, CalibrateOptions, Calibrated, DetectionFloor, NOISE_SIGMAS,
+};
+use femto::pipeline::StageError;
+use femto::store::registration;
 use nalgebra::Point3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -64,14 +64,19 @@ pub struct CalibrateArgs {
     /// from the first bin at or above this fraction of a pixel's maximum.
     #[arg(long, default_value_t = 0.3)]
     pub threshold: f64,
-    /// Time fit: skip pixels whose maximum (over the direct-light window, after the first
-    /// pass) is below this value.
-    #[arg(long, default_value_t = 0.0)]
-    pub min_peak: f32,
+    /// Time fit: skip pixels whose maximum is below this value, in the cube's value units
+    /// [default: 20 times the cube's noise, its values' robust standard deviation, so that a
+    /// noise spike does not pass for a first arrival]. The fit is checked with this floor
+    /// doubled and refused (exit 2) when t0 depends on it.
+    #[arg(long)]
+    pub min_peak: Option<f32>,
     /// Where to write the calibration TOML [default: next to the cube, <stem>.calibration.toml].
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
+
+/// Above this many correspondences the report lists only the worst (and every outlier).
+const MAX_POINTS_LISTED: usize = 40;
 
 /// Parse "x,y,z" (metres).
 pub fn parse_point(s: &str) -> Result<[f64; 3], String> {
@@ -134,94 +139,16 @@ fn default_out(cube: &Path) -> PathBuf {
     cube.with_file_name(format!("{stem}.calibration.toml"))
 }
 
-/// The time samples of one pass of [`fit_direct_time`], streaming the cube by row slabs:
-/// first arrivals (`model` None) or direct-light centroids under `model = (t0_ps, scale)`.
-fn time_samples(
-    reader: &CubeReader,
-    reg: &Registration,
-    prints: &Footprints,
-    laser_m: &Point3<f64>,
-    eta: f64,
-    model: Option<(f64, f64)>,
-    options: &ArrivalOptions,
-) -> anyhow::Result<Vec<ArrivalSample>> {
-    let meta = reader.meta();
-    let (nx, ny) = (meta.nx, meta.ny);
-    let mask = reader.read_mask()?;
-    let rows_per_slab = ((32usize << 20) / (meta.row_len() * 4)).clamp(1, ny);
-    let what = if model.is_some() {
-        "direct light"
-    } else {
-        "first arrivals"
-    };
-    let bar = super::progress(ny as u64, what);
-    let mut samples = Vec::new();
-    for y0 in (0..ny).step_by(rows_per_slab) {
-        let n = rows_per_slab.min(ny - y0);
-        let (a, b) = (y0 * nx, (y0 + n) * nx);
-        let slab = Cube {
-            nx,
-            ny: n,
-            axis: meta.axis,
-            frame: meta.frame,
-            data: reader.read_rows(y0, n)?,
-            mask: mask.as_ref().map(|m| m[a..b].to_vec()),
-        };
-        let found = match model {
-            None => {
-                let slab_reg = Registration {
-                    nx,
-                    ny: n,
-                    camera_m: reg.camera_m,
-                    point_m: reg.point_m[a..b].to_vec(),
-                    dist_m: reg.dist_m[a..b].to_vec(),
-                    normal: reg.normal[a..b].to_vec(),
-                    triangle: reg.triangle[a..b].to_vec(),
-                    mask: reg.mask[a..b].to_vec(),
-                };
-                arrival_samples(&slab, &slab_reg, laser_m, options)?
-            }
-            Some((t0_ps, scale)) => {
-                direct_arrival_samples(&slab, &prints.rows(y0, n), eta, t0_ps, scale, options)?
-            }
-        };
-        samples.extend(
-            found
-                .into_iter()
-                .map(|s| ArrivalSample { y: s.y + y0, ..s }),
-        );
-        bar.set_position((y0 + n) as u64);
-    }
-    bar.finish_and_clear();
-    Ok(samples)
-}
-
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let reader = CubeReader::open(&args.cube)?;
-    let meta = reader.meta().clone();
-    if meta.frame != TimeFrame::Camera {
-        return Err(anyhow::Error::new(CalibrateError::WorldTimeCube)
-            .context(args.cube.display().to_string()));
-    }
-    if !(args.threshold > 0.0 && args.threshold <= 1.0) {
-        bail!("--threshold must be in (0, 1], got {}", args.threshold);
-    }
+    let meta = femto::container::read_meta(&args.cube)?;
     let points = load_points(&args.points)?;
-    let (mut options, file_laser, file_eta) = match &args.intrinsics {
+    let (intrinsics, file_laser, file_eta) = match &args.intrinsics {
         Some(p) => {
             let (k, laser, eta) = read_intrinsics(p, meta.nx, meta.ny)?;
-            (SpatialOptions::known_intrinsics(k), laser, eta)
+            (Some(k), laser, eta)
         }
-        None => (
-            SpatialOptions::unknown_intrinsics(meta.nx, meta.ny),
-            None,
-            None,
-        ),
+        None => (None, None, None),
     };
-    options.square_pixels = args.square_pixels;
-    options.principal_point_at_centre = args.centred_principal_point;
-    options.fit_distortion = args.fit_distortion;
-    options.reject_outliers = !args.keep_outliers;
     let laser_m = match args.laser.or(file_laser) {
         Some(l) => Point3::from(l),
         None => bail!(
@@ -229,58 +156,60 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
              --intrinsics file with a [laser] section"
         ),
     };
-    let eta = args.eta.or(file_eta).unwrap_or(1.0);
-    if !(eta.is_finite() && eta >= 1.0) {
-        bail!("--eta must be a number >= 1, got {eta}");
-    }
-
-    let fit =
-        fit_camera(&points, &options).with_context(|| format!("{}", args.points.display()))?;
-    let mesh = load_mesh(&args.mesh)?;
-    let bvh = Bvh::new(mesh);
-    let spatial = fit.calibration(0.0, 1.0, laser_m, eta);
-    let reg = register(&spatial, &bvh, meta.nx, meta.ny)?;
-    if reg.hit_count() == 0 {
-        bail!(
-            "{}: no pixel of the fitted camera sees the mesh; check that the points and the \
-             mesh use the same frame and units",
-            args.mesh.display()
-        );
-    }
-    let arrival = ArrivalOptions {
+    let options = CalibrateOptions {
+        intrinsics,
+        square_pixels: args.square_pixels,
+        centred_principal_point: args.centred_principal_point,
+        fit_distortion: args.fit_distortion,
+        keep_outliers: args.keep_outliers,
+        eta: args.eta.or(file_eta).unwrap_or(1.0),
+        fit_time_scale: args.fit_time_scale,
         threshold_fraction: args.threshold,
-        min_peak: args.min_peak,
-        ..ArrivalOptions::default()
+        floor: match args.min_peak {
+            Some(v) => DetectionFloor::Level(v),
+            None => CalibrateOptions::default().floor,
+        },
     };
-    let prints = footprints(&reg, &laser_m);
-    let (tfit, samples) = fit_direct_time(eta, args.fit_time_scale, &mut |model| {
-        time_samples(&reader, &reg, &prints, &laser_m, eta, model, &arrival)
-    })
-    .with_context(|| format!("{}", args.cube.display()))?;
-    drop(reader);
-    let cal = fit.calibration(tfit.t0_ps, tfit.time_scale, laser_m, eta);
-
-    let summary = FitSummary {
-        points: points.len(),
-        outliers: fit.outliers.len(),
-        reprojection_rms_px: fit.rms_px,
-        time_samples: samples.len(),
-        time_inliers: tfit.inlier_count(),
-        time_residual_rms_ps: tfit.rms_ps,
-    };
-    let mesh_name = args.mesh.display().to_string();
-    let group = registration::registration_group(&reg, &cal, &mesh_name, Some(&summary));
-    container::write_groups(&args.cube, &[(registration::GROUP, group)])?;
+    let bvh = Bvh::new(load_mesh(&args.mesh)?);
+    let result = calibrate_cube(
+        &args.cube,
+        &bvh,
+        &points,
+        laser_m,
+        &options,
+        &super::Bar::default(),
+    )
+    .map_err(|e| match e {
+        StageError::Points { source } => {
+            anyhow::Error::new(source).context(args.points.display().to_string())
+        }
+        StageError::NothingSeen => anyhow::anyhow!("{}: {e}", args.mesh.display()),
+        other => other.into(),
+    })?;
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.cube));
-    let text = format!(
-        "# made by: {}\n{}",
-        super::command_line().replace('\n', " "),
-        cal.to_toml()
-    );
-    femto::atomic::write_atomically(&out, |tmp| std::fs::write(tmp, &text))
-        .with_context(|| out.display().to_string())?;
+    let header = format!("# made by: {}\n", super::command_line().replace('\n', " "));
+    let mesh_name = args.mesh.display().to_string();
+    write_calibration(&args.cube, &result, points.len(), &mesh_name, &out, &header)?;
+    print!("{}", report(&args, &meta, &bvh, &points, &result, &out));
+    for w in &result.warnings {
+        eprintln!("femto calibrate: warning: {w}");
+    }
+    Ok(())
+}
 
-    // The report.
+/// The report printed after a calibration.
+fn report(
+    args: &CalibrateArgs,
+    meta: &femto::container::CubeMeta,
+    bvh: &Bvh,
+    points: &[femto::calibrate::Correspondence],
+    result: &Calibrated,
+    out: &Path,
+) -> String {
+    let fit = &result.spatial;
+    let cal = &result.calibration;
+    let reg = &result.registration;
+    let tfit = &result.time.fit;
     let mut r = String::new();
     let mut line = |s: String| {
         r.push_str(&s);
@@ -309,11 +238,25 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             _ => "",
         }
     ));
+    // Every point when there are few; else the outliers and the worst of the others.
+    let mut shown: Vec<usize> = (0..points.len()).collect();
+    if points.len() > MAX_POINTS_LISTED {
+        shown.sort_by(|&a, &b| fit.per_point_px[b].total_cmp(&fit.per_point_px[a]));
+        let keep = fit.outliers.len().max(MAX_POINTS_LISTED / 2);
+        shown.truncate(keep);
+        shown.sort_unstable();
+        line(format!(
+            "{} points; the {} with the largest errors:",
+            points.len(),
+            shown.len()
+        ));
+    }
     line(format!(
         "{:>5}  {:<24} {:>10} {:>10} {:>10}",
         "#", "point", "x_px", "y_px", "error_px"
     ));
-    for (i, (p, e)) in points.iter().zip(&fit.per_point_px).enumerate() {
+    for i in shown {
+        let (p, e) = (&points[i], fit.per_point_px[i]);
         let flag = if fit.outliers.contains(&i) {
             "  OUTLIER"
         } else {
@@ -352,15 +295,16 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         k.fx, k.fy, k.cx, k.cy, k.k1, k.k2
     ));
     let hits = reg.hit_count();
-    let (dmin, dmax) = registration::dist_range_m(&reg).unwrap_or((f32::NAN, f32::NAN));
+    let (dmin, dmax) = registration::dist_range_m(reg).unwrap_or((f32::NAN, f32::NAN));
     line(format!(
         "registration: {hits} of {} pixels see the mesh ({:.1} %), distance {dmin:.4} .. {dmax:.4} m",
         meta.nx * meta.ny,
         100.0 * hits as f64 / (meta.nx * meta.ny) as f64
     ));
     line(format!(
-        "time: t0 {:.3} ps (bin coordinate {:.4} on the cube's axis of {} ps bins), time scale {}{}",
+        "time: t0 {:.3} +- {:.3} ps (bin coordinate {:.4} on the cube's axis of {} ps bins), time scale {}{}",
         tfit.t0_ps,
+        result.time.t0_std_error_ps,
         meta.axis.bin_coord(tfit.t0_ps),
         meta.axis.dt_ps,
         tfit.time_scale,
@@ -374,8 +318,20 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         "time residuals: rms {:.3} ps over {} inliers of {} pixels with direct light, robust sigma {:.3} ps",
         tfit.rms_ps,
         tfit.inlier_count(),
-        samples.len(),
+        result.time.samples,
         tfit.sigma_ps
+    ));
+    line(format!(
+        "detection floor {:.4} ({}; the cube's noise sigma {:.4}); check with the floor at {:.4}: t0 {:.3} ps over {} pixels",
+        result.time.floor,
+        match args.min_peak {
+            Some(_) => "--min-peak".to_string(),
+            None => format!("{NOISE_SIGMAS} x noise"),
+        },
+        result.noise_sigma,
+        result.check.floor,
+        result.check.fit.t0_ps,
+        result.check.samples
     ));
     line(format!(
         "wrote {} and the /{} group of {}",
@@ -383,6 +339,5 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         registration::GROUP,
         args.cube.display()
     ));
-    print!("{r}");
-    Ok(())
+    r
 }

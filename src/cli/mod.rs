@@ -102,6 +102,35 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
     bar
 }
 
+/// A [`femto::pipeline::Progress`] drawn as a progress bar on stderr (hidden when stderr is
+/// not a terminal), one bar per pass.
+#[derive(Default)]
+pub struct Bar {
+    bar: std::sync::Mutex<Option<ProgressBar>>,
+}
+
+impl femto::pipeline::Progress for Bar {
+    fn start(&self, what: &str, len: u64) {
+        if let Ok(mut b) = self.bar.lock() {
+            *b = Some(progress(len, what));
+        }
+    }
+    fn set(&self, done: u64) {
+        if let Ok(b) = self.bar.lock() {
+            if let Some(b) = b.as_ref() {
+                b.set_position(done);
+            }
+        }
+    }
+    fn finish(&self) {
+        if let Ok(mut b) = self.bar.lock() {
+            if let Some(b) = b.take() {
+                b.finish_and_clear();
+            }
+        }
+    }
+}
+
 /// The command line that made an output, for provenance attributes.
 pub fn command_line() -> String {
     std::env::args().collect::<Vec<_>>().join(" ")

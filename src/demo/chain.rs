@@ -37,12 +37,10 @@
 
 use super::{DemoError, DemoSizes, Stages};
 use crate::calibrate::{
-    calibrate_time, fit_camera, load_points, register, ArrivalOptions, Correspondence,
-    SpatialOptions,
+    calibrate_time, register, save_points_toml, ArrivalOptions, Correspondence,
 };
-use crate::camera::{Calibration, Intrinsics};
-use crate::container::{read_cube, write_cube, CubeCompression, Provenance};
-use crate::cube::Cube;
+use crate::camera::Calibration;
+use crate::container::{read_cube, Provenance};
 use crate::formats::read_streak;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::load::load_mesh;
@@ -51,11 +49,14 @@ use crate::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
 use crate::manifest::Manifest;
-use crate::pyramid::Pyramid;
+use crate::pipeline::calibrate::{calibrate_cube, write_calibration, CalibrateOptions, Calibrated};
+use crate::pipeline::pyramid::{pyramid_file, PyramidOptions};
+use crate::pipeline::render::{open_render_inputs, RenderInputs};
+use crate::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions};
+use crate::pipeline::Quiet;
 use crate::render::RenderScene;
 use crate::scene::Scene;
 use crate::simulate::{simulate_capture, Flaws, SimulateOptions};
-use crate::unwarp::{unwarp_cube, Direction};
 use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -114,6 +115,8 @@ pub struct CalibrationErrors {
     pub focal_error_percent: f64,
     /// Fitted and true time origin, ps; the cube's bin width; their difference in bins.
     pub t0_fit_ps: f64,
+    /// Standard error of the fitted `t0`, ps (the calibrate stage's).
+    pub t0_std_error_ps: f64,
     pub t0_true_ps: f64,
     pub dt_ps: f64,
     pub t0_error_bins: f64,
@@ -126,6 +129,10 @@ pub struct CalibrationErrors {
     pub arrival_samples: usize,
     pub arrival_inliers: usize,
     pub t0_rms_ps: f64,
+    /// The calibrate stage's detection floor (20 noise sigmas), cube value units.
+    pub detection_floor: f64,
+    /// The calibrate stage's warnings.
+    pub warnings: Vec<String>,
     /// Whether every error is within [`Tolerances::default`].
     pub within_tolerance: bool,
 }
@@ -137,16 +144,6 @@ impl CalibrationErrors {
             && self.rotation_error_deg <= tol.rotation_deg
             && self.focal_error_percent <= tol.focal_percent
             && self.t0_error_bins <= tol.t0_bins
-    }
-}
-
-/// The spatial fit of the demo: unknown intrinsics with square pixels and the principal point
-/// at the image centre (both true of the simulated camera), no distortion, outliers rejected.
-pub fn spatial_options(sizes: &DemoSizes) -> SpatialOptions {
-    SpatialOptions {
-        square_pixels: true,
-        principal_point_at_centre: true,
-        ..SpatialOptions::unknown_intrinsics(sizes.fiducial_nx, sizes.fiducial_ny)
     }
 }
 
@@ -171,24 +168,6 @@ pub fn spatial_errors(
     )
 }
 
-/// Intrinsics fitted on a `from_w x from_h` image, for a `to_w x to_h` image of the same field
-/// of view: continuous pixel coordinates scale by `to / from` (pixel edges at integers in both
-/// images), distortion (in normalised coordinates) is unchanged.
-pub fn scale_intrinsics(k: &Intrinsics, to_w: usize, to_h: usize) -> Intrinsics {
-    let sx = to_w as f64 / k.width as f64;
-    let sy = to_h as f64 / k.height as f64;
-    Intrinsics {
-        width: to_w,
-        height: to_h,
-        fx: k.fx * sx,
-        fy: k.fy * sy,
-        cx: k.cx * sx,
-        cy: k.cy * sy,
-        k1: k.k1,
-        k2: k.k2,
-    }
-}
-
 /// `points` with seeded Gaussian noise of `sigma_px` added to each pixel coordinate.
 pub fn add_pixel_noise(points: &[Correspondence], sigma_px: f64, seed: u64) -> Vec<Correspondence> {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
@@ -208,27 +187,20 @@ pub fn add_pixel_noise(points: &[Correspondence], sigma_px: f64, seed: u64) -> V
 /// What the chain leaves for the renderer.
 pub struct Chain {
     pub scene_name: String,
-    /// The capture's mesh (read back from the capture folder).
-    pub bvh: Bvh,
-    /// The fitted calibration (capture size).
-    pub calibration: Calibration,
-    /// Prefix sums of the unwarped (world-time) cube.
-    pub world: Pyramid,
-    pub laser_nm: f64,
+    /// The world cube, fitted calibration and mesh opened by the render stage
+    /// ([`open_render_inputs`]), as `femto render` opens them.
+    pub render: RenderInputs,
     pub errors: CalibrationErrors,
     /// Files written under the data folder.
     pub data_files: Vec<PathBuf>,
+    /// The CLI commands that reproduce the data products from the capture.
+    pub commands: Vec<String>,
 }
 
 impl Chain {
     /// The renderer's view of this chain's result.
     pub fn render_scene(&self) -> Result<RenderScene<'_>, DemoError> {
-        Ok(RenderScene::new(
-            &self.bvh,
-            self.calibration,
-            &self.world,
-            self.laser_nm,
-        )?)
+        Ok(self.render.scene()?)
     }
 }
 
@@ -237,6 +209,7 @@ pub const CAPTURE_DIR: &str = "capture";
 pub const CUBE_FILE: &str = "cube.h5";
 pub const WORLD_FILE: &str = "world.h5";
 pub const CALIBRATION_FILE: &str = "calibration.toml";
+pub const POINTS_FILE: &str = "fiducials_detected.toml";
 
 /// Run `scene` (built-in, at its own size; resized here) through the chain, writing into
 /// `data_dir`. `label` prefixes the stage names (`""` or `"bunny "`).
@@ -256,7 +229,8 @@ pub(crate) fn run_chain(
     let mut files = Vec::new();
 
     // 1. Simulate.
-    let sim = stages.run(
+    let say = stages.say();
+    stages.run(
         &format!("{label}simulate"),
         &format!(
             "{} scene, {}x{} pixels x {} bins of {} ps, {} spp, realistic flaws (low noise)",
@@ -277,7 +251,23 @@ pub(crate) fn run_chain(
                 created_by: "femto demo".into(),
                 ..SimulateOptions::default()
             };
-            Ok(simulate_capture(&scene, &opts, &capture_dir, &|_, _| {})?)
+            // Rows rendered so far; a line at every tenth of the capture (the slow stage).
+            let rows = std::sync::atomic::AtomicUsize::new(0);
+            let ny = sizes.capture_ny;
+            let tick = |stage: crate::simulate::capture::Stage, n: usize| {
+                if stage != crate::simulate::capture::Stage::Render {
+                    return;
+                }
+                let before = rows.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+                let after = before + n;
+                if (10 * after) / ny > (10 * before) / ny {
+                    say(&format!(
+                        "{label}simulate: {after} of {ny} rows rendered ({} %)",
+                        100 * after / ny
+                    ));
+                }
+            };
+            Ok(simulate_capture(&scene, &opts, &capture_dir, &tick)?)
         },
     )?;
     files.push(capture_dir.clone());
@@ -285,7 +275,7 @@ pub(crate) fn run_chain(
     // 2. Ingest.
     let cube_path = data_dir.join(CUBE_FILE);
     let sweep_path = data_dir.join(SWEEP_TABLE_FILE);
-    let cube = stages.run(
+    stages.run(
         &format!("{label}ingest"),
         if INGEST_JITTER {
             "dark frame, flat field, sweep table, jitter, laser power, saturation"
@@ -295,130 +285,278 @@ pub(crate) fn run_chain(
         || ingest_capture(&capture_dir, &cube_path, &sweep_path),
     )?;
     if sweep_path.exists() {
-        files.push(sweep_path);
+        files.push(sweep_path.clone());
     }
-    files.push(cube_path);
+    files.push(cube_path.clone());
 
-    // 3. Calibrate.
+    // 3. Calibrate: the calibrate stage, as `femto calibrate` runs it, on the markers
+    //    "detected" in the high-resolution image (module doc), written in capture pixels.
     let truth = Calibration::load(&capture_dir.join(crate::simulate::capture::CALIBRATION_FILE))?;
-    let mesh = load_mesh(&capture_dir.join(crate::simulate::capture::GEOMETRY_FILE))?;
-    let bvh = Bvh::new(mesh);
+    let mesh_path = capture_dir.join(crate::simulate::capture::GEOMETRY_FILE);
+    let bvh = Bvh::new(load_mesh(&mesh_path)?);
     let calib_path = data_dir.join(CALIBRATION_FILE);
-    let (calibration, registration, errors) = stages.run(
+    let points_path = data_dir.join(POINTS_FILE);
+    let options = calibrate_options();
+    let errors = stages.run(
         &format!("{label}calibrate"),
         &format!(
             "camera from fiducials ({}x{} image, {FIDUCIAL_NOISE_PX} px noise), t0 from the direct light",
             sizes.fiducial_nx, sizes.fiducial_ny
         ),
         || {
-            let points = if (sizes.fiducial_nx, sizes.fiducial_ny)
-                == (sizes.capture_nx, sizes.capture_ny)
-            {
-                load_points(&capture_dir.join(crate::simulate::capture::FIDUCIALS_FILE))?
-            } else {
-                let hi = scene.with_resolution(
-                    sizes.fiducial_nx,
-                    sizes.fiducial_ny,
-                    sizes.nt,
-                    sizes.dt_ps,
-                );
-                let truth_bvh = Bvh::new(hi.mesh.clone());
-                crate::simulate::fiducials::fiducials(
-                    &hi,
-                    &truth_bvh,
-                    crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
-                )
-            };
+            let hi = scene.with_resolution(sizes.fiducial_nx, sizes.fiducial_ny, sizes.nt, sizes.dt_ps);
+            let truth_bvh = Bvh::new(hi.mesh.clone());
+            let points = crate::simulate::fiducials::fiducials(
+                &hi,
+                &truth_bvh,
+                crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
+            );
             let noisy = add_pixel_noise(&points, FIDUCIAL_NOISE_PX, DEMO_SEED);
-            let fit = fit_camera(&noisy, &spatial_options(sizes))?;
-            let mut cal = fit.calibration(0.0, 1.0, truth.laser_m, truth.eta);
-            cal.intrinsics = scale_intrinsics(&fit.intrinsics, cube.nx, cube.ny);
-            let reg = register(&cal, &bvh, cube.nx, cube.ny)?;
-            let arrival = arrival_options(&cube);
-            let (time, samples) =
-                calibrate_time(&cube, &reg, &cal.laser_m, cal.eta, false, &arrival)?;
-            cal.t0_ps = time.t0_ps;
+            let in_capture_px = scale_points(
+                &noisy,
+                sizes.capture_nx as f64 / sizes.fiducial_nx as f64,
+                sizes.capture_ny as f64 / sizes.fiducial_ny as f64,
+            );
+            save_points_toml(&points_path, &in_capture_px)?;
+            let fitted =
+                calibrate_cube(&cube_path, &bvh, &in_capture_px, truth.laser_m, &options, &Quiet)?;
+            write_calibration(
+                &cube_path,
+                &fitted,
+                in_capture_px.len(),
+                &mesh_path.display().to_string(),
+                &calib_path,
+                "# made by: femto demo\n",
+            )?;
             // The temporal stage alone: the same fit through the true camera.
+            let cube = read_cube(&cube_path)?;
             let true_reg = register(&truth, &bvh, cube.nx, cube.ny)?;
+            let arrival = ArrivalOptions {
+                min_peak: fitted.time.floor,
+                ..ArrivalOptions::default()
+            };
             let (true_time, _) =
                 calibrate_time(&cube, &true_reg, &truth.laser_m, truth.eta, false, &arrival)?;
-            let centroid = Point3::from(
-                points.iter().map(|c| c.point_m.coords).sum::<nalgebra::Vector3<f64>>()
-                    / points.len() as f64,
-            );
-            let (position_mm, position_mm_per_m, rotation_deg, focal_percent) =
-                spatial_errors(&cal, &truth, &centroid);
-            let t0_error_bins = (cal.t0_ps - truth.t0_ps).abs() / cube.axis.dt_ps;
-            let mut errors = CalibrationErrors {
-                scene: scene.name.clone(),
-                fiducials: noisy.len(),
-                fiducial_width: sizes.fiducial_nx,
-                fiducial_height: sizes.fiducial_ny,
-                noise_px: FIDUCIAL_NOISE_PX,
-                outliers: fit.outliers.len(),
-                rms_px: fit.rms_px,
-                camera_distance_m: (centroid - truth.pose.position_m).norm(),
-                position_error_mm: position_mm,
-                position_error_mm_per_m: position_mm_per_m,
-                rotation_error_deg: rotation_deg,
-                focal_error_percent: focal_percent,
-                t0_fit_ps: cal.t0_ps,
-                t0_true_ps: truth.t0_ps,
-                dt_ps: cube.axis.dt_ps,
-                t0_error_bins,
-                t0_true_camera_error_bins: (true_time.t0_ps - truth.t0_ps).abs()
-                    / cube.axis.dt_ps,
-                arrival_samples: samples.len(),
-                arrival_inliers: time.inlier_count(),
-                t0_rms_ps: time.rms_ps,
-                within_tolerance: false,
-            };
-            errors.within_tolerance = errors.check(&Tolerances::default());
-            let text = cal.to_toml();
-            super::write_file(&calib_path, text.as_bytes())?;
-            Ok((cal, reg, errors))
+            Ok(calibration_errors(
+                &scene.name,
+                sizes,
+                &points,
+                &fitted,
+                &truth,
+                true_time.t0_ps,
+            ))
         },
     )?;
-    files.push(calib_path);
+    files.push(points_path.clone());
+    files.push(calib_path.clone());
 
-    // 4. Unwarp.
+    // 4. Unwarp: the unwarp stage with its defaults.
     let world_path = data_dir.join(WORLD_FILE);
-    let world_cube = stages.run(
+    stages.run(
         &format!("{label}unwarp"),
         "camera time to world time, t_world = t_camera - eta |p - o| / c",
         || {
-            let world = unwarp_cube(
-                &cube,
-                &registration.dist_m,
-                calibration.eta,
-                Direction::CameraToWorld,
-                None,
-            )?;
-            write_cube(
+            let options = UnwarpOptions {
+                command_line: "femto demo".into(),
+                ..UnwarpOptions::default()
+            };
+            unwarp_file(
+                &cube_path,
                 &world_path,
-                &world,
-                &provenance("unwarped cube, world time"),
+                Distances::Registration,
+                &options,
+                &Quiet,
             )?;
-            Ok(world)
+            Ok(())
         },
     )?;
-    files.push(world_path);
+    files.push(world_path.clone());
 
-    // 5. Pyramid.
-    let world = stages.run(&format!("{label}pyramid"), "temporal prefix sums", || {
-        Ok(Pyramid::build(&world_cube))
+    // 5. Pyramid: the pyramid stage with its defaults, then the render stage's inputs.
+    let render = stages.run(&format!("{label}pyramid"), "temporal prefix sums", || {
+        pyramid_file(&world_path, &PyramidOptions::default(), &Quiet)?;
+        Ok(open_render_inputs(
+            &world_path,
+            None,
+            &calib_path,
+            &mesh_path,
+            None,
+        )?)
     })?;
 
-    let _ = sim;
+    let commands = commands(
+        data_dir,
+        &ChainFiles {
+            capture: &capture_dir,
+            cube: &cube_path,
+            sweep: &sweep_path,
+            points: &points_path,
+            calibration: &calib_path,
+            world: &world_path,
+            mesh: &mesh_path,
+        },
+        truth.laser_m,
+        &options,
+    );
     Ok(Chain {
         scene_name: scene.name.clone(),
-        bvh,
-        calibration,
-        world,
-        laser_nm: scene.laser.wavelength_nm,
+        render,
         errors,
         data_files: files,
+        commands,
     })
+}
+
+/// The spatial fit of the demo, as `femto calibrate --square-pixels
+/// --centred-principal-point` does it: unknown intrinsics with square pixels and the
+/// principal point at the image centre (both true of the simulated camera); every other
+/// option at the calibrate stage's default.
+pub fn calibrate_options() -> CalibrateOptions {
+    CalibrateOptions {
+        square_pixels: true,
+        centred_principal_point: true,
+        ..CalibrateOptions::default()
+    }
+}
+
+/// `points` with their pixel coordinates scaled by `sx, sy` (pixel edges at integers in both
+/// images: continuous coordinates scale as they are).
+pub fn scale_points(points: &[Correspondence], sx: f64, sy: f64) -> Vec<Correspondence> {
+    points
+        .iter()
+        .map(|c| Correspondence {
+            pixel: (c.pixel.0 * sx, c.pixel.1 * sy),
+            ..c.clone()
+        })
+        .collect()
+}
+
+/// The fitted calibration's errors against the truth (module doc); `points` are the markers
+/// without noise (their centroid sets the camera distance), `t0_true_camera_ps` the time fit
+/// through the true camera.
+fn calibration_errors(
+    scene: &str,
+    sizes: &DemoSizes,
+    points: &[Correspondence],
+    fitted: &Calibrated,
+    truth: &Calibration,
+    t0_true_camera_ps: f64,
+) -> CalibrationErrors {
+    let cal = &fitted.calibration;
+    let centroid = Point3::from(
+        points
+            .iter()
+            .map(|c| c.point_m.coords)
+            .sum::<nalgebra::Vector3<f64>>()
+            / points.len() as f64,
+    );
+    let (position_mm, position_mm_per_m, rotation_deg, focal_percent) =
+        spatial_errors(cal, truth, &centroid);
+    let dt_ps = fitted.dt_ps;
+    let mut errors = CalibrationErrors {
+        scene: scene.to_string(),
+        fiducials: points.len(),
+        fiducial_width: sizes.fiducial_nx,
+        fiducial_height: sizes.fiducial_ny,
+        noise_px: FIDUCIAL_NOISE_PX,
+        outliers: fitted.spatial.outliers.len(),
+        rms_px: fitted.spatial.rms_px * sizes.fiducial_nx as f64 / sizes.capture_nx as f64,
+        camera_distance_m: (centroid - truth.pose.position_m).norm(),
+        position_error_mm: position_mm,
+        position_error_mm_per_m: position_mm_per_m,
+        rotation_error_deg: rotation_deg,
+        focal_error_percent: focal_percent,
+        t0_fit_ps: cal.t0_ps,
+        t0_std_error_ps: fitted.time.t0_std_error_ps,
+        t0_true_ps: truth.t0_ps,
+        dt_ps,
+        t0_error_bins: (cal.t0_ps - truth.t0_ps).abs() / dt_ps,
+        t0_true_camera_error_bins: (t0_true_camera_ps - truth.t0_ps).abs() / dt_ps,
+        arrival_samples: fitted.time.samples,
+        arrival_inliers: fitted.time.fit.inlier_count(),
+        t0_rms_ps: fitted.time.fit.rms_ps,
+        detection_floor: fitted.time.floor as f64,
+        warnings: fitted.warnings.clone(),
+        within_tolerance: false,
+    };
+    errors.within_tolerance = errors.check(&Tolerances::default());
+    errors
+}
+
+/// The files of one chain, for [`commands`].
+struct ChainFiles<'a> {
+    capture: &'a Path,
+    cube: &'a Path,
+    sweep: &'a Path,
+    points: &'a Path,
+    calibration: &'a Path,
+    world: &'a Path,
+    mesh: &'a Path,
+}
+
+/// The `femto` commands that reproduce this chain's data products from its capture folder
+/// (written by the demo into `commands.sh`), with paths relative to the demo's folder.
+fn commands(
+    data_dir: &Path,
+    f: &ChainFiles<'_>,
+    laser_m: Point3<f64>,
+    options: &CalibrateOptions,
+) -> Vec<String> {
+    // The demo's output folder: the parent of the `data` folder above `data_dir`.
+    let base = data_dir
+        .ancestors()
+        .find(|a| a.file_name() == Some(std::ffi::OsStr::new(super::DATA_DIR)))
+        .and_then(Path::parent)
+        .unwrap_or(data_dir);
+    let rel = |p: &Path| super::relative(base, p);
+    let mut ingest = format!("femto ingest {} -o {}", rel(f.capture), rel(f.cube));
+    if let Ok(manifest) = Manifest::load(&f.capture.join(crate::simulate::capture::MANIFEST_FILE)) {
+        if let Some(level) = dark_level(f.capture, &manifest) {
+            ingest.push_str(&format!(" --dark {level}"));
+        }
+        if let Some(flat) = &manifest.files.flat {
+            ingest.push_str(&format!(" --flat {}", rel(&f.capture.join(flat))));
+        }
+        if manifest.imperfections.sweep.is_some() {
+            ingest.push_str(&format!(" --sweep-table {}", rel(f.sweep)));
+        }
+    }
+    if INGEST_JITTER {
+        ingest.push_str(" --jitter");
+    }
+    if INGEST_POWER_AUTO {
+        ingest.push_str(" --power-ref auto");
+    }
+    ingest.push_str(" --saturation auto");
+    let mut calibrate = format!(
+        "femto calibrate {} --mesh {} --points {} --laser={},{},{} --out {}",
+        rel(f.cube),
+        rel(f.mesh),
+        rel(f.points),
+        laser_m.x,
+        laser_m.y,
+        laser_m.z,
+        rel(f.calibration)
+    );
+    if options.square_pixels {
+        calibrate.push_str(" --square-pixels");
+    }
+    if options.centred_principal_point {
+        calibrate.push_str(" --centred-principal-point");
+    }
+    vec![
+        ingest,
+        calibrate,
+        format!("femto unwarp {} --out {}", rel(f.cube), rel(f.world)),
+        format!("femto pyramid {}", rel(f.world)),
+    ]
+}
+
+/// The mean of the capture's dark frame, the constant dark level the demo subtracts.
+fn dark_level(capture_dir: &Path, manifest: &Manifest) -> Option<f64> {
+    let dark = manifest.files.dark.as_ref()?;
+    let frame = read_streak(&capture_dir.join(dark), false).ok()?;
+    Some(frame.data.iter().map(|&v| v as f64).sum::<f64>() / frame.data.len() as f64)
 }
 
 fn provenance(content: &str) -> Provenance {
@@ -437,50 +575,13 @@ pub const INGEST_JITTER: bool = true;
 /// Whether ingest normalises the laser power automatically (`femto ingest --power-ref auto`).
 pub const INGEST_POWER_AUTO: bool = true;
 
-/// Robust standard deviation of a cube's noise: 1.4826 times the median absolute deviation
-/// of its values from their median, over a regular subsample of at most about 2^20 values.
-/// Light fills few of the bins of a transient cube, so the statistic measures the noise of
-/// the empty ones.
-pub fn noise_sigma(cube: &Cube) -> f64 {
-    let step = (cube.data.len() >> 20).max(1);
-    let mut v: Vec<f64> = cube
-        .data
-        .iter()
-        .step_by(step)
-        .map(|&x| x as f64)
-        .filter(|x| x.is_finite())
-        .collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    let median = *v.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let mut dev: Vec<f64> = v.iter().map(|x| (x - median).abs()).collect();
-    1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1
-}
-
-/// A pixel's direct pulse must peak at this many noise standard deviations for its first
-/// arrival to be used (module doc).
-pub const MIN_PEAK_SIGMAS: f64 = 20.0;
-
-/// First-arrival detection for a noisy cube: the default search threshold (0.3 of a pixel's
-/// maximum) and pixels skipped unless their maximum reaches [`MIN_PEAK_SIGMAS`] times the
-/// cube's noise ([`noise_sigma`]), so that the threshold lies at 6 sigma and a noise spike
-/// before the pulse does not pass for it.
-pub fn arrival_options(cube: &Cube) -> ArrivalOptions {
-    ArrivalOptions {
-        min_peak: (MIN_PEAK_SIGMAS * noise_sigma(cube)) as f32,
-        ..ArrivalOptions::default()
-    }
-}
-
 /// Assemble the capture folder into `cube_path` (camera time) with the corrections of the
-/// module doc. Returns the cube read back.
+/// module doc, compressed as `femto ingest` compresses by default.
 fn ingest_capture(
     capture_dir: &Path,
     cube_path: &Path,
     sweep_path: &Path,
-) -> Result<Cube, DemoError> {
+) -> Result<(), DemoError> {
     let manifest_path = capture_dir.join(crate::simulate::capture::MANIFEST_FILE);
     let manifest = Manifest::load(&manifest_path)?;
     let mut options = IngestOptions {
@@ -489,11 +590,7 @@ fn ingest_capture(
         saturation: Some(SaturationInput::Auto),
         ..IngestOptions::default()
     };
-    if let Some(dark) = &manifest.files.dark {
-        let frame = read_streak(&capture_dir.join(dark), false)?;
-        let mean = frame.data.iter().map(|&v| v as f64).sum::<f64>() / frame.data.len() as f64;
-        options.dark = Some(DarkInput::Level(mean));
-    }
+    options.dark = dark_level(capture_dir, &manifest).map(DarkInput::Level);
     if let Some(flat) = &manifest.files.flat {
         options.flat = Some(capture_dir.join(flat));
     }
@@ -511,8 +608,8 @@ fn ingest_capture(
         &plan,
         cube_path,
         &provenance("ingested capture, camera time"),
-        CubeCompression::default(),
+        crate::pipeline::INGEST_COMPRESSION,
         &|_, _| {},
     )?;
-    Ok(read_cube(cube_path)?)
+    Ok(())
 }

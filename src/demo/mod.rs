@@ -94,6 +94,9 @@ pub enum DemoError {
     /// The renderer refused its inputs.
     #[error("render: {0}")]
     Render(#[from] crate::render::RenderError),
+    /// A stage of the pipeline failed.
+    #[error(transparent)]
+    Stage(#[from] crate::pipeline::StageError),
     /// A video could not be written.
     #[error("video: {0}")]
     Video(#[from] crate::video::VideoError),
@@ -263,19 +266,25 @@ impl DemoSummary {
 pub const REPORT_FILE: &str = "report.md";
 pub const SUMMARY_FILE: &str = "summary.json";
 pub const DATA_DIR: &str = "data";
+pub const COMMANDS_FILE: &str = "commands.sh";
 
 /// Records the time of each stage and tells the caller when one starts and ends.
 pub(crate) struct Stages<'a> {
-    progress: &'a dyn Fn(&str),
+    progress: &'a (dyn Fn(&str) + Sync),
     pub(crate) times: Vec<StageTime>,
 }
 
 impl<'a> Stages<'a> {
-    fn new(progress: &'a dyn Fn(&str)) -> Stages<'a> {
+    fn new(progress: &'a (dyn Fn(&str) + Sync)) -> Stages<'a> {
         Stages {
             progress,
             times: Vec::new(),
         }
+    }
+
+    /// The progress line printer, for a stage that reports its own progress.
+    pub(crate) fn say(&self) -> &'a (dyn Fn(&str) + Sync) {
+        self.progress
     }
 
     /// Run `f` as the stage `name` (described by `what`), timing it.
@@ -384,7 +393,10 @@ fn check_out_dir(out_dir: &Path) -> Result<(), DemoError> {
 
 /// Run the whole demo (module doc) into `opts.out_dir`. `progress` is told when each stage
 /// starts and ends, one line each.
-pub fn run_demo(opts: &DemoOptions, progress: &dyn Fn(&str)) -> Result<DemoSummary, DemoError> {
+pub fn run_demo(
+    opts: &DemoOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<DemoSummary, DemoError> {
     let started = Instant::now();
     let sizes = if opts.quick {
         DemoSizes::quick()
@@ -401,6 +413,7 @@ pub fn run_demo(opts: &DemoOptions, progress: &dyn Fn(&str)) -> Result<DemoSumma
     let cube_scene = crate::scene::Scene::builtin("cube", None)?;
     let cube = chain::run_chain(&cube_scene, &sizes, &data, "", &mut stages)?;
     let mut calibrations = vec![cube.errors.clone()];
+    let mut commands = cube.commands.clone();
     let mut data_files = cube.data_files.clone();
 
     let mut outputs = Vec::new();
@@ -436,6 +449,7 @@ pub fn run_demo(opts: &DemoOptions, progress: &dyn Fn(&str)) -> Result<DemoSumma
             &mut stages,
         )?;
         calibrations.push(bunny.errors.clone());
+        commands.extend(bunny.commands.iter().cloned());
         data_files.extend(bunny.data_files.iter().cloned());
         let scene = bunny.render_scene()?;
         outputs.extend(
@@ -464,10 +478,29 @@ pub fn run_demo(opts: &DemoOptions, progress: &dyn Fn(&str)) -> Result<DemoSumma
     progress("report: report.md and summary.json");
     summary.stages = std::mem::take(&mut stages.times);
     summary.total_seconds = started.elapsed().as_secs_f64();
+    write_file(
+        &out.join(COMMANDS_FILE),
+        commands_script(&commands).as_bytes(),
+    )?;
     write_file(&report_path, report::markdown(&summary).as_bytes())?;
     let json = serde_json::to_string_pretty(&summary).expect("the summary serialises");
     write_file(&json_path, json.as_bytes())?;
     Ok(summary)
+}
+
+/// `commands.sh`: the CLI commands that reproduce the demo's data products from its simulated
+/// captures (run from the demo's folder, with `femto` on the PATH).
+fn commands_script(commands: &[String]) -> String {
+    let mut s = String::from(
+        "#!/bin/sh\n# The femto commands that reproduce this demo's data products (cube, \
+         calibration, world cube,\n# pyramid) from its simulated capture: the same stages with \
+         the same options.\n# Run from this folder with femto on the PATH.\nset -e\ncd \"$(dirname \"$0\")\"\n",
+    );
+    for c in commands {
+        s.push_str(c);
+        s.push('\n');
+    }
+    s
 }
 
 /// `path` relative to `base` when it lies under it, else as given.

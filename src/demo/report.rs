@@ -217,6 +217,7 @@ mod tests {
                 rotation_error_deg: 0.01,
                 focal_error_percent: 0.05,
                 t0_fit_ps: 0.1,
+                t0_std_error_ps: 0.01,
                 t0_true_ps: 0.0,
                 dt_ps: 4.0,
                 t0_error_bins: 0.025,
@@ -224,6 +225,8 @@ mod tests {
                 arrival_samples: 3000,
                 arrival_inliers: 2900,
                 t0_rms_ps: 1.0,
+                detection_floor: 0.07,
+                warnings: Vec::new(),
                 within_tolerance: within,
             }],
             outputs: vec![

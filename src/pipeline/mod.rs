@@ -1,0 +1,164 @@
+//! The stages a user runs, as library functions: one pipeline, many front ends.
+//!
+//! `femto calibrate`, `femto unwarp`, `femto pyramid` and `femto render` map their flags onto
+//! the options of these functions and print what they return; `femto demo` calls the same
+//! functions with the same defaults, so the chain the tests and the demo exercise is the chain
+//! users run. Each stage takes typed options whose `Default` is what a user gets, reads and
+//! writes files, reports progress through [`Progress`], and returns a typed outcome (figures
+//! and warnings) without printing anything.
+//!
+//! - [`calibrate`]: camera, registration and `t0` (seed Sec. 3), written as a calibration TOML
+//!   and the cube's `registration` group, both or neither.
+//! - [`unwarp`]: camera time to world time and back (seed Eq. 2), streamed by row slabs.
+//! - [`pyramid`]: the temporal prefix sums and mip levels of a cube (seed Sec. 5).
+//! - [`render`]: a world-time cube, its calibration and mesh opened into a render scene, and
+//!   a camera path rendered into frames or a video (seed Sec. 4).
+//!
+//! Simulate and ingest are [`crate::simulate::simulate_capture`] and
+//! [`crate::ingest::plan::IngestPlan`] with [`crate::ingest::assemble::ingest`].
+
+pub mod calibrate;
+pub mod pyramid;
+pub mod render;
+pub mod unwarp;
+
+use crate::container::CubeCompression;
+use std::path::Path;
+
+/// How `femto ingest` (and the demo's ingest) stores the cubes it makes from captures:
+/// shuffle + deflate level 1, the fastest level (real Hamamatsu streak data 2.1-3.5x smaller);
+/// later stages keep a cube's compression.
+pub const INGEST_COMPRESSION: CubeCompression = CubeCompression::Deflate(1);
+
+/// Where a long stage reports how far it is (the CLI draws a progress bar; tests and the demo
+/// pass [`Quiet`]).
+pub trait Progress: Sync {
+    /// A pass named `what` of `len` steps begins.
+    fn start(&self, what: &str, len: u64) {
+        let _ = (what, len);
+    }
+    /// `done` steps of the current pass are done.
+    fn set(&self, done: u64) {
+        let _ = done;
+    }
+    /// The current pass is over.
+    fn finish(&self) {}
+}
+
+/// Reports nothing.
+pub struct Quiet;
+
+impl Progress for Quiet {}
+
+/// Errors of the stages; each names the file or the option that is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum StageError {
+    /// A cube, pyramid or group file could not be read or written.
+    #[error(transparent)]
+    Container(#[from] crate::container::ContainerError),
+    /// A stored group (registration, pyramid) is malformed.
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
+    /// A calibration file could not be read.
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+    /// A mesh could not be read.
+    #[error(transparent)]
+    Mesh(#[from] crate::geometry::load::LoadError),
+    /// A camera path could not be read or built.
+    #[error(transparent)]
+    Path(#[from] crate::camera_path::CameraPathError),
+    /// The renderer refused its inputs.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// A video or frame sequence could not be written.
+    #[error(transparent)]
+    Video(#[from] crate::video::VideoError),
+    /// The unwarp kernel refused its inputs.
+    #[error(transparent)]
+    Unwarp(#[from] crate::unwarp::UnwarpError),
+    /// The correspondences could not be fitted.
+    #[error("points: {source}")]
+    Points {
+        #[source]
+        source: crate::calibrate::CalibrateError,
+    },
+    /// A calibration step failed on a cube (`path` empty while the caller has not named it).
+    #[error("{}{source}", if path.is_empty() { String::new() } else { format!("{path}: ") })]
+    Calibrate {
+        path: String,
+        #[source]
+        source: crate::calibrate::CalibrateError,
+    },
+    /// No pixel of the fitted camera sees the mesh.
+    #[error(
+        "no pixel of the fitted camera sees the mesh; check that the points and the mesh use \
+         the same frame and units"
+    )]
+    NothingSeen,
+    /// The time fit depends on the detection floor: `t0` is not determined by the data.
+    #[error(
+        "{path}: t0 is not determined by the direct light: {t0_ps:.2} ps with the detection \
+         floor at {floor:.4}, {check_t0_ps:.2} ps with it at {check_floor:.4} (the cube's noise \
+         sigma is {noise_sigma:.4}); weak or noisy pixels decide the fit: raise --min-peak, or \
+         check the laser position, the mesh and the cube's time axis"
+    )]
+    UnstableTime {
+        path: String,
+        t0_ps: f64,
+        floor: f32,
+        check_t0_ps: f64,
+        check_floor: f32,
+        noise_sigma: f64,
+    },
+    /// An option is out of range; `name` is the flag's name without dashes.
+    #[error("--{name}: {message}")]
+    Option { name: &'static str, message: String },
+    /// An input does not fit the stage (a world-time cube given for calibration, ...).
+    #[error("{path}: {message}")]
+    Input { path: String, message: String },
+    /// An output is one of the inputs.
+    #[error("--{flag} {path} is also an input of this command; choose another path")]
+    OutputIsInput { flag: &'static str, path: String },
+    /// A file could not be written.
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl From<crate::calibrate::CalibrateError> for StageError {
+    /// A calibration error whose file the caller names ([`StageError::Calibrate`]'s path is
+    /// filled in where the cube is known).
+    fn from(source: crate::calibrate::CalibrateError) -> Self {
+        StageError::Calibrate {
+            path: String::new(),
+            source,
+        }
+    }
+}
+
+/// Refuse an output path (given with `--flag`) that names one of `inputs` (the same file,
+/// through any path).
+pub fn refuse_same_file(
+    out: &Path,
+    inputs: &[&Path],
+    flag: &'static str,
+) -> Result<(), StageError> {
+    let out_canon = std::fs::canonicalize(out).ok();
+    for input in inputs {
+        let same = match (&out_canon, std::fs::canonicalize(input)) {
+            (Some(a), Ok(b)) => *a == b,
+            _ => out == *input,
+        };
+        if same {
+            return Err(StageError::OutputIsInput {
+                flag,
+                path: out.display().to_string(),
+            });
+        }
+    }
+    Ok(())
+}

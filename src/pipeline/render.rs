@@ -1,0 +1,549 @@
+//! The render stage: a world-time cube, its calibration and mesh opened into what the
+//! relativistic renderer needs ([`open_render_inputs`]), and a camera path rendered into a
+//! frame sequence or a video ([`render_to`]; seed Sec. 4, physics.md).
+//!
+//! The world-time cube's prefix sums come from the pyramid stored by `femto pyramid` (the
+//! cube file's `pyramid` group, or a side file); a cube without one is read whole and its
+//! prefix sums built in memory, with a note saying so. The laser wavelength comes from the
+//! caller, else from the cube's `laser_nm` attribute (written by `femto ingest` from the
+//! capture's manifest and carried by `femto unwarp`), else [`DEFAULT_LASER_NM`] with a
+//! warning: [`LaserWavelength::source`] says which.
+
+use super::{refuse_same_file, Progress, StageError};
+use crate::camera::Calibration;
+use crate::camera_path::{CameraPath, FrameSpec};
+use crate::container::{self, CubeMeta};
+use crate::cube::TimeFrame;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::load::load_mesh;
+use crate::pyramid::Pyramid;
+use crate::relativity::Radiometry;
+use crate::render::paths::{shortcut_path, Shortcut};
+use crate::render::{
+    auto_exposure, check_frames, check_path_clear, encode_srgb8, isochrone_range, render_sequence,
+    Effects, Isochrones, RenderError, RenderScene, RenderSettings, View,
+};
+use crate::store::pyramid::{self as stored_pyramid, read_pyramid_for};
+use crate::video::{Frame, VideoFormat, VideoWriter};
+use std::ops::Range;
+use std::path::Path;
+use std::time::Instant;
+
+/// Laser wavelength used when neither the caller nor the cube says, nm.
+pub const DEFAULT_LASER_NM: f64 = 670.0;
+/// Cube attributes that may hold the laser wavelength in nm: femto's, then other spellings.
+pub const LASER_NM_NOTES: [&str; 3] = ["laser_nm", "laser_wavelength_nm", "laser.wavelength_nm"];
+/// Largest frame side accepted, pixels.
+pub const MAX_SIDE: usize = 16384;
+/// Largest number of frames accepted.
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Where the laser wavelength came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WavelengthSource {
+    /// Given by the caller (`--laser-nm`).
+    Given,
+    /// The cube's attribute of this name.
+    Cube(String),
+    /// Nobody said: [`DEFAULT_LASER_NM`].
+    Default,
+}
+
+/// The laser wavelength of a render and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaserWavelength {
+    pub nm: f64,
+    pub source: WavelengthSource,
+}
+
+impl std::fmt::Display for LaserWavelength {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.source {
+            WavelengthSource::Given => write!(f, "{} nm (given)", self.nm),
+            WavelengthSource::Cube(key) => write!(f, "{} nm (the cube's {key} attribute)", self.nm),
+            WavelengthSource::Default => write!(
+                f,
+                "{} nm (the default: the cube records no laser wavelength; give --laser-nm)",
+                self.nm
+            ),
+        }
+    }
+}
+
+/// The laser wavelength for a cube: `given`, else the cube's attribute, else the default.
+pub fn laser_wavelength(
+    given: Option<f64>,
+    meta: &CubeMeta,
+    cube_path: &Path,
+) -> Result<LaserWavelength, StageError> {
+    if let Some(nm) = given {
+        if !(nm.is_finite() && nm > 0.0) {
+            return Err(StageError::Option {
+                name: "laser-nm",
+                message: format!("{nm}: must be a positive wavelength in nm"),
+            });
+        }
+        return Ok(LaserWavelength {
+            nm,
+            source: WavelengthSource::Given,
+        });
+    }
+    for key in LASER_NM_NOTES {
+        if let Some((_, value)) = meta.notes.iter().find(|(k, _)| k == key) {
+            return match value.trim().parse::<f64>() {
+                Ok(nm) if nm.is_finite() && nm > 0.0 => Ok(LaserWavelength {
+                    nm,
+                    source: WavelengthSource::Cube(key.to_string()),
+                }),
+                _ => Err(StageError::Input {
+                    path: cube_path.display().to_string(),
+                    message: format!(
+                        "attribute {key} = '{value}' is not a wavelength in nm; give --laser-nm"
+                    ),
+                }),
+            };
+        }
+    }
+    Ok(LaserWavelength {
+        nm: DEFAULT_LASER_NM,
+        source: WavelengthSource::Default,
+    })
+}
+
+/// What the renderer reads: the mesh, the capture calibration, the world-time cube's prefix
+/// sums and the laser wavelength, opened and checked.
+pub struct RenderInputs {
+    pub bvh: Bvh,
+    pub calibration: Calibration,
+    pub pyramid: Pyramid,
+    pub laser: LaserWavelength,
+    /// Things the user should know (no stored pyramid, default wavelength).
+    pub notes: Vec<String>,
+}
+
+impl RenderInputs {
+    /// The renderer's scene (casts the capture camera's G-buffer: call once).
+    pub fn scene(&self) -> Result<RenderScene<'_>, RenderError> {
+        RenderScene::new(&self.bvh, self.calibration, &self.pyramid, self.laser.nm)
+    }
+}
+
+/// Open a world-time cube (its stored pyramid, or `pyramid_file`, or prefix sums built in
+/// memory), its calibration and mesh. `laser_nm`: the wavelength, when the caller knows it.
+pub fn open_render_inputs(
+    cube_path: &Path,
+    pyramid_file: Option<&Path>,
+    calibration_path: &Path,
+    mesh_path: &Path,
+    laser_nm: Option<f64>,
+) -> Result<RenderInputs, StageError> {
+    let calibration = Calibration::load(calibration_path)?;
+    let mesh = load_mesh(mesh_path)?;
+    if mesh.triangles.is_empty() {
+        return Err(StageError::Input {
+            path: mesh_path.display().to_string(),
+            message: "the mesh has no triangles".into(),
+        });
+    }
+    let bvh = Bvh::new(mesh);
+    let meta = container::read_meta(cube_path)?;
+    if meta.frame != TimeFrame::World {
+        return Err(StageError::Input {
+            path: cube_path.display().to_string(),
+            message: format!(
+                "the cube is in {} time; the renderer needs a world-time cube (unwarp it first)",
+                meta.frame
+            ),
+        });
+    }
+    let laser = laser_wavelength(laser_nm, &meta, cube_path)?;
+    let mut notes = Vec::new();
+    let pyramid = if let Some(side) = pyramid_file {
+        read_pyramid_for(cube_path, Some(side))?
+    } else if meta.groups.iter().any(|g| g == stored_pyramid::GROUP) {
+        read_pyramid_for(cube_path, None)?
+    } else {
+        notes.push(format!(
+            "{} has no stored pyramid; its prefix sums were built in memory (`femto pyramid {}` \
+             stores them once)",
+            cube_path.display(),
+            cube_path.display()
+        ));
+        Pyramid::build(&container::read_cube(cube_path)?)
+    };
+    if laser.source == WavelengthSource::Default {
+        notes.push(format!("laser wavelength {laser}"));
+    }
+    Ok(RenderInputs {
+        bvh,
+        calibration,
+        pyramid,
+        laser,
+        notes,
+    })
+}
+
+/// Which camera moves through the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Camera {
+    /// A camera-path TOML file.
+    PathFile(std::path::PathBuf),
+    /// A shortcut derived from the capture camera ([`crate::render::paths`]).
+    Shortcut(Shortcut),
+}
+
+/// What a frame shows, before its isochrone range is resolved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ViewKind {
+    #[default]
+    Transient,
+    Naive,
+    Isochrones,
+    Integrated,
+}
+
+impl ViewKind {
+    /// `transient`, `naive`, `isochrones` or `integrated`.
+    pub fn parse(name: &str) -> Result<ViewKind, RenderError> {
+        let unresolved = Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        };
+        Ok(match View::parse(name, unresolved)? {
+            View::Transient => ViewKind::Transient,
+            View::Naive => ViewKind::Naive,
+            View::Isochrones(_) => ViewKind::Isochrones,
+            View::Integrated => ViewKind::Integrated,
+        })
+    }
+}
+
+/// How [`render_to`] renders; `Default` is what `femto render` does.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Frame size; None: the path file's, or 640 x 480 for a shortcut.
+    pub size: Option<(usize, usize)>,
+    /// Frames of the whole sequence; None: the path file's, or 100 for a shortcut.
+    pub frame_count: Option<usize>,
+    /// Only these frames of the sequence; None: all.
+    pub frames: Option<Range<usize>>,
+    /// Frame interval, ps of proper time; None: the path file's, or the shortcut's own.
+    pub dtau_ps: Option<f64>,
+    /// World time of the path's time 0, ps; None: 0 for a path file, the shortcut's own.
+    pub time_offset_ps: Option<f64>,
+    pub effects: Effects,
+    pub radiometry: Radiometry,
+    pub view: ViewKind,
+    /// Multiplier of the automatic exposure.
+    pub exposure: f64,
+    /// Isochrone contour spacing, ps; None: automatic.
+    pub contour_ps: Option<f64>,
+    pub format: VideoFormat,
+    /// Frames per second of MP4 and GIF output.
+    pub fps: f64,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            size: None,
+            frame_count: None,
+            frames: None,
+            dtau_ps: None,
+            time_offset_ps: None,
+            effects: Effects::ALL,
+            radiometry: Radiometry::Consistent,
+            view: ViewKind::Transient,
+            exposure: 1.0,
+            contour_ps: None,
+            format: VideoFormat::PngSequence,
+            fps: 30.0,
+        }
+    }
+}
+
+/// What [`render_to`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rendered {
+    pub frames: Range<usize>,
+    pub frames_written: usize,
+    pub width: usize,
+    pub height: usize,
+    pub seconds: f64,
+    /// Global indices of the frames that came out entirely black.
+    pub black_frames: Vec<usize>,
+    /// The time offset used, ps.
+    pub time_offset_ps: f64,
+    /// The frame interval used, ps of proper time.
+    pub dtau_ps: f64,
+    pub laser: LaserWavelength,
+    pub warnings: Vec<String>,
+}
+
+/// The path and settings of a render, resolved and checked, before any frame is rendered.
+pub struct Plan {
+    pub path: CameraPath,
+    pub settings: RenderSettings,
+    pub frames: Range<usize>,
+}
+
+fn check_options(options: &RenderOptions) -> Result<(), StageError> {
+    let bad = |name, message: String| Err(StageError::Option { name, message });
+    if let Some(n) = options.frame_count {
+        if n == 0 || n > MAX_FRAMES {
+            return bad(
+                "frame-count",
+                format!("{n}: need between 1 and {MAX_FRAMES} frames"),
+            );
+        }
+    }
+    if let Some((w, h)) = options.size {
+        if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+            return bad(
+                "size",
+                format!("{w}x{h}: each side must be between 1 and {MAX_SIDE} pixels"),
+            );
+        }
+    }
+    if let Some(d) = options.dtau_ps {
+        if !(d.is_finite() && d > 0.0) {
+            return bad(
+                "dtau-ps",
+                format!("{d}: must be a positive number of picoseconds"),
+            );
+        }
+    }
+    if let Some(t) = options.time_offset_ps {
+        if !t.is_finite() {
+            return bad("time-offset-ps", format!("{t}: must be a finite number"));
+        }
+    }
+    if !(options.exposure.is_finite() && options.exposure > 0.0) {
+        return bad(
+            "exposure",
+            format!("{}: must be a positive number", options.exposure),
+        );
+    }
+    if !(options.fps.is_finite() && options.fps > 0.0) {
+        return bad("fps", format!("{}: must be a positive number", options.fps));
+    }
+    if let Some(c) = options.contour_ps {
+        if !(c.is_finite() && c > 0.0) {
+            return bad("contour-ps", format!("{c}: must be a positive number"));
+        }
+    }
+    Ok(())
+}
+
+/// Resolve the camera path, frame range and settings of a render on `scene`.
+pub fn plan(
+    scene: &RenderScene,
+    camera: &Camera,
+    options: &RenderOptions,
+) -> Result<Plan, StageError> {
+    check_options(options)?;
+    let (path, default_offset_ps) = match camera {
+        Camera::PathFile(p) => {
+            let loaded = CameraPath::load(p)?;
+            let spec = loaded.spec();
+            let (width, height) = options.size.unwrap_or((spec.width, spec.height));
+            let spec = FrameSpec {
+                width,
+                height,
+                frames: options.frame_count.unwrap_or(spec.frames),
+                dtau_ps: options.dtau_ps.unwrap_or(spec.dtau_ps),
+            };
+            let path = if spec == loaded.spec() {
+                loaded
+            } else {
+                CameraPath::new(
+                    spec,
+                    Some(loaded.tau0_ps()),
+                    loaded.rotation(),
+                    loaded.motion().clone(),
+                    &p.display().to_string(),
+                )?
+            };
+            (path, 0.0)
+        }
+        Camera::Shortcut(shortcut) => {
+            let (width, height) = options.size.unwrap_or((640, 480));
+            let s = shortcut_path(
+                scene,
+                *shortcut,
+                width,
+                height,
+                options.frame_count.unwrap_or(100),
+                options.dtau_ps,
+            )?;
+            (s.path, s.time_offset_ps)
+        }
+    };
+    let spec = path.spec();
+    if spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.frames > MAX_FRAMES {
+        return Err(StageError::Option {
+            name: "size",
+            message: format!(
+                "{}x{} pixels and {} frames: at most {MAX_SIDE} pixels a side and {MAX_FRAMES} frames",
+                spec.width, spec.height, spec.frames
+            ),
+        });
+    }
+    if options.format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
+        return Err(StageError::Option {
+            name: "size",
+            message: format!(
+                "{}x{}: MP4 (H.264, 4:2:0) needs an even width and height; use {}x{} or another format",
+                spec.width,
+                spec.height,
+                spec.width + spec.width % 2,
+                spec.height + spec.height % 2
+            ),
+        });
+    }
+    check_path_clear(scene.bvh, &path)?;
+    let frames = options.frames.clone().unwrap_or(0..spec.frames);
+    check_frames(&path, &frames)?;
+
+    let mut settings = RenderSettings::for_path(&path);
+    settings.effects = options.effects;
+    settings.radiometry = options.radiometry;
+    settings.time_offset_ps = options.time_offset_ps.unwrap_or(default_offset_ps);
+    settings.view = match options.view {
+        ViewKind::Transient => View::Transient,
+        ViewKind::Naive => View::Naive,
+        ViewKind::Integrated => View::Integrated,
+        ViewKind::Isochrones => {
+            View::Isochrones(isochrone_range(scene, &settings, &path, options.contour_ps))
+        }
+    };
+    settings.exposure = options.exposure * auto_exposure(scene, &settings.view);
+    Ok(Plan {
+        path,
+        settings,
+        frames,
+    })
+}
+
+/// Whether a rendered frame holds no light at all.
+pub fn frame_is_black(pixels: &[[f32; 3]]) -> bool {
+    pixels.iter().flatten().all(|&v| v.is_nan() || v <= 0.0)
+}
+
+/// Render `camera` on `inputs` into `out` (a folder for frame sequences, a file for MP4 and
+/// GIF; never one of the inputs: `inputs_paths`).
+pub fn render_to(
+    inputs: &RenderInputs,
+    camera: &Camera,
+    options: &RenderOptions,
+    out: &Path,
+    input_paths: &[&Path],
+    progress: &dyn Progress,
+) -> Result<Rendered, StageError> {
+    refuse_same_file(out, input_paths, "out")?;
+    let scene = inputs.scene()?;
+    let Plan {
+        path,
+        settings,
+        frames,
+    } = plan(&scene, camera, options)?;
+    let spec = path.spec();
+    let mut writer =
+        VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
+            .first_frame_index(frames.start);
+    progress.start("render", frames.len() as u64);
+    let started = Instant::now();
+    let mut frame = Frame {
+        width: spec.width,
+        height: spec.height,
+        linear_rgb: Vec::new(),
+        srgb8: Vec::new(),
+    };
+    let mut black_frames = Vec::new();
+    let mut done = 0u64;
+    render_sequence::<StageError>(&scene, &settings, &path, frames.clone(), |k, pixels| {
+        if frame_is_black(pixels) {
+            black_frames.push(k);
+        }
+        if options.format == VideoFormat::ExrSequence {
+            frame.linear_rgb.clear();
+            frame.linear_rgb.extend(pixels.iter().flatten());
+        } else {
+            frame.srgb8.resize(3 * pixels.len(), 0);
+            encode_srgb8(&settings, pixels, &mut frame.srgb8);
+        }
+        writer.push(&frame)?;
+        done += 1;
+        progress.set(done);
+        Ok(())
+    })?;
+    let frames_written = writer.finish()?;
+    progress.finish();
+    let mut warnings = inputs.notes.clone();
+    if !black_frames.is_empty() {
+        let (t_a, t_b) = scene.world_span_ps();
+        warnings.push(format!(
+            "{} of {} frames are entirely black ({}): their world times miss the light of the \
+             cube ({t_a:.0} .. {t_b:.0} ps world time); the time offset was {:.1} ps, give \
+             --time-offset-ps or --dtau-ps to move the frames onto it",
+            black_frames.len(),
+            frames.len(),
+            describe_indices(&black_frames),
+            settings.time_offset_ps
+        ));
+    }
+    Ok(Rendered {
+        frames,
+        frames_written,
+        width: spec.width,
+        height: spec.height,
+        seconds: started.elapsed().as_secs_f64(),
+        black_frames,
+        time_offset_ps: settings.time_offset_ps,
+        dtau_ps: settings.dtau_ps,
+        laser: inputs.laser.clone(),
+        warnings,
+    })
+}
+
+/// `0..4, 7, 9..12` for sorted indices.
+fn describe_indices(idx: &[usize]) -> String {
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < idx.len() {
+        let mut j = i;
+        while j + 1 < idx.len() && idx[j + 1] == idx[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j > i {
+            format!("{}..{}", idx[i], idx[j] + 1)
+        } else {
+            idx[i].to_string()
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn index_runs_are_described_as_ranges() {
+        assert_eq!(
+            describe_indices(&[0, 1, 2, 3, 7, 9, 10, 11]),
+            "0..4, 7, 9..12"
+        );
+        assert_eq!(describe_indices(&[5]), "5");
+        assert_eq!(describe_indices(&[]), "");
+    }
+
+    #[test]
+    fn black_frames_are_those_without_any_positive_value() {
+        assert!(frame_is_black(&[[0.0; 3]; 4]));
+        assert!(frame_is_black(&[[f32::NAN, 0.0, -1.0]]));
+        assert!(!frame_is_black(&[[0.0; 3], [0.0, 1e-9, 0.0]]));
+    }
+}

@@ -1,0 +1,277 @@
+//! The unwarp stage: a cube file moved between the camera clock and the world clock, pixel by
+//! pixel, with the distances of a registration (seed Eq. 2, physics.md:
+//! `t_world = t_camera - eta |p - o| / c`; the kernel is [`crate::unwarp::unwarp_rows`]).
+//!
+//! The distances and `eta` come from the cube's `registration` group, or from a calibration
+//! and a mesh (the cube's pixels are taken to be that camera's pixels and the rays are cast
+//! anew). The registration used is stored in the output, so that the reverse direction can
+//! undo it. The output time axis covers every shifted sample, aligned with the input's bins,
+//! unless one is given. Pixels the registration marks as seeing nothing are masked, whatever
+//! their distance says. The cube is streamed by row slabs; the output keeps the input's
+//! compression and provenance notes (the laser wavelength `laser_nm` among them) unless told
+//! otherwise.
+
+use super::{refuse_same_file, Progress, StageError};
+use crate::calibrate::register;
+use crate::camera::Calibration;
+use crate::container::{CubeCompression, CubeReader, CubeWriter, GroupData, Provenance};
+use crate::cube::{row_slabs, TimeAxis, TimeFrame};
+use crate::geometry::bvh::Bvh;
+use crate::store::registration::{self, StoredRegistration};
+use crate::unwarp::{covering_axis, unwarp_rows, Direction};
+use std::path::Path;
+
+/// Largest slab of input plus output rows moved at once, bytes.
+const SLAB_BYTES: usize = 64 << 20;
+
+/// Where the per-pixel distances come from.
+#[derive(Clone, Copy)]
+pub enum Distances<'a> {
+    /// The cube's own `registration` group (written by `femto calibrate`).
+    Registration,
+    /// Rays cast anew through `calibration` into `mesh`.
+    Cast {
+        calibration: &'a Calibration,
+        /// Name of the calibration file, for provenance.
+        calibration_name: &'a str,
+        mesh: &'a Bvh,
+        /// Name of the mesh file, for provenance and the stored registration.
+        mesh_name: &'a str,
+    },
+}
+
+/// How [`unwarp_file`] converts; `Default` is what `femto unwarp` does.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UnwarpOptions {
+    pub direction: Direction,
+    /// The output's time axis; None: one covering every shifted sample, aligned with the
+    /// input's bins.
+    pub axis: Option<TimeAxis>,
+    /// The output's compression; None: the input's.
+    pub compression: Option<CubeCompression>,
+    /// The command line recorded in the output.
+    pub command_line: String,
+}
+
+impl Default for UnwarpOptions {
+    fn default() -> Self {
+        UnwarpOptions {
+            direction: Direction::CameraToWorld,
+            axis: None,
+            compression: None,
+            command_line: String::new(),
+        }
+    }
+}
+
+/// What [`unwarp_file`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Unwarped {
+    pub nx: usize,
+    pub ny: usize,
+    pub from: TimeFrame,
+    pub to: TimeFrame,
+    pub input_axis: TimeAxis,
+    pub output_axis: TimeAxis,
+    pub eta: f64,
+    /// Pixels shifted (valid in the output).
+    pub valid_pixels: usize,
+    /// Smallest and largest distance of the pixels shifted, metres (None: none sees geometry).
+    pub dist_range_m: Option<(f64, f64)>,
+    pub compression: CubeCompression,
+}
+
+/// Convert the cube at `input` into a new cube at `output` (written beside itself and renamed;
+/// `output` may not be `input`).
+pub fn unwarp_file(
+    input: &Path,
+    output: &Path,
+    distances: Distances<'_>,
+    options: &UnwarpOptions,
+    progress: &dyn Progress,
+) -> Result<Unwarped, StageError> {
+    refuse_same_file(output, &[input], "out")?;
+    let reader = CubeReader::open(input)?;
+    let meta = reader.meta().clone();
+    let (nx, ny) = (meta.nx, meta.ny);
+    let direction = options.direction;
+    if meta.frame != direction.source_frame() {
+        return Err(StageError::Input {
+            path: input.display().to_string(),
+            message: format!(
+                "the cube is already in {} time (convert it to {} time instead)",
+                meta.frame,
+                direction.source_frame()
+            ),
+        });
+    }
+
+    let (stored, group): (StoredRegistration, GroupData) = match distances {
+        Distances::Cast {
+            calibration,
+            calibration_name,
+            mesh,
+            mesh_name,
+        } => {
+            let reg =
+                register(calibration, mesh, nx, ny).map_err(|source| StageError::Calibrate {
+                    path: calibration_name.to_string(),
+                    source,
+                })?;
+            let group = registration::registration_group(&reg, calibration, mesh_name, None);
+            let stored = StoredRegistration {
+                registration: reg,
+                calibration: *calibration,
+                mesh: mesh_name.to_string(),
+                fit: None,
+            };
+            (stored, group)
+        }
+        Distances::Registration => {
+            if !meta.groups.iter().any(|g| g == registration::GROUP) {
+                return Err(StageError::Input {
+                    path: input.display().to_string(),
+                    message: format!(
+                        "no /{} group: run `femto calibrate` on it first, or give \
+                         --calibration CAL.toml --mesh MESH",
+                        registration::GROUP
+                    ),
+                });
+            }
+            let group = reader.read_group(registration::GROUP)?;
+            (registration::from_group(input, &group)?, group)
+        }
+    };
+    let reg = &stored.registration;
+    if (reg.nx, reg.ny) != (nx, ny) {
+        return Err(StageError::Input {
+            path: input.display().to_string(),
+            message: format!(
+                "the registration is {} x {} pixels but the cube is {nx} x {ny}",
+                reg.nx, reg.ny
+            ),
+        });
+    }
+    let eta = stored.calibration.eta;
+    let mask = reader.read_mask()?;
+    // Pixels the registration marks as seeing nothing get no shift, whatever dist_m says.
+    let dist: Vec<f32> = (0..nx * ny)
+        .map(|p| {
+            let valid = reg.mask[p] != 0 && mask.as_ref().is_none_or(|m| m[p] != 0);
+            if valid {
+                reg.dist_m[p]
+            } else {
+                f32::NAN
+            }
+        })
+        .collect();
+    let dist_range_m = dist
+        .iter()
+        .filter(|d| d.is_finite())
+        .map(|&d| d as f64)
+        .fold(None, |r: Option<(f64, f64)>, d| {
+            Some(r.map_or((d, d), |(a, b)| (a.min(d), b.max(d))))
+        });
+    let axis = match options.axis {
+        Some(a) => {
+            if !(a.t0_ps.is_finite() && a.dt_ps.is_finite() && a.dt_ps > 0.0 && a.nt > 0) {
+                return Err(StageError::Option {
+                    name: "t0-ps/--dt-ps/--nt",
+                    message: format!(
+                        "need a finite start, a positive bin width and at least one bin, got \
+                         {} ps, {} ps, {} bins",
+                        a.t0_ps, a.dt_ps, a.nt
+                    ),
+                });
+            }
+            a
+        }
+        None => match dist_range_m {
+            Some((lo, hi)) => covering_axis(&meta.axis, lo, hi, eta, direction),
+            None => meta.axis,
+        },
+    };
+
+    let mut notes: Vec<(String, String)> = meta
+        .notes
+        .iter()
+        .filter(|(k, _)| !k.starts_with("unwarp."))
+        .cloned()
+        .collect();
+    notes.push((
+        "unwarp.direction".into(),
+        format!("{} -> {}", meta.frame, direction.target_frame()),
+    ));
+    notes.push(("unwarp.source".into(), input.display().to_string()));
+    notes.push((
+        "unwarp.distances".into(),
+        match distances {
+            Distances::Cast {
+                calibration_name, ..
+            } => format!("cast through {calibration_name} into {}", stored.mesh),
+            Distances::Registration => format!("/{} group of the source", registration::GROUP),
+        },
+    ));
+    let provenance = Provenance {
+        command_line: options.command_line.clone(),
+        notes,
+    };
+    let compression = options
+        .compression
+        .unwrap_or_else(|| reader.stored_compression());
+    let mut writer = CubeWriter::create_with(
+        output,
+        nx,
+        ny,
+        axis,
+        direction.target_frame(),
+        &meta.units,
+        &provenance,
+        compression,
+    )?;
+
+    let (nt_in, nt_out) = (meta.axis.nt, axis.nt);
+    let mut out_mask = vec![0u8; nx * ny];
+    progress.start("unwarp", ny as u64);
+    let mut src = Vec::new();
+    let mut dst = Vec::new();
+    for rows in row_slabs(ny, nx * (nt_in + nt_out) * 4, SLAB_BYTES) {
+        let (y0, n) = (rows.start, rows.len());
+        let (a, b) = (y0 * nx, rows.end * nx);
+        src.resize(n * nx * nt_in, 0.0f32);
+        dst.resize(n * nx * nt_out, 0.0f32);
+        reader.read_rows_into(y0, &mut src)?;
+        unwarp_rows(
+            &src,
+            nx,
+            n,
+            &meta.axis,
+            &dist[a..b],
+            mask.as_ref().map(|m| &m[a..b]),
+            eta,
+            direction,
+            &axis,
+            &mut dst,
+            &mut out_mask[a..b],
+        );
+        writer.write_rows(y0, &dst)?;
+        progress.set(rows.end as u64);
+    }
+    progress.finish();
+    drop(reader);
+    writer.write_mask(&out_mask)?;
+    writer.write_group(registration::GROUP, &group)?;
+    writer.finish()?;
+    Ok(Unwarped {
+        nx,
+        ny,
+        from: meta.frame,
+        to: direction.target_frame(),
+        input_axis: meta.axis,
+        output_axis: axis,
+        eta,
+        valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
+        dist_range_m,
+        compression,
+    })
+}
