@@ -564,7 +564,12 @@ fn write_scanlines(
     std::fs::create_dir(&sub).map_err(io_err(&sub))?;
     let (nx, ny, nt) = (model.nx, model.ny, model.axis.nt);
     let axis = model.axis;
-    let row_starts_ps: Vec<f64> = (0..nt).map(|i| axis.bin_start_ps(i)).collect();
+    // The time table of an .img file is the instrument's calibration of its sweep: the true
+    // start of every recorded row (the non-linear sweep's edges when there is one).
+    let row_starts_ps: Vec<f64> = match &model.sweep_edges_ps {
+        Some(edges) => edges[..nt].to_vec(),
+        None => (0..nt).map(|i| axis.bin_start_ps(i)).collect(),
+    };
     let reader = CubeReader::open(truth_file)?;
     let row_len = nx * nt;
     let band = (BAND_TARGET_BYTES / (4 * row_len).max(1)).max(4 * rayon::current_num_threads());
