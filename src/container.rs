@@ -2772,9 +2772,8 @@ mod tests {
     }
 
     /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
-    /// made it (deflate at any level), decoded and recompressed otherwise (an uncompressed
-    /// cube); the cube and its mask come back unchanged either way, and `stored_as_written`
-    /// tells the two apart.
+    /// made it (deflate at any level), decoded and written again otherwise (an uncompressed
+    /// cube); the cube, its mask and its compression come back unchanged either way.
     #[test]
     fn group_update_copies_the_cube_raw_or_decoded() {
         let dir = tempfile::tempdir().unwrap();
@@ -2807,7 +2806,10 @@ mod tests {
             let back = read_cube(&p).unwrap();
             assert_eq!(back.data, data, "{compression:?}");
             assert_eq!(back.mask.as_deref(), Some(&mask[..]));
-            assert!(CubeReader::open(&p).unwrap().stored_as_written(cx));
+            // The cube keeps its compression: an uncompressed cube stays uncompressed.
+            let reader = CubeReader::open(&p).unwrap();
+            assert_eq!(reader.stored_compression(), compression);
+            assert_eq!(reader.stored_as_written(cx), raw);
         }
     }
 

@@ -217,7 +217,7 @@ pub fn calibrate_cube(
                 return Err(StageError::Option {
                     name: "intrinsics",
                     message: format!(
-                        "the intrinsics are for {} x {} pixels but {} is {} x {}",
+                        "are for {} x {} pixels but {} is {} x {}",
                         k.width,
                         k.height,
                         cube_path.display(),

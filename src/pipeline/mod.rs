@@ -111,8 +111,9 @@ pub enum StageError {
         check_floor: f32,
         noise_sigma: f64,
     },
-    /// An option is out of range; `name` is the flag's name without dashes.
-    #[error("--{name}: {message}")]
+    /// An option is out of range; `name` is the flag's name without dashes, `message` starts
+    /// with the value given (`--levels 40: ...`) or says what is wrong (`--eta must be ...`).
+    #[error("--{name} {message}")]
     Option { name: &'static str, message: String },
     /// An input does not fit the stage (a world-time cube given for calibration, ...).
     #[error("{path}: {message}")]

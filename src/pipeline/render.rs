@@ -159,7 +159,10 @@ pub fn open_render_inputs(
     let laser = laser_wavelength(laser_nm, &meta, cube_path)?;
     let mut notes = Vec::new();
     let pyramid = if let Some(side) = pyramid_file {
-        read_pyramid_for(cube_path, Some(side))?
+        read_pyramid_for(cube_path, Some(side)).map_err(|e| StageError::Option {
+            name: "pyramid",
+            message: e.to_string(),
+        })?
     } else if meta.groups.iter().any(|g| g == stored_pyramid::GROUP) {
         read_pyramid_for(cube_path, None)?
     } else {
@@ -404,7 +407,10 @@ pub fn plan(
     }
     check_path_clear(scene.bvh, &path)?;
     let frames = options.frames.clone().unwrap_or(0..spec.frames);
-    check_frames(&path, &frames)?;
+    check_frames(&path, &frames).map_err(|e| StageError::Option {
+        name: "frames",
+        message: format!("{}..{}: {e}", frames.start, frames.end),
+    })?;
 
     let mut settings = RenderSettings::for_path(&path);
     settings.effects = options.effects;

@@ -1,0 +1,221 @@
+//! The chain a user runs, from the command line, with defaults only: a `femto simulate
+//! --realistic` capture folder whose scanlines are PNG16 files, or HPD-TA `.img` files, then `femto ingest`, `calibrate`, `unwarp`, `pyramid` and `render --dolly`, each stage
+//! checked against the simulator's truth (issue 15): t0 within 0.1 bin, the camera centre
+//! within 1 mm per metre, the world-time cube's per-pixel temporal centroid within one bin of
+//! `truth_world.h5`, the laser wavelength carried from the manifest to the render, and no
+//! entirely black frame.
+
+#[path = "common/cli.rs"]
+mod cli;
+
+use cli::{arg, femto_ok, Run};
+use femto::camera::Calibration;
+use femto::container;
+use femto::cube::Cube;
+use std::path::Path;
+
+/// The capture: the built-in cube scene, 64 x 48 pixels, 256 bins of 4 ps, every realistic
+/// flaw (photon and dark noise, vignetting, 2 ps rms trigger jitter, 3 % laser power drift,
+/// 5 % sweep non-linearity).
+fn simulate(dir: &Path, format: &str) -> std::path::PathBuf {
+    let cap = dir.join("cap");
+    femto_ok(&[
+        "simulate",
+        "--scene",
+        "cube",
+        "--size",
+        "64x48",
+        "--spp",
+        "64",
+        "--realistic",
+        "--format",
+        format,
+        "--out",
+        arg(&cap),
+    ]);
+    cap
+}
+
+/// Temporal centroid (ps) of pixel `(x, y)` of `cube` over the bins whose centres lie in
+/// `[a, b)` ps, after subtracting `base`; None when the window holds no light.
+fn centroid_ps(cube: &Cube, x: usize, y: usize, a: f64, b: f64, base: f64) -> Option<f64> {
+    let p = cube.profile(x, y);
+    let (mut sw, mut swt) = (0.0, 0.0);
+    for (i, &v) in p.iter().enumerate() {
+        let t = cube.axis.bin_centre_ps(i);
+        if t >= a && t < b {
+            sw += v as f64 - base;
+            swt += (v as f64 - base) * t;
+        }
+    }
+    (sw > 0.0).then(|| swt / sw)
+}
+
+/// Median of pixel `(x, y)`'s bins that end before `t_ps`: what the cube holds before any
+/// light (a dark offset left in by an ingest without corrections); None for fewer than 8.
+fn baseline_before(cube: &Cube, x: usize, y: usize, t_ps: f64) -> Option<f64> {
+    let p = cube.profile(x, y);
+    let mut v: Vec<f64> = (0..p.len())
+        .filter(|&i| cube.axis.bin_start_ps(i + 1) <= t_ps)
+        .map(|i| p[i] as f64)
+        .collect();
+    if v.len() < 8 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// The checks of every stage after ingest, on the cube `cube` ingested from `cap`.
+fn check_chain(dir: &Path, cap: &Path, cube: &Path, expect_laser: Option<f64>) {
+    let truth = Calibration::load(&cap.join("calibration.toml")).unwrap();
+    let l = truth.laser_m;
+
+    // Calibrate, with defaults.
+    femto_ok(&[
+        "calibrate",
+        arg(cube),
+        "--mesh",
+        arg(&cap.join("scene.glb")),
+        "--points",
+        arg(&cap.join("fiducials.toml")),
+        &format!("--laser={},{},{}", l.x, l.y, l.z),
+    ]);
+    let cal_path = cube.with_file_name("cube.calibration.toml");
+    let fitted = Calibration::load(&cal_path).unwrap();
+    let dt_ps = container::read_meta(cube).unwrap().axis.dt_ps;
+    let t0_bins = (fitted.t0_ps - truth.t0_ps) / dt_ps;
+    // Position error per metre of the distance to the fiducials' centroid (the demo's measure).
+    let points = femto::calibrate::load_points(&cap.join("fiducials.toml")).unwrap();
+    let centroid_m = points
+        .iter()
+        .map(|c| c.point_m.coords)
+        .sum::<nalgebra::Vector3<f64>>()
+        / points.len() as f64;
+    let distance_m = (truth.pose.position_m.coords - centroid_m).norm();
+    let pos_mm_per_m = 1e3 * (fitted.pose.position_m - truth.pose.position_m).norm() / distance_m;
+    println!("calibrate: t0 {t0_bins:+.4} bins, camera {pos_mm_per_m:.4} mm/m");
+    assert!(t0_bins.abs() <= 0.1, "t0 off by {t0_bins} bins");
+    assert!(pos_mm_per_m <= 1.0, "camera off by {pos_mm_per_m} mm/m");
+
+    // Unwarp, with defaults; against the world-time truth.
+    let world = dir.join("world.h5");
+    femto_ok(&["unwarp", arg(cube), "--out", arg(&world)]);
+    let got = container::read_cube(&world).unwrap();
+    let want = container::read_cube(&cap.join("truth_world.h5")).unwrap();
+    let totals = want.time_integral();
+    let peak = totals.iter().cloned().fold(0.0, f64::max);
+    let (mut checked, mut worst_bins) = (0usize, 0.0f64);
+    for y in 0..want.ny {
+        for x in 0..want.nx {
+            if totals[y * want.nx + x] < 0.05 * peak || !got.is_valid(x, y) {
+                continue;
+            }
+            // The window: the truth's main pulse (bins above a tenth of its top), two bins
+            // either side; the baseline: what the cube holds before any light.
+            let w = want.profile(x, y);
+            let top = w.iter().cloned().fold(0.0f32, f32::max);
+            let Some(peak_bin) = (0..w.len()).find(|&i| w[i] == top) else {
+                continue;
+            };
+            let i0 = (0..=peak_bin)
+                .rev()
+                .take_while(|&i| w[i] > 0.1 * top)
+                .last()
+                .unwrap_or(peak_bin);
+            let i1 = (peak_bin..w.len())
+                .take_while(|&i| w[i] > 0.1 * top)
+                .last()
+                .unwrap_or(peak_bin);
+            let a = want.axis.bin_start_ps(i0) - 2.0 * dt_ps;
+            let b = want.axis.bin_start_ps(i1 + 1) + 2.0 * dt_ps;
+            let first_light = (0..w.len()).find(|&i| w[i] > 1e-3 * top).unwrap_or(i0);
+            let Some(base) = baseline_before(&got, x, y, want.axis.bin_start_ps(first_light))
+            else {
+                continue;
+            };
+            let (Some(cw), Some(cg)) = (
+                centroid_ps(&want, x, y, a, b, 0.0),
+                centroid_ps(&got, x, y, a, b, base),
+            ) else {
+                continue;
+            };
+            let err_bins = (cg - cw).abs() / dt_ps;
+            worst_bins = worst_bins.max(err_bins);
+            assert!(
+                err_bins <= 1.0,
+                "pixel ({x}, {y}): centroid {cg:.1} ps, truth {cw:.1} ps ({err_bins:.2} bins) in \
+                 [{a:.1}, {b:.1}) ps, baseline {base:.4}; truth {:?}; got {:?}",
+                &w[i0.saturating_sub(3)..(i1 + 4).min(w.len())],
+                (0..got.axis.nt)
+                    .filter(|&i| got.axis.bin_centre_ps(i) >= a - 8.0
+                        && got.axis.bin_centre_ps(i) < b + 8.0)
+                    .map(|i| got.profile(x, y)[i])
+                    .collect::<Vec<_>>()
+            );
+            checked += 1;
+        }
+    }
+    println!(
+        "unwarp: {checked} pixels within one bin of truth_world.h5 (worst {worst_bins:.3} bins)"
+    );
+    assert!(checked >= 500, "only {checked} pixels compared");
+
+    // Pyramid and a short dolly render, with defaults.
+    femto_ok(&["pyramid", arg(&world)]);
+    let frames = dir.join("frames");
+    let run: Run = femto_ok(&[
+        "render",
+        "--cube",
+        arg(&world),
+        "--calibration",
+        arg(&cal_path),
+        "--mesh",
+        arg(&cap.join("scene.glb")),
+        "--dolly",
+        "0.5",
+        "--size",
+        "64x48",
+        "--frame-count",
+        "12",
+        "--out",
+        arg(&frames),
+    ]);
+    println!("render: {}", run.stderr.trim());
+    if let Some(nm) = expect_laser {
+        assert!(
+            run.stderr
+                .contains(&format!("laser {nm} nm (the cube's laser_nm attribute)")),
+            "the render must say it used the capture's {nm} nm: {}",
+            run.stderr
+        );
+    }
+    assert!(!run.stderr.contains("entirely black"), "{}", run.stderr);
+    let mut black = Vec::new();
+    for k in 0..12 {
+        let png = frames.join(format!("frame_{k:05}.png"));
+        let img = image::open(&png).unwrap().to_rgb8();
+        if img.pixels().all(|p| p.0 == [0, 0, 0]) {
+            black.push(k);
+        }
+    }
+    assert!(black.is_empty(), "black frames {black:?}");
+}
+
+#[test]
+fn cli_chain_with_defaults_from_png16_scanlines() {
+    let dir = tempfile::tempdir().unwrap();
+    let cap = simulate(dir.path(), "png16");
+    let cube = dir.path().join("cube.h5");
+    femto_ok(&["ingest", arg(&cap), "-o", arg(&cube)]);
+    check_chain(dir.path(), &cap, &cube, Some(795.0));
+}
+
+#[test]
+fn cli_chain_with_defaults_from_hpd_ta_img_scanlines() {
+    let dir = tempfile::tempdir().unwrap();
+    let cap = simulate(dir.path(), "img16");
+    let cube = dir.path().join("cube.h5");
+    femto_ok(&["ingest", arg(&cap), "-o", arg(&cube)]);
+    check_chain(dir.path(), &cap, &cube, Some(795.0));
+}
