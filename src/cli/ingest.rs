@@ -48,7 +48,7 @@ pub struct IngestArgs {
     /// Laser wavelength, nm, stored as the cube's laser_nm attribute (femto render's
     /// colours). A manifest's [capture] laser_wavelength_nm is used without it; a value that
     /// contradicts it is refused.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub laser_nm: Option<f64>,
     /// The files store time across and x down.
     #[arg(long)]
