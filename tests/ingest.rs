@@ -426,7 +426,7 @@ fn glob_printf_and_manifest_inputs_agree() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps"));
     let out = femto(&["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("dt_ps = 2.5 disagrees"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps 2.5: contradicts manifest"));
 }
 
 /// The 16-bit PNG fast path (samples decoded as integers, scaled and transposed in one pass)
@@ -1642,4 +1642,445 @@ fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
     assert!(g_bins < 2.0, "bins {g_bins}");
     assert!(g_cen < 2.0, "centroids {g_cen}");
     assert!(r_total.abs() > 0.5 && r_int > 5.0 && r_bins > 5.0 && r_cen > 2.0 * g_cen);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Time axes the files record, the laser wavelength, one-file and folder inputs (issue 15).
+
+/// Write `ny` scanlines of `flaws` as HPD-TA .img files `dir/s%03d.img` (32-bit counts of
+/// `scale` signal each) whose time table holds `starts_ps`; returns the paths.
+fn write_img_capture(
+    dir: &Path,
+    ny: usize,
+    flaws: &Flaws,
+    starts_ps: &[f64],
+    scale: f64,
+) -> Vec<PathBuf> {
+    let mut rng = Pcg64::seed_from_u64(9);
+    (0..ny)
+        .map(|y| {
+            let counts: Vec<f32> = flaws
+                .image(NX, ny, &AXIS, y, &mut rng)
+                .iter()
+                .map(|v| (*v as f64 / scale) as f32)
+                .collect();
+            let path = dir.join(format!("s{y:03}.img"));
+            hamamatsu::write_img(&path, &StreakImage::new(NX, AXIS.nt, counts), 32, starts_ps)
+                .unwrap();
+            path
+        })
+        .collect()
+}
+
+/// Each pixel's integral over the cube against the same pixel's sum over a streak image
+/// read back from its file (times `scale`): the worst relative difference.
+fn worst_integral_error(got: &Cube, y: usize, file: &Path, scale: f64) -> f64 {
+    let img = femto::formats::read_streak(file, false).unwrap();
+    (0..img.nx)
+        .map(|x| {
+            let want: f64 = (0..img.nt).map(|t| img.at(x, t) as f64 * scale).sum();
+            let have: f64 = got.profile(x, y).iter().map(|&v| v as f64).sum();
+            if want == 0.0 {
+                have.abs()
+            } else {
+                (have / want - 1.0).abs()
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Item 2 of issue 15: `--dt-ps/--t0-ps` used to replace a non-uniform `.img` time table
+/// silently (the rows resampled onto 128 bins of the given width, dropping what fell outside
+/// them, exit 0). Now they are refused, naming the flag, the file and both values; with
+/// `--resample-time` the rows are resampled onto the asked axis extended to cover them all,
+/// each pixel's integral kept.
+#[test]
+fn flags_that_contradict_an_img_time_table_are_refused_or_resampled_keeping_the_signal() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let edges = sweep_edges(&AXIS);
+    let flaws = Flaws {
+        edges_ps: Some(edges.clone()),
+        ..Flaws::default()
+    };
+    let scale = 0.01;
+    let files = write_img_capture(d, NY, &flaws, &edges[..AXIS.nt], scale);
+    let pattern = format!("{}/s*.img", s(d));
+    let out = d.join("cube.h5");
+    let o = s(&out);
+    let vs = scale.to_string();
+    // The table's own axis: 128 bins over [edges[0], extrapolated end).
+    let last_end = 2.0 * edges[AXIS.nt - 1] - edges[AXIS.nt - 2];
+    let table_dt = (last_end - edges[0]) / AXIS.nt as f64;
+
+    // Refused: a bin width, then a start, that contradict the table; named with both values.
+    let msg = format!("--dt-ps 1: contradicts .img time table of {}", s(&files[0]));
+    assert_refused(
+        d,
+        &[&pattern, "-o", o, "--dt-ps", "1", "--t0-ps", "0"],
+        &msg,
+    );
+    assert_refused(
+        d,
+        &[&pattern, "-o", o, "--dt-ps", "1"],
+        &format!("bin width is {table_dt} ps"),
+    );
+    assert_refused(
+        d,
+        &[&pattern, "-o", o, "--t0-ps", "-4"],
+        "--t0-ps -4: contradicts",
+    );
+    assert_refused(
+        d,
+        &[&pattern, "-o", o, "--t0-ps", "-4"],
+        "whose start is 0 ps",
+    );
+    // With --resample-time: a start after the first recorded edge would lose signal, and bins
+    // of 0.1 ps would be 2 690 of them per pixel for 128 rows: both refused.
+    assert_refused(
+        d,
+        &[
+            &pattern,
+            "-o",
+            o,
+            "--resample-time",
+            "--dt-ps",
+            "4",
+            "--t0-ps",
+            "10",
+        ],
+        "--t0-ps 10: after the start of the recorded rows",
+    );
+    assert_refused(
+        d,
+        &[&pattern, "-o", o, "--resample-time", "--dt-ps", "0.1"],
+        "at most 2048, 16 per recorded row",
+    );
+
+    // Resampled onto 4 ps bins from -2 ps: the axis asked for, extended to the last edge.
+    let stdout = ingest_ok(&[
+        &pattern,
+        "-o",
+        o,
+        "--value-scale",
+        &vs,
+        "--resample-time",
+        "--dt-ps",
+        "4",
+        "--t0-ps",
+        "-2",
+    ]);
+    let got = container::read_cube(&out).unwrap();
+    assert_eq!((got.axis.t0_ps, got.axis.dt_ps), (-2.0, 4.0));
+    assert!(got.axis.end_ps() >= last_end && got.axis.end_ps() < last_end + 4.0);
+    assert_eq!(got.axis.nt, ((last_end + 2.0) / 4.0).ceil() as usize);
+    // Every pixel keeps its integral (f32 sums of 128 counts: 1e-5).
+    for (y, file) in files.iter().enumerate() {
+        let e = worst_integral_error(&got, y, file, scale);
+        assert!(e < 1e-5, "row {y}: integral off by {e}");
+    }
+    // And the pulses are where the truth puts them on the new axis.
+    check_sweep(&got, "--resample-time onto 4 ps bins", 5e-4);
+    // The provenance says which axis was used and where it came from.
+    let meta = container::read_meta(&out).unwrap();
+    let axis_note = note(&meta, "ingest.time_axis").unwrap();
+    for part in [
+        ".img time table of",
+        "s000.img (non-uniform: rows",
+        &format!(
+            "resampled onto {} bins of 4 ps from -2 ps as asked (dt_ps 4, t0_ps -2)",
+            got.axis.nt
+        ),
+    ] {
+        assert!(axis_note.contains(part), "{axis_note:?} lacks {part:?}");
+    }
+    assert!(stdout.contains(axis_note), "{stdout}");
+}
+
+/// Item 2 of issue 15 on the real HPD-TA file (a non-uniform table of 512 rows over 16 us):
+/// `--dt-ps 10 --t0-ps 0` kept 3.0e5 of its 7.06e9 counts; now it is refused, and
+/// `--resample-time` onto 10 ns bins keeps every count.
+#[test]
+fn real_hpd_ta_time_table_refuses_contradicting_flags_and_resampling_keeps_every_count() {
+    let real =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/hamamatsu/operate_mode.img");
+    if !real.is_file() {
+        println!("skipped: {} not found", real.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let file = d.join("operate_mode.img");
+    std::fs::copy(&real, &file).unwrap();
+    let img = femto::formats::read_streak(&file, false).unwrap();
+    let counts: f64 = img.data.iter().map(|&v| v as f64).sum();
+    let out = d.join("x.h5");
+    let o = s(&out);
+    let pattern = format!("{}/operate_mode*.img", s(d));
+    // The issue's command line, and the single-file form: refused, nothing written.
+    for input in [pattern.as_str(), s(&file)] {
+        assert_refused(
+            d,
+            &[input, "--dt-ps", "10", "--t0-ps", "0", "-o", o],
+            "--dt-ps 10: contradicts .img time table of",
+        );
+    }
+    assert_refused(
+        d,
+        &[s(&file), "--dt-ps", "10", "--t0-ps", "0", "-o", o],
+        "whose bin width is 31329.177",
+    );
+    // Its own axis, then 10 ns bins from 0: every count kept (f32 sums: 1e-6).
+    for (extra, nt) in [
+        (vec![], 512),
+        (
+            vec!["--resample-time", "--dt-ps", "10000", "--t0-ps", "0"],
+            1605,
+        ),
+    ] {
+        let mut args = vec![s(&file), "-o", o];
+        args.extend(extra.iter().copied());
+        ingest_ok(&args);
+        let got = container::read_cube(&out).unwrap();
+        assert_eq!(got.axis.nt, nt, "{extra:?}");
+        let sum: f64 = got.data.iter().map(|&v| v as f64).sum();
+        assert!(
+            (sum / counts - 1.0).abs() < 1e-6,
+            "{extra:?}: {sum} of {counts}"
+        );
+        std::fs::remove_file(&out).unwrap();
+    }
+}
+
+/// Item 2 of issue 15, the manifest's axis: contradicted, refused (naming the manifest);
+/// resampled on request onto bins of twice the width, which hold exactly two recorded bins
+/// each, so the cube equals the truth integrated over the new bins.
+#[test]
+fn a_manifest_axis_contradicted_is_refused_or_resampled_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_capture(d, NY, &Flaws::default(), Fmt::Exr, true, 11);
+    let out = d.join("cube.h5");
+    let manifest = d.join("manifest.toml");
+    assert_refused(
+        d,
+        &[s(d), "-o", s(&out), "--dt-ps", "4", "--t0-ps", "-2"],
+        &format!(
+            "--dt-ps 4: contradicts manifest {}, whose bin width is 2 ps",
+            s(&manifest)
+        ),
+    );
+    ingest_ok(&[
+        s(d),
+        "-o",
+        s(&out),
+        "--resample-time",
+        "--dt-ps",
+        "4",
+        "--t0-ps",
+        "-2",
+    ]);
+    let got = container::read_cube(&out).unwrap();
+    // [-2, 258) covers the recorded [0, 256): 65 bins.
+    let want_axis = TimeAxis {
+        t0_ps: -2.0,
+        dt_ps: 4.0,
+        nt: 65,
+    };
+    assert_eq!(got.axis, want_axis);
+    let want = truth(NX, NY, &want_axis);
+    let worst = worst_relative_error(&got, &want);
+    assert!(worst < 1e-5, "{worst}");
+    let meta = container::read_meta(&out).unwrap();
+    let axis_note = note(&meta, "ingest.time_axis").unwrap();
+    assert!(
+        axis_note.starts_with("manifest ")
+            && axis_note.contains("resampled onto 65 bins of 4 ps from -2 ps as asked"),
+        "{axis_note}"
+    );
+    let corrections = note(&meta, "ingest.corrections").unwrap();
+    assert!(
+        corrections.contains("time resampling (manifest"),
+        "{corrections}"
+    );
+}
+
+/// Item 3 of issue 15: the manifest's laser wavelength becomes the cube's `laser_nm` (what
+/// `femto render` reads); `--laser-nm` gives it to captures without a manifest; a value that
+/// contradicts the manifest's is refused.
+#[test]
+fn the_laser_wavelength_comes_from_the_manifest_or_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_capture(d, 6, &Flaws::default(), Fmt::Exr, true, 12);
+    let manifest = d.join("manifest.toml");
+    let out = d.join("cube.h5");
+    let o = s(&out);
+    let laser = |path: &Path| {
+        let meta = container::read_meta(path).unwrap();
+        (
+            note(&meta, "laser_nm").map(str::to_string),
+            note(&meta, "ingest.laser_nm").map(str::to_string),
+        )
+    };
+    // The manifest's 800 nm, with or without a flag that agrees.
+    for extra in [&[][..], &["--laser-nm", "800"][..]] {
+        let mut args = vec![s(d), "-o", o];
+        args.extend_from_slice(extra);
+        let stdout = ingest_ok(&args);
+        let where_from = format!("manifest {}", s(&manifest));
+        assert_eq!(laser(&out), (Some("800".into()), Some(where_from.clone())));
+        assert!(
+            stdout.contains(&format!("laser wavelength: 800 nm ({where_from})")),
+            "{stdout}"
+        );
+        std::fs::remove_file(&out).unwrap();
+    }
+    // A flag that contradicts the manifest, or that is no wavelength: refused.
+    assert_refused(
+        d,
+        &[s(d), "-o", o, "--laser-nm", "532"],
+        &format!(
+            "--laser-nm 532: contradicts {}, whose [capture] laser_wavelength_nm is 800 nm",
+            s(&manifest)
+        ),
+    );
+    assert_refused(
+        d,
+        &[s(d), "-o", o, "--laser-nm", "-5"],
+        "--laser-nm -5: must be a positive",
+    );
+    // No manifest: the flag, else nothing (and ingest says so).
+    let glob = format!("{}/scanlines/*.exr", s(d));
+    let axis = ["--dt-ps", "2", "--t0-ps", "0"];
+    let mut args = vec![glob.as_str(), "-o", o, "--laser-nm", "532.5"];
+    args.extend_from_slice(&axis);
+    ingest_ok(&args);
+    assert_eq!(laser(&out), (Some("532.5".into()), Some("given".into())));
+    std::fs::remove_file(&out).unwrap();
+    let mut args = vec![glob.as_str(), "-o", o];
+    args.extend_from_slice(&axis);
+    let stdout = ingest_ok(&args);
+    assert_eq!(laser(&out), (None, None));
+    assert!(
+        stdout.contains("laser wavelength: not recorded"),
+        "{stdout}"
+    );
+}
+
+/// Item 5 of issue 15: one scanline file is a capture of one scanline (a PNG with a time
+/// axis given; an EXR; an .img with its own table), where it used to be refused.
+#[test]
+fn a_single_scanline_file_is_a_capture_of_one_scanline() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let paths = write_capture(d, 8, &Flaws::default(), Fmt::Png16, false, 13);
+    let exrs = write_capture(&d.join("exr"), 8, &Flaws::default(), Fmt::Exr, false, 13);
+    let imgs = write_img_capture(
+        d,
+        8,
+        &Flaws::default(),
+        &uniform_edges(&AXIS)[..AXIS.nt],
+        0.01,
+    );
+    let out = d.join("one.h5");
+    let o = s(&out);
+    let vpc = VPC.to_string();
+    let want = truth(NX, 8, &AXIS);
+    let row = |y: usize| &want.data[y * NX * AXIS.nt..(y + 1) * NX * AXIS.nt];
+
+    // A PNG needs its time axis, like a glob of PNGs.
+    assert_refused(d, &[s(&paths[3]), "-o", o], "no time axis");
+    let stdout = ingest_ok(&[
+        s(&paths[3]),
+        "-o",
+        o,
+        "--dt-ps",
+        "2",
+        "--t0-ps",
+        "0",
+        "--value-scale",
+        &vpc,
+    ]);
+    assert!(stdout.contains("ingested 1 scanlines"), "{stdout}");
+    let got = container::read_cube(&out).unwrap();
+    assert_eq!((got.nx, got.ny, got.axis), (NX, 1, AXIS));
+    // 16-bit PNG with 0.05 per count: within half a count of the truth's row 3.
+    let worst = got
+        .data
+        .iter()
+        .zip(row(3))
+        .fold(0.0f64, |m, (a, b)| m.max((*a as f64 - *b as f64).abs()));
+    assert!(worst <= 0.5 * VPC + 1e-4, "{worst}");
+    let meta = container::read_meta(&out).unwrap();
+    assert_eq!(note(&meta, "ingest.input"), Some(s(&paths[3])));
+
+    // An EXR: exactly the truth's row 5.
+    ingest_ok(&[s(&exrs[5]), "-o", o, "--dt-ps", "2", "--t0-ps", "0"]);
+    let got = container::read_cube(&out).unwrap();
+    assert_eq!(got.data, row(5));
+
+    // An .img: its own table gives the axis; counts of 0.01.
+    ingest_ok(&[s(&imgs[6]), "-o", o, "--value-scale", "0.01"]);
+    let got = container::read_cube(&out).unwrap();
+    assert_eq!(got.ny, 1);
+    assert!((got.axis.dt_ps - 2.0).abs() < 1e-4 && got.axis.t0_ps.abs() < 1e-4);
+    let worst = got
+        .data
+        .iter()
+        .zip(row(6))
+        .fold(0.0f64, |m, (a, b)| m.max((*a as f64 - *b as f64).abs()));
+    assert!(worst <= 0.005 + 1e-4, "{worst}");
+}
+
+/// Item 5 of issue 15: a folder without a manifest used to say `manifest.toml: No such file
+/// or directory`; now one line names the folder, the image files it holds and the glob form.
+#[test]
+fn a_folder_without_a_manifest_names_its_images_and_the_glob_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_capture(d, 8, &Flaws::default(), Fmt::Png16, false, 14);
+    let scans = d.join("scanlines");
+    std::fs::write(scans.join("notes.txt"), "not a scanline").unwrap();
+    let out = d.join("cube.h5");
+    let hint = format!(
+        "{}: no manifest.toml in this folder (it holds 8 .png files); give its scanlines as a \
+         quoted glob: femto ingest '{}/*.png' --dt-ps PS --t0-ps PS -o CUBE.h5",
+        s(&scans),
+        s(&scans)
+    );
+    assert_refused(d, &[s(&scans), "-o", s(&out)], &hint);
+    // Counted by extension, most first.
+    let edges = uniform_edges(&AXIS);
+    write_img_capture(&scans, 2, &Flaws::default(), &edges[..AXIS.nt], 1.0);
+    assert_refused(
+        d,
+        &[s(&scans), "-o", s(&out)],
+        "(it holds 8 .png, 2 .img files)",
+    );
+    // .img files need no time axis in the suggested command.
+    let img_dir = tempfile::tempdir().unwrap();
+    write_img_capture(
+        img_dir.path(),
+        3,
+        &Flaws::default(),
+        &uniform_edges(&AXIS)[..AXIS.nt],
+        1.0,
+    );
+    assert_refused(
+        d,
+        &[s(img_dir.path()), "-o", s(&out)],
+        &format!("(it holds 3 .img files); give its scanlines as a quoted glob: femto ingest '{}/*.img' -o CUBE.h5", s(img_dir.path())),
+    );
+    // The hint's glob works (here with the axis it asks for).
+    let glob = format!("{}/*.png", s(&scans));
+    ingest_ok(&[&glob, "-o", s(&out), "--dt-ps", "2", "--t0-ps", "0"]);
+    // A folder with no image file says so.
+    let empty = d.join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    assert_refused(
+        d,
+        &[s(&empty), "-o", s(&d.join("e.h5"))],
+        "no manifest.toml in this folder (it holds no scanline files (.png, .tif, .tiff, .exr, .hdr, .img))",
+    );
 }

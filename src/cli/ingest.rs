@@ -12,6 +12,7 @@ use femto::ingest::corrections::RefRegion;
 use femto::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
+use femto::ingest::time_axis::AxisValue;
 use femto::ingest::IngestError;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,7 +20,8 @@ use std::time::Instant;
 #[derive(Args, Debug)]
 pub struct IngestArgs {
     /// The capture: a folder with manifest.toml, a manifest, a glob ('scan_*.png', quoted),
-    /// a printf pattern (scan_%04d.png, with --rows) or an HDF5 file (with --dataset).
+    /// a printf pattern (scan_%04d.png, with --rows), an HDF5 file (with --dataset), or one
+    /// scanline file (.png, .tif, .tiff, .exr, .hdr, .img: a capture of one scanline).
     pub input: String,
     /// The cube to write (HDF5, camera time).
     #[arg(long, short = 'o', required_unless_present = "decode_only")]
@@ -31,12 +33,23 @@ pub struct IngestArgs {
     /// (ny, nx, nt) with --transpose.
     #[arg(long)]
     pub dataset: Option<String>,
-    /// Width of a time bin, ps (when there is no manifest and no .img time table).
+    /// Width of a time bin, ps, for files that record no time axis. A value that contradicts
+    /// the manifest's axis or an .img time table is refused, unless --resample-time.
     #[arg(long)]
     pub dt_ps: Option<f64>,
     /// Camera time of the start of the first bin, ps (likewise).
     #[arg(long, allow_hyphen_values = true)]
     pub t0_ps: Option<f64>,
+    /// Resample the recorded rows onto the axis --dt-ps/--t0-ps ask for where it contradicts
+    /// the capture's own (manifest, .img time table), conserving each pixel's integral; the
+    /// cube gets as many bins as cover every recorded row (at most 16 per recorded row).
+    #[arg(long)]
+    pub resample_time: bool,
+    /// Laser wavelength, nm, stored as the cube's laser_nm attribute (femto render's
+    /// colours). A manifest's [capture] laser_wavelength_nm is used without it; a value that
+    /// contradicts it is refused.
+    #[arg(long, allow_hyphen_values = true)]
+    pub laser_nm: Option<f64>,
     /// The files store time across and x down.
     #[arg(long)]
     pub transpose: bool,
@@ -142,14 +155,106 @@ fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
         saturation,
         allow_missing: args.allow_missing,
         value_scale: args.value_scale,
+        resample_time: args.resample_time,
+        laser_nm: args.laser_nm,
     })
 }
 
-/// Add the flag to use where the library's message names a missing value.
+/// `x` rounded up to three significant digits (a bin width to suggest).
+fn round_up_3_digits(x: f64) -> f64 {
+    if !(x.is_finite() && x > 0.0) {
+        return x;
+    }
+    let unit = 10f64.powf(x.log10().floor() - 2.0);
+    (x / unit).ceil() * unit
+}
+
+/// The flag of a time-axis value.
+fn axis_flag(what: AxisValue) -> &'static str {
+    match what {
+        AxisValue::BinWidth => "--dt-ps",
+        AxisValue::Start => "--t0-ps",
+    }
+}
+
+/// Name the flag where the library's message names an option, and add the flag to use where
+/// it names a missing value.
 fn with_hint(e: IngestError) -> anyhow::Error {
+    match &e {
+        IngestError::AxisConflict {
+            what,
+            given,
+            source_name,
+            recorded,
+        } => {
+            return anyhow::anyhow!(
+                "{} {given}: contradicts {source_name}, whose {} is {recorded} ps (leave the \
+                 flag out to keep the recorded axis, or add --resample-time to resample the \
+                 recorded rows onto the axis asked for)",
+                axis_flag(*what),
+                what.quantity()
+            )
+        }
+        IngestError::StartAfterRecording {
+            t0_ps,
+            first_edge_ps,
+            source_name,
+        } => {
+            return anyhow::anyhow!(
+                "--t0-ps {t0_ps}: after the start of the recorded rows ({source_name}: \
+                 {first_edge_ps} ps); resampling from there would lose the signal before \
+                 it (give --t0-ps {first_edge_ps} or earlier)"
+            )
+        }
+        IngestError::TooManyBins {
+            dt_ps,
+            first_edge_ps,
+            last_edge_ps,
+            needed,
+            max,
+            source_name,
+        } => {
+            let span = last_edge_ps - first_edge_ps;
+            return anyhow::anyhow!(
+                "--dt-ps {dt_ps}: the recorded rows ({source_name}) span {first_edge_ps} to \
+                 {last_edge_ps} ps, which would take {needed} bins of {dt_ps} ps (at most \
+                 {max}, 16 per recorded row; give --dt-ps {} or more)",
+                round_up_3_digits(span / *max as f64)
+            );
+        }
+        IngestError::LaserConflict {
+            given,
+            manifest,
+            recorded,
+        } => {
+            return anyhow::anyhow!(
+                "--laser-nm {given}: contradicts {}, whose [capture] laser_wavelength_nm is \
+                 {recorded} nm (leave the flag out)",
+                manifest.display()
+            )
+        }
+        IngestError::BadValue { what, value, .. } if what == "laser_nm" => {
+            return anyhow::anyhow!("--laser-nm {value}: must be a positive wavelength in nm")
+        }
+        IngestError::FolderWithoutManifest { dir, found } => {
+            let ext = found.first().map_or("png", |(e, _)| e.as_str());
+            let axis = if ext == "img" {
+                ""
+            } else {
+                " --dt-ps PS --t0-ps PS"
+            };
+            return anyhow::anyhow!(
+                "{e}; give its scanlines as a quoted glob: femto ingest '{}/*.{ext}'{axis} -o \
+                 CUBE.h5",
+                dir.display().to_string().trim_end_matches('/')
+            );
+        }
+        _ => {}
+    }
     let hint = match &e {
         IngestError::PrintfNeedsRows { .. } => Some("give --rows N"),
         IngestError::NoTimeAxis { .. } => Some("give --dt-ps and --t0-ps"),
+        IngestError::NothingToResample { .. } => Some("leave out --resample-time"),
         IngestError::SaturationAuto { .. } => Some("use --saturation LEVEL"),
         IngestError::MissingScanline { .. } | IngestError::ManifestFileMissing { .. } => {
             Some("--allow-missing fills missing scanlines by interpolation")
@@ -221,6 +326,13 @@ pub fn run(args: IngestArgs) -> anyhow::Result<()> {
         if s.passes == 1 { "" } else { "es" }
     );
     println!("time axis: {}", plan.axis_source);
+    match &plan.laser {
+        Some(l) => println!("laser wavelength: {} nm ({})", l.nm, l.source),
+        None => println!(
+            "laser wavelength: not recorded (give --laser-nm NM; femto render falls back to \
+             670 nm)"
+        ),
+    }
     if s.corrections.is_empty() {
         println!("corrections: none");
     } else {

@@ -248,6 +248,15 @@ pub enum FormatError {
     InvalidArgument { path: PathBuf, message: String },
 }
 
+/// Extensions [`read_streak`] reads (lower case, without the dot).
+pub const STREAK_EXTENSIONS: [&str; 6] = ["png", "tif", "tiff", "exr", "hdr", "img"];
+
+/// The extension of `path` in lower case when [`read_streak`] reads it.
+pub fn streak_extension(path: &Path) -> Option<&'static str> {
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    STREAK_EXTENSIONS.iter().copied().find(|e| *e == ext)
+}
+
 /// Read one streak image, dispatching on the extension (`.png`, `.tif`, `.tiff`, `.exr`,
 /// `.hdr`, `.img`, any case).
 ///

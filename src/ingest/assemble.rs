@@ -348,6 +348,11 @@ fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String)> {
             json(serde_json::json!(plan.corrections())),
         ),
     ];
+    if let Some(laser) = &plan.laser {
+        // The number alone, as `femto render` and `femto unwarp` read it.
+        n.push(("laser_nm".to_string(), laser.nm.to_string()));
+        n.push(("ingest.laser_nm".to_string(), laser.source.clone()));
+    }
     if let RowSource::Stack { path, dataset, .. } = &plan.source {
         n.push((
             "ingest.stack".to_string(),
@@ -541,7 +546,9 @@ fn load_row(plan: &IngestPlan, y: usize, pool: &RowPool) -> Result<Option<RawRow
                 });
             }
             if let (Some(want), Some(got)) = (&plan.img_time_table_ps, &img.time_axis_ps) {
-                let tolerance = 1e-3 * plan.out_axis.dt_ps;
+                // A thousandth of the reference table's mean row width (not of the output
+                // bins, which resampling may make far finer or coarser).
+                let tolerance = 1e-3 * (want[nt - 1] - want[0]) / (nt - 1).max(1) as f64;
                 if let Some(row) = (0..nt).find(|&i| (want[i] - got[i]).abs() > tolerance) {
                     return Err(IngestError::TimeTableMismatch {
                         path: path.clone(),

@@ -21,6 +21,7 @@ pub mod assemble;
 pub mod corrections;
 pub mod plan;
 pub mod row_offsets;
+pub mod time_axis;
 
 use std::path::PathBuf;
 
@@ -28,17 +29,29 @@ use crate::container::ContainerError;
 use crate::formats::FormatError;
 use crate::manifest::ManifestError;
 use corrections::CorrectionError;
+use time_axis::AxisValue;
 
 /// Everything that can go wrong resolving or assembling a capture.
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
-    /// The input is none of the accepted kinds (capture folder, manifest, glob, printf
-    /// pattern, HDF5 file with a dataset name).
+    /// The input is none of the accepted kinds (capture folder, manifest, scanline file,
+    /// glob, printf pattern, HDF5 file with a dataset name).
     #[error(
-        "{input}: not a capture folder (with manifest.toml), a manifest, a glob or printf \
-         pattern of scanline files, or an HDF5 file with a dataset name"
+        "{input}: not a capture folder (with manifest.toml), a manifest, a scanline file \
+         (.png, .tif, .tiff, .exr, .hdr, .img), a glob or printf pattern of scanline files, \
+         or an HDF5 file with a dataset name"
     )]
     NotAnInput { input: String },
+    /// The input names no file or folder (and is no pattern).
+    #[error("{input}: no such file or folder")]
+    NoSuchInput { input: String },
+    /// A folder without `manifest.toml`; `found` lists the scanline files it holds, by
+    /// extension (`(extension, count)`, most first).
+    #[error("{}: no manifest.toml in this folder ({})", dir.display(), found_words(found))]
+    FolderWithoutManifest {
+        dir: PathBuf,
+        found: Vec<(String, usize)>,
+    },
     /// A printf pattern was given without the number of scanlines.
     #[error("{pattern}: a printf pattern needs the number of scanlines (rows)")]
     PrintfNeedsRows { pattern: String },
@@ -131,12 +144,51 @@ pub enum IngestError {
          start time (dt_ps, t0_ps) given"
     )]
     NoTimeAxis { input: String },
-    /// A time axis value given explicitly disagrees with the one the capture records.
-    #[error("{what} = {given} disagrees with {source_name}, which gives {recorded}")]
+    /// A time axis value given explicitly contradicts the one the capture records (the
+    /// manifest's axis, or the `.img` time table), and resampling was not asked for.
+    #[error("{what} = {given} ps contradicts {source_name}, whose {} is {recorded} ps", what.quantity())]
     AxisConflict {
-        what: String,
+        what: AxisValue,
         given: f64,
         source_name: String,
+        recorded: f64,
+    },
+    /// Resampling onto a start given explicitly that lies after the first recorded edge:
+    /// the rows before it would be lost.
+    #[error(
+        "t0_ps = {t0_ps} ps is after the start of the recorded rows ({source_name}: \
+         {first_edge_ps} ps): the signal before it would be lost"
+    )]
+    StartAfterRecording {
+        t0_ps: f64,
+        first_edge_ps: f64,
+        source_name: String,
+    },
+    /// Resampling onto bins so fine that the cube would hold more than
+    /// [`time_axis::MAX_BINS_PER_RECORDED_ROW`] bins per recorded row.
+    #[error(
+        "dt_ps = {dt_ps} ps: the recorded rows ({source_name}) span {first_edge_ps} to \
+         {last_edge_ps} ps, {needed} bins of {dt_ps} ps (at most {max}, 16 per recorded row)"
+    )]
+    TooManyBins {
+        dt_ps: f64,
+        first_edge_ps: f64,
+        last_edge_ps: f64,
+        needed: u64,
+        max: usize,
+        source_name: String,
+    },
+    /// Resampling asked for, but the capture records no time axis to resample from.
+    #[error(
+        "{input}: resampling asked for, but there is no manifest and no .img time table: \
+         the bin width and start given are the axis"
+    )]
+    NothingToResample { input: String },
+    /// A laser wavelength given explicitly contradicts the manifest's.
+    #[error("laser_nm = {given} nm contradicts {}, whose [capture] laser_wavelength_nm is {recorded} nm", manifest.display())]
+    LaserConflict {
+        given: f64,
+        manifest: PathBuf,
         recorded: f64,
     },
     /// The scanline images do not have the size the manifest records.
@@ -188,4 +240,25 @@ pub enum IngestError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// `it holds 12 .png, 1 .exr files`, or `it holds no scanline files (.png, ...)`.
+fn found_words(found: &[(String, usize)]) -> String {
+    if found.is_empty() {
+        return format!(
+            "it holds no scanline files ({})",
+            crate::formats::STREAK_EXTENSIONS
+                .iter()
+                .map(|e| format!(".{e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let total: usize = found.iter().map(|(_, n)| n).sum();
+    let list: Vec<String> = found.iter().map(|(e, n)| format!("{n} .{e}")).collect();
+    format!(
+        "it holds {} file{}",
+        list.join(", "),
+        if total == 1 { "" } else { "s" }
+    )
 }

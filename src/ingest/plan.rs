@@ -10,16 +10,26 @@
 //!   scanline, so a gap in the numbering is a missing scanline;
 //! - a printf pattern (`scans/scan_%04d.png`) with a number of scanlines `N`: rows `0..N`;
 //! - a 3-D dataset of an HDF5 file: `ny` streak images `[y][t][x]` (or `[y][x][t]` with
-//!   `transpose`), read with [`crate::container::read_image_stack`].
+//!   `transpose`), read with [`crate::container::read_image_stack`];
+//! - a single scanline file (`.png`, `.tif`, `.tiff`, `.exr`, `.hdr`, `.img`): a capture of
+//!   one scanline. A folder without `manifest.toml` is refused with the image files it holds
+//!   counted by extension, so the caller can suggest a glob.
 //!
 //! The time axis (the camera time of the recorded rows) comes from the manifest, else from
 //! the `.img` time table of the first scanline, else from the bin width and start given
 //! explicitly ([`IngestOptions::dt_ps`], [`IngestOptions::t0_ps`]); explicit values that
-//! contradict the manifest or the table are refused rather than silently ignored. The
+//! contradict the manifest or the table are refused rather than silently ignored, unless
+//! [`IngestOptions::resample_time`] asks for the recorded rows to be resampled onto them
+//! ([`super::time_axis`], which also makes sure no resampling drops signal). The
 //! `.img` table is read as the start of each row's bin (femto's writer convention,
 //! [`crate::formats::hamamatsu::write_img`]), the last row's end one spacing after its
 //! start; a table whose spacing varies by more than 1e-4 of its mean is a non-linear sweep,
 //! corrected by resampling onto a uniform axis spanning the same interval.
+//!
+//! The laser wavelength ([`IngestPlan::laser`]) comes from the manifest's `[capture]
+//! laser_wavelength_nm`, else from [`IngestOptions::laser_nm`]; a value given that
+//! contradicts the manifest's is refused. HPD-TA `.img` comments record no laser wavelength
+//! (their `[Spectrograph] Wavelength` is the spectrograph's centre wavelength).
 //!
 //! Sweep calibration ([`IngestOptions::sweep_table`]): a text or CSV file of `nt + 1`
 //! increasing bin-edge times in ps (numbers separated by commas, spaces or new lines; `#`
@@ -38,16 +48,16 @@ use std::path::{Path, PathBuf};
 
 use super::corrections::{check_flat, check_sweep_edges, RefRegion};
 use super::row_offsets::RowOffsetFit;
+use super::time_axis::{self, AxisRequest, Recorded, RecordedEdges};
 use super::IngestError;
 use crate::cube::TimeAxis;
-use crate::formats::{read_streak, PixelType, StreakImage};
+use crate::formats::{read_streak, streak_extension, PixelType, StreakImage};
 use crate::manifest::Manifest;
 
-/// Relative variation of the `.img` row spacing above which the sweep counts as non-linear.
-const UNIFORM_TABLE_TOLERANCE: f64 = 1e-4;
+pub use super::time_axis::edges_from_starts;
 
-/// Relative difference above which an explicit time-axis value contradicts the recorded one.
-const AXIS_AGREEMENT_TOLERANCE: f64 = 1e-6;
+/// Relative difference above which a laser wavelength given contradicts the manifest's.
+const LASER_AGREEMENT_TOLERANCE: f64 = 1e-6;
 
 /// What the user named as the capture.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,6 +70,8 @@ pub enum InputSpec {
     Printf { pattern: String, rows: usize },
     /// A 3-D dataset of an HDF5 file holding the streak images.
     Stack { path: PathBuf, dataset: String },
+    /// One scanline file: a capture of one scanline.
+    File(PathBuf),
 }
 
 /// A printf pattern split around its one integer conversion.
@@ -136,7 +148,9 @@ impl Printf {
 impl InputSpec {
     /// Decide what kind of input `input` is: with a `dataset` it is an HDF5 stack; a `%d`
     /// conversion makes a printf pattern (which needs `rows`); `*`, `?` or `[` a glob; a
-    /// folder a capture folder; a `.toml` file a manifest.
+    /// folder with `manifest.toml` a capture folder (one without is refused, naming the
+    /// image files it holds); a `.toml` file a manifest; a file that [`read_streak`] reads
+    /// a capture of one scanline.
     pub fn classify(
         input: &str,
         rows: Option<usize>,
@@ -164,13 +178,28 @@ impl InputSpec {
         }
         let path = Path::new(input);
         if path.is_dir() {
-            return Ok(InputSpec::Manifest(path.join("manifest.toml")));
+            let manifest = path.join("manifest.toml");
+            if !manifest.exists() {
+                return Err(IngestError::FolderWithoutManifest {
+                    dir: path.to_path_buf(),
+                    found: streak_files_by_extension(path),
+                });
+            }
+            return Ok(InputSpec::Manifest(manifest));
         }
         let is_toml = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
         if is_toml {
             return Ok(InputSpec::Manifest(path.to_path_buf()));
+        }
+        if !path.exists() {
+            return Err(IngestError::NoSuchInput {
+                input: input.to_string(),
+            });
+        }
+        if path.is_file() && streak_extension(path).is_some() {
+            return Ok(InputSpec::File(path.to_path_buf()));
         }
         Err(IngestError::NotAnInput {
             input: input.to_string(),
@@ -184,8 +213,27 @@ impl InputSpec {
             InputSpec::Glob(g) => g.clone(),
             InputSpec::Printf { pattern, rows } => format!("{pattern} (rows 0..{rows})"),
             InputSpec::Stack { path, dataset } => format!("{}:/{dataset}", path.display()),
+            InputSpec::File(p) => p.display().to_string(),
         }
     }
+}
+
+/// The files of `dir` that [`read_streak`] reads, counted by extension (lower case), most
+/// first, then by name; an unreadable folder counts none.
+pub fn streak_files_by_extension(dir: &Path) -> Vec<(String, usize)> {
+    let mut counts: std::collections::BTreeMap<&'static str, usize> = Default::default();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if let Some(ext) = streak_extension(&path).filter(|_| path.is_file()) {
+            *counts.entry(ext).or_default() += 1;
+        }
+    }
+    let mut found: Vec<(String, usize)> = counts
+        .into_iter()
+        .map(|(e, n)| (e.to_string(), n))
+        .collect();
+    found.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    found
 }
 
 /// The dark signal asked for.
@@ -253,6 +301,22 @@ pub struct IngestOptions {
     pub allow_missing: bool,
     /// Multiply the samples read by this (for 16-bit PNG: the signal per count).
     pub value_scale: Option<f64>,
+    /// Where `dt_ps` or `t0_ps` contradict the axis the capture records (manifest, `.img`
+    /// time table), resample the recorded rows onto them (conserving each pixel's
+    /// integral) instead of refusing them.
+    pub resample_time: bool,
+    /// Laser wavelength, nm, for captures without a manifest (must agree with a
+    /// manifest's).
+    pub laser_nm: Option<f64>,
+}
+
+/// The laser wavelength of the capture, with where it comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaserWavelength {
+    /// Wavelength, nm.
+    pub nm: f64,
+    /// `manifest PATH` or `given`.
+    pub source: String,
 }
 
 /// Where the scanlines come from.
@@ -344,8 +408,10 @@ pub struct IngestPlan {
     pub img_time_table_ps: Option<Vec<f64>>,
     /// The uniform camera-time axis of the output cube.
     pub out_axis: TimeAxis,
-    /// Where the time axis comes from (for provenance).
+    /// Which time axis was used and where it comes from (for provenance).
     pub axis_source: String,
+    /// The laser wavelength, when the manifest records it or it was given.
+    pub laser: Option<LaserWavelength>,
     pub dark: Option<DarkCorrection>,
     pub flat: Option<FlatCorrection>,
     pub power: Option<PowerCorrection>,
@@ -383,6 +449,15 @@ impl IngestPlan {
                 }
             }
         }
+        if let Some(v) = options.laser_nm {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(IngestError::BadValue {
+                    what: "laser_nm".into(),
+                    value: v.to_string(),
+                    message: "must be a positive wavelength in nm".into(),
+                });
+            }
+        }
         let describe = input.describe();
         let listed = list_rows(input, options)?;
         let missing: Vec<usize> = match &listed.source {
@@ -418,10 +493,9 @@ impl IngestPlan {
             None => listed.default_value_scale(probe.pixel_type),
         };
 
-        // Time axis: manifest, else .img table, else explicit values.
+        // Time axis: manifest, else .img table, else explicit values (`time_axis`).
         let mut img_time_table_ps = None;
-        let mut table_sweep: Option<SweepCorrection> = None;
-        let (out_axis, axis_source) = if let Some((m, mpath)) = &listed.manifest {
+        let recorded = if let Some((m, mpath)) = &listed.manifest {
             let c = &m.capture;
             for (what, want, found) in [("nx", c.nx, nx), ("nt", c.nt, nt)] {
                 if want != found {
@@ -434,90 +508,83 @@ impl IngestPlan {
                     });
                 }
             }
-            let source = format!("manifest {}", mpath.display());
-            agree("dt_ps", options.dt_ps, c.dt_ps, &source)?;
-            agree("t0_ps", options.t0_ps, c.t0_ps, &source)?;
             let axis = TimeAxis {
                 t0_ps: c.t0_ps,
                 dt_ps: c.dt_ps,
                 nt,
             };
-            (axis, source)
+            Some(Recorded {
+                edges: RecordedEdges::uniform(&axis, format!("manifest {}", mpath.display())),
+                axis,
+            })
         } else if let Some(table) = probe.time_axis_ps.as_ref().filter(|t| t.len() >= 2) {
-            let source = format!(".img time table of {}", reference.display());
-            let edges = edges_from_starts(table);
             img_time_table_ps = Some(table.clone());
-            let spacing = (edges[nt] - edges[0]) / nt as f64;
-            let uniform = edges
-                .windows(2)
-                .all(|w| ((w[1] - w[0]) / spacing - 1.0).abs() <= UNIFORM_TABLE_TOLERANCE);
-            if uniform {
-                agree("dt_ps", options.dt_ps, spacing, &source)?;
-                agree("t0_ps", options.t0_ps, edges[0], &source)?;
-                let axis = TimeAxis {
-                    t0_ps: edges[0],
-                    dt_ps: spacing,
-                    nt,
-                };
-                (axis, source)
-            } else {
-                // A non-linear sweep recorded in the file: resample onto the uniform axis
-                // over the same interval (or the one given explicitly).
-                let axis = TimeAxis {
-                    t0_ps: options.t0_ps.unwrap_or(edges[0]),
-                    dt_ps: options.dt_ps.unwrap_or(spacing),
-                    nt,
-                };
-                table_sweep = Some(SweepCorrection {
-                    edges_ps: edges,
-                    source: source.clone(),
-                });
-                (axis, format!("{source} (non-linear: resampled)"))
-            }
-        } else if let (Some(dt_ps), Some(t0_ps)) = (options.dt_ps, options.t0_ps) {
-            (
-                TimeAxis { t0_ps, dt_ps, nt },
-                "given bin width and start".into(),
-            )
-        } else if options.sweep_table.is_none() {
-            return Err(IngestError::NoTimeAxis { input: describe });
+            let edges = RecordedEdges {
+                edges_ps: edges_from_starts(table),
+                source: format!(".img time table of {}", reference.display()),
+            };
+            Some(Recorded {
+                axis: edges.span_axis(),
+                edges,
+            })
         } else {
-            // Filled from the sweep table below.
-            (
-                TimeAxis {
-                    t0_ps: 0.0,
-                    dt_ps: 1.0,
-                    nt,
-                },
-                String::new(),
-            )
+            None
         };
-        let mut out_axis = out_axis;
-        let mut axis_source = axis_source;
-
-        let sweep = match &options.sweep_table {
+        let sweep_table = match &options.sweep_table {
             Some(path) => {
                 let edges_ps = read_sweep_table(path)?;
                 check_sweep_edges(&edges_ps, nt).map_err(|source| IngestError::Correction {
                     what: path.display().to_string(),
                     source,
                 })?;
-                if axis_source.is_empty() {
-                    out_axis = TimeAxis {
-                        t0_ps: options.t0_ps.unwrap_or(edges_ps[0]),
-                        dt_ps: options
-                            .dt_ps
-                            .unwrap_or((edges_ps[nt] - edges_ps[0]) / nt as f64),
-                        nt,
-                    };
-                    axis_source = format!("span of the sweep table {}", path.display());
-                }
-                Some(SweepCorrection {
+                Some(RecordedEdges {
                     edges_ps,
                     source: format!("table {}", path.display()),
                 })
             }
-            None => table_sweep,
+            None => None,
+        };
+        let request = AxisRequest {
+            dt_ps: options.dt_ps,
+            t0_ps: options.t0_ps,
+            resample: options.resample_time,
+        };
+        let resolved = time_axis::resolve(
+            recorded.as_ref(),
+            sweep_table.as_ref(),
+            &request,
+            nt,
+            &describe,
+        )?;
+        let out_axis = resolved.out_axis;
+        let axis_source = resolved.description;
+        let sweep = resolved.resample_from.map(|e| SweepCorrection {
+            edges_ps: e.edges_ps,
+            source: e.source,
+        });
+
+        let laser = match (&listed.manifest, options.laser_nm) {
+            (Some((m, mpath)), given) => {
+                let recorded = m.capture.laser_wavelength_nm;
+                if let Some(g) = given {
+                    if (g - recorded).abs() > LASER_AGREEMENT_TOLERANCE * recorded {
+                        return Err(IngestError::LaserConflict {
+                            given: g,
+                            manifest: mpath.clone(),
+                            recorded,
+                        });
+                    }
+                }
+                Some(LaserWavelength {
+                    nm: recorded,
+                    source: format!("manifest {}", mpath.display()),
+                })
+            }
+            (None, Some(nm)) => Some(LaserWavelength {
+                nm,
+                source: "given".into(),
+            }),
+            (None, None) => None,
         };
 
         let dark = match &options.dark {
@@ -656,13 +723,11 @@ impl IngestPlan {
             value_scale: value_scale as f32,
             pixel_type: probe.pixel_type,
             reference,
-            img_time_table_ps: if sweep.is_some() && options.sweep_table.is_some() {
-                None
-            } else {
-                img_time_table_ps
-            },
+            // A sweep table replaces the files' own tables, which then need not agree.
+            img_time_table_ps: img_time_table_ps.filter(|_| options.sweep_table.is_none()),
             out_axis,
             axis_source,
+            laser,
             dark,
             flat,
             power,
@@ -720,7 +785,16 @@ impl IngestPlan {
             None => {}
         }
         if let Some(s) = &self.sweep {
-            out.push(format!("sweep linearity resampling ({})", s.source));
+            let what = if time_axis::edges_are_uniform(&s.edges_ps) {
+                "time resampling"
+            } else {
+                "sweep linearity resampling"
+            };
+            let a = &self.out_axis;
+            out.push(format!(
+                "{what} ({} onto {} bins of {} ps from {} ps)",
+                s.source, a.nt, a.dt_ps, a.t0_ps
+            ));
         }
         if self.jitter.is_some() {
             out.push("jitter removal".into());
@@ -744,30 +818,6 @@ impl IngestPlan {
             RowSource::Stack { .. } => vec![None; self.ny],
         }
     }
-}
-
-/// Check an explicit axis value against the recorded one.
-fn agree(what: &str, given: Option<f64>, recorded: f64, source: &str) -> Result<(), IngestError> {
-    match given {
-        Some(g) if (g - recorded).abs() > AXIS_AGREEMENT_TOLERANCE * recorded.abs().max(1.0) => {
-            Err(IngestError::AxisConflict {
-                what: what.into(),
-                given: g,
-                source_name: source.into(),
-                recorded,
-            })
-        }
-        _ => Ok(()),
-    }
-}
-
-/// Bin edges from the start time of each bin (`n >= 2` increasing values): the starts, then
-/// the last start plus the last spacing.
-pub fn edges_from_starts(starts_ps: &[f64]) -> Vec<f64> {
-    let n = starts_ps.len();
-    let mut edges = starts_ps.to_vec();
-    edges.push(starts_ps[n - 1] + (starts_ps[n - 1] - starts_ps[n - 2]));
-    edges
 }
 
 /// Read a sweep calibration table: numbers separated by commas, blanks or new lines; `#`
@@ -1018,6 +1068,7 @@ fn list_rows(input: &InputSpec, options: &IngestOptions) -> Result<Listed, Inges
             }
             Ok(files_only(files, None))
         }
+        InputSpec::File(path) => Ok(files_only(vec![Some(path.clone())], None)),
         InputSpec::Stack { path, dataset } => {
             let (shape, values) = crate::container::read_image_stack(path, dataset)?;
             if shape.contains(&0) {
@@ -1117,8 +1168,33 @@ mod tests {
         ));
         assert!(matches!(
             InputSpec::classify("/no/such/thing.png", None, None),
+            Err(IngestError::NoSuchInput { .. })
+        ));
+        // One scanline file; a file of another kind; a folder without a manifest.
+        let dir = tempfile::tempdir().unwrap();
+        let img = dir.path().join("Scan.IMG");
+        std::fs::write(&img, b"").unwrap();
+        assert_eq!(
+            InputSpec::classify(img.to_str().unwrap(), None, None).unwrap(),
+            InputSpec::File(img.clone())
+        );
+        let txt = dir.path().join("notes.txt");
+        std::fs::write(&txt, b"").unwrap();
+        assert!(matches!(
+            InputSpec::classify(txt.to_str().unwrap(), None, None),
             Err(IngestError::NotAnInput { .. })
         ));
+        for name in ["a.png", "b.png", "c.exr"] {
+            std::fs::write(dir.path().join(name), b"").unwrap();
+        }
+        std::fs::create_dir(dir.path().join("sub.png")).unwrap();
+        match InputSpec::classify(dir.path().to_str().unwrap(), None, None) {
+            Err(IngestError::FolderWithoutManifest { found, .. }) => assert_eq!(
+                found,
+                [("png".into(), 2), ("exr".into(), 1), ("img".into(), 1)]
+            ),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
