@@ -62,9 +62,20 @@ pub struct IngestArgs {
     /// Sweep calibration: text/CSV of nt+1 true bin-edge times, ps.
     #[arg(long)]
     pub sweep_table: Option<PathBuf>,
-    /// Estimate and remove per-scanline trigger jitter.
+    /// Leave out the corrections a capture's manifest records and ingest applies by default:
+    /// its dark frame and flat field ([files] dark, flat) and its sweep bin times
+    /// ([imperfections.sweep]). --dark, --flat or --sweep-table replace one of them.
     #[arg(long)]
+    pub no_manifest_corrections: bool,
+    /// Estimate and remove per-scanline trigger jitter (the default: every scanline is a
+    /// separate sweep with its own trigger; on a realistic capture with 2 ps rms of jitter it
+    /// leaves about 1 ps rms, 2 ps at most; the slow part of the jitter cannot be told from the
+    /// scene's tilt and stays). Costs a second pass over the scanlines.
+    #[arg(long, overrides_with = "no_jitter")]
     pub jitter: bool,
+    /// Keep the scanlines' trigger jitter (one pass; for captures without jitter).
+    #[arg(long)]
+    pub no_jitter: bool,
     /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
     /// that sees a fixed part of the scene in every scanline, or 'auto' (each pixel's
     /// integral against the same pixel in the neighbouring scanlines).
@@ -150,13 +161,14 @@ fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
         dark,
         flat: args.flat.clone(),
         sweep_table: args.sweep_table.clone(),
-        jitter: args.jitter,
+        jitter: !args.no_jitter,
         power_ref: args.power_ref,
         saturation,
         allow_missing: args.allow_missing,
         value_scale: args.value_scale,
         resample_time: args.resample_time,
         laser_nm: args.laser_nm,
+        ignore_manifest_corrections: args.no_manifest_corrections,
     })
 }
 

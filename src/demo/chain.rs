@@ -41,14 +41,10 @@ use crate::calibrate::{
 };
 use crate::camera::Calibration;
 use crate::container::{read_cube, Provenance};
-use crate::formats::read_streak;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::load::load_mesh;
 use crate::ingest::assemble::ingest;
-use crate::ingest::plan::{
-    DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
-};
-use crate::manifest::Manifest;
+use crate::ingest::plan::{IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput};
 use crate::pipeline::calibrate::{calibrate_cube, write_calibration, CalibrateOptions, Calibrated};
 use crate::pipeline::pyramid::{pyramid_file, PyramidOptions};
 use crate::pipeline::render::{open_render_inputs, RenderInputs};
@@ -274,19 +270,15 @@ pub(crate) fn run_chain(
 
     // 2. Ingest.
     let cube_path = data_dir.join(CUBE_FILE);
-    let sweep_path = data_dir.join(SWEEP_TABLE_FILE);
     stages.run(
         &format!("{label}ingest"),
         if INGEST_JITTER {
-            "dark frame, flat field, sweep table, jitter, laser power, saturation"
+            "the manifest's dark frame, flat field and sweep bin times; jitter, laser power, saturation"
         } else {
-            "dark frame, flat field, sweep table, laser power, saturation (jitter left in)"
+            "the manifest's dark frame, flat field and sweep bin times; laser power, saturation (jitter left in)"
         },
-        || ingest_capture(&capture_dir, &cube_path, &sweep_path),
+        || ingest_capture(&capture_dir, &cube_path),
     )?;
-    if sweep_path.exists() {
-        files.push(sweep_path.clone());
-    }
     files.push(cube_path.clone());
 
     // 3. Calibrate: the calibrate stage, as `femto calibrate` runs it, on the markers
@@ -389,7 +381,6 @@ pub(crate) fn run_chain(
         &ChainFiles {
             capture: &capture_dir,
             cube: &cube_path,
-            sweep: &sweep_path,
             points: &points_path,
             calibration: &calib_path,
             world: &world_path,
@@ -487,7 +478,6 @@ fn calibration_errors(
 struct ChainFiles<'a> {
     capture: &'a Path,
     cube: &'a Path,
-    sweep: &'a Path,
     points: &'a Path,
     calibration: &'a Path,
     world: &'a Path,
@@ -509,25 +499,12 @@ fn commands(
         .and_then(Path::parent)
         .unwrap_or(data_dir);
     let rel = |p: &Path| super::relative(base, p);
-    let mut ingest = format!("femto ingest {} -o {}", rel(f.capture), rel(f.cube));
-    if let Ok(manifest) = Manifest::load(&f.capture.join(crate::simulate::capture::MANIFEST_FILE)) {
-        if let Some(level) = dark_level(f.capture, &manifest) {
-            ingest.push_str(&format!(" --dark {level}"));
-        }
-        if let Some(flat) = &manifest.files.flat {
-            ingest.push_str(&format!(" --flat {}", rel(&f.capture.join(flat))));
-        }
-        if manifest.imperfections.sweep.is_some() {
-            ingest.push_str(&format!(" --sweep-table {}", rel(f.sweep)));
-        }
-    }
-    if INGEST_JITTER {
-        ingest.push_str(" --jitter");
-    }
-    if INGEST_POWER_AUTO {
-        ingest.push_str(" --power-ref auto");
-    }
-    ingest.push_str(" --saturation auto");
+    let ingest = format!(
+        "femto ingest {} -o {}{}",
+        rel(f.capture),
+        rel(f.cube),
+        ingest_flags()
+    );
     let mut calibrate = format!(
         "femto calibrate {} --mesh {} --points {} --laser={},{},{} --out {}",
         rel(f.cube),
@@ -552,21 +529,9 @@ fn commands(
     ]
 }
 
-/// The mean of the capture's dark frame, the constant dark level the demo subtracts.
-fn dark_level(capture_dir: &Path, manifest: &Manifest) -> Option<f64> {
-    let dark = manifest.files.dark.as_ref()?;
-    let frame = read_streak(&capture_dir.join(dark), false).ok()?;
-    Some(frame.data.iter().map(|&v| v as f64).sum::<f64>() / frame.data.len() as f64)
-}
-
 fn provenance(content: &str) -> Provenance {
     Provenance::new("femto demo").with_note("content", content)
 }
-
-/// The lab's sweep calibration of a simulated capture: the true bin edges the simulator
-/// records in its manifest (`[imperfections.sweep] bin_times_ps`), written as a table for
-/// ingest (one edge per line, ps).
-pub const SWEEP_TABLE_FILE: &str = "sweep_table.txt";
 
 /// Whether ingest estimates and removes trigger jitter (the per-pixel row-offset estimator of
 /// [`crate::ingest::row_offsets`]: on the cube scene at 64 x 48 it leaves about 1 ps rms of a
@@ -575,34 +540,17 @@ pub const INGEST_JITTER: bool = true;
 /// Whether ingest normalises the laser power automatically (`femto ingest --power-ref auto`).
 pub const INGEST_POWER_AUTO: bool = true;
 
-/// Assemble the capture folder into `cube_path` (camera time) with the corrections of the
-/// module doc, compressed as `femto ingest` compresses by default.
-fn ingest_capture(
-    capture_dir: &Path,
-    cube_path: &Path,
-    sweep_path: &Path,
-) -> Result<(), DemoError> {
+/// Assemble the capture folder into `cube_path` (camera time) as `femto ingest` does with
+/// the flags of [`ingest_flags`]: the manifest's own corrections (dark frame, flat field,
+/// sweep bin times) by default, plus jitter, laser power and saturation.
+fn ingest_capture(capture_dir: &Path, cube_path: &Path) -> Result<(), DemoError> {
     let manifest_path = capture_dir.join(crate::simulate::capture::MANIFEST_FILE);
-    let manifest = Manifest::load(&manifest_path)?;
-    let mut options = IngestOptions {
+    let options = IngestOptions {
         jitter: INGEST_JITTER,
         power_ref: INGEST_POWER_AUTO.then_some(PowerRef::Auto),
         saturation: Some(SaturationInput::Auto),
         ..IngestOptions::default()
     };
-    options.dark = dark_level(capture_dir, &manifest).map(DarkInput::Level);
-    if let Some(flat) = &manifest.files.flat {
-        options.flat = Some(capture_dir.join(flat));
-    }
-    if let Some(sweep) = &manifest.imperfections.sweep {
-        let mut table =
-            String::from("# true bin edges of the recorded rows, ps (from the manifest)\n");
-        for e in &sweep.bin_times_ps {
-            table.push_str(&format!("{e}\n"));
-        }
-        super::write_file(sweep_path, table.as_bytes())?;
-        options.sweep_table = Some(sweep_path.to_path_buf());
-    }
     let plan = IngestPlan::resolve(&InputSpec::Manifest(manifest_path), &options)?;
     ingest(
         &plan,
@@ -612,4 +560,17 @@ fn ingest_capture(
         &|_, _| {},
     )?;
     Ok(())
+}
+
+/// The `femto ingest` flags that give [`ingest_capture`]'s options.
+fn ingest_flags() -> String {
+    let mut flags = String::new();
+    if INGEST_JITTER {
+        flags.push_str(" --jitter");
+    }
+    if INGEST_POWER_AUTO {
+        flags.push_str(" --power-ref auto");
+    }
+    flags.push_str(" --saturation auto");
+    flags
 }

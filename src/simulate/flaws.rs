@@ -178,6 +178,9 @@ fn normal(rng: &mut Pcg64Mcg) -> f64 {
     rng.sample::<f64, _>(StandardNormal)
 }
 
+/// Dark frames averaged into the dark frame a simulated capture comes with.
+pub const DARK_FRAMES_AVERAGED: usize = 64;
+
 /// The imperfections resolved for one capture: absolute levels, and the random per-scanline
 /// values already drawn. Built once by [`CaptureModel::new`]; applying it cannot fail.
 #[derive(Clone, Debug, PartialEq)]
@@ -372,10 +375,13 @@ impl CaptureModel {
             .collect()
     }
 
-    /// A dark frame in counts, `[t][x]` (`nt * nx`): the dark signal with no light,
-    /// quantised like a scanline. `None` when the dark signal is off.
+    /// A dark frame in counts, `[t][x]` (`nt * nx`): the dark signal with no light, as a lab
+    /// records it, the average of [`DARK_FRAMES_AVERAGED`] frames (noise `sigma / 8`: a single
+    /// frame's noise, subtracted from every scanline, would add to theirs), quantised like a
+    /// scanline. `None` when the dark signal is off.
     pub fn dark_frame_counts(&self) -> Option<Vec<f32>> {
         let (offset, sigma) = self.dark?;
+        let sigma = sigma / (DARK_FRAMES_AVERAGED as f64).sqrt();
         let mut rng = stream(self.seed, Purpose::DarkFrame, 0);
         Some(
             (0..self.axis.nt * self.nx)
