@@ -565,8 +565,8 @@ fn ingest_capture(capture_dir: &Path, cube_path: &Path) -> Result<(), DemoError>
 /// The `femto ingest` flags that give [`ingest_capture`]'s options.
 fn ingest_flags() -> String {
     let mut flags = String::new();
-    if INGEST_JITTER {
-        flags.push_str(" --jitter");
+    if !INGEST_JITTER {
+        flags.push_str(" --no-jitter");
     }
     if INGEST_POWER_AUTO {
         flags.push_str(" --power-ref auto");
