@@ -282,9 +282,14 @@ fn femto(args: &[&str]) -> Output {
         .expect("run femto")
 }
 
+/// `femto ingest ARGS`, required to succeed. These tests check one correction at a time, so
+/// jitter removal (on by default) is off unless the test asks for it with `--jitter`.
 fn ingest_ok(args: &[&str]) -> String {
     let mut all = vec!["ingest"];
     all.extend_from_slice(args);
+    if !args.contains(&"--jitter") {
+        all.push("--no-jitter");
+    }
     let out = femto(&all);
     assert!(
         out.status.success(),
@@ -292,6 +297,13 @@ fn ingest_ok(args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `femto ingest ARGS` with no correction at all: not even those a manifest records.
+fn ingest_raw(args: &[&str]) -> String {
+    let mut all = args.to_vec();
+    all.push("--no-manifest-corrections");
+    ingest_ok(&all)
 }
 
 fn s(p: &Path) -> &str {
@@ -578,7 +590,7 @@ fn dark_constant_and_dark_frame_are_subtracted() {
     let out = dir.path().join("cube.h5");
     let uncorrected = dir.path().join("raw.h5");
     ingest_ok(&[s(dir.path()), "-o", s(&out), "--dark", "12.5"]);
-    ingest_ok(&[s(dir.path()), "-o", s(&uncorrected)]);
+    ingest_raw(&[s(dir.path()), "-o", s(&uncorrected)]);
     let got = container::read_cube(&out).unwrap();
     let raw = container::read_cube(&uncorrected).unwrap();
     // f32 rounding of (v + 12.5) - 12.5: a few ulps of 12.5 at most.
@@ -715,7 +727,7 @@ fn sweep_linearity_from_a_calibration_table_and_from_the_img_time_table() {
     let out = dir.path().join("cube.h5");
     let raw = dir.path().join("raw.h5");
     ingest_ok(&[s(dir.path()), "-o", s(&out), "--sweep-table", s(&table)]);
-    ingest_ok(&[s(dir.path()), "-o", s(&raw)]);
+    ingest_raw(&[s(dir.path()), "-o", s(&raw)]);
     let got = container::read_cube(&out).unwrap();
     assert_eq!(got.axis, AXIS);
     check_sweep(&got, "sweep table", 1e-5);
@@ -1142,7 +1154,7 @@ fn every_flaw_with_every_correction_returns_the_truth_within_noise() {
 
     // The same capture without corrections is far off: the test can fail.
     let raw = dir.path().join("raw.h5");
-    ingest_ok(&[s(dir.path()), "-o", s(&raw)]);
+    ingest_raw(&[s(dir.path()), "-o", s(&raw)]);
     let raw = container::read_cube(&raw).unwrap();
     let mut raw_sq = 0.0;
     for y in 0..ny {
@@ -1487,7 +1499,7 @@ fn cube_scene_with_every_flaw_comes_back_as_the_truth() {
     eprintln!("{stdout}");
     let got = container::read_cube(&out).unwrap();
     let raw_path = dir.path().join("raw.h5");
-    ingest_ok(&[s(&cap), "-o", s(&raw_path)]);
+    ingest_raw(&[s(&cap), "-o", s(&raw_path)]);
     let raw = container::read_cube(&raw_path).unwrap();
     assert_eq!((got.nx, got.ny, got.axis.nt), (nx, ny, axis.nt));
     let mask = got.mask.clone().unwrap();

@@ -542,8 +542,10 @@ fn each_flaw_changes_the_capture_as_documented_and_is_recorded() {
     assert_eq!((frame.nx, frame.nt), (nx, nt));
     let fv: Vec<f64> = frame.data.iter().map(|&v| v as f64).collect();
     let (mean, sd) = stats(&fv);
-    assert!((mean - d.offset).abs() < 5.0 * d.sigma / (fv.len() as f64).sqrt());
-    assert!((sd / d.sigma - 1.0).abs() < 0.1, "{sd} vs {}", d.sigma);
+    // The dark frame is the average of DARK_FRAMES_AVERAGED frames, as a lab records it.
+    let sd_frame = d.sigma / (femto::simulate::flaws::DARK_FRAMES_AVERAGED as f64).sqrt();
+    assert!((mean - d.offset).abs() < 5.0 * sd_frame / (fv.len() as f64).sqrt());
+    assert!((sd / sd_frame - 1.0).abs() < 0.1, "{sd} vs {sd_frame}");
 
     // Photon noise: Poisson counts of k photons per unit, k = N / clean maximum.
     let (m, s, _) = run("photon", &["--photon-noise", "20000"]);

@@ -137,24 +137,37 @@ pub fn open_render_inputs(
     mesh_path: &Path,
     laser_nm: Option<f64>,
 ) -> Result<RenderInputs, StageError> {
-    let calibration = Calibration::load(calibration_path)?;
-    let mesh = load_mesh(mesh_path)?;
+    // Errors name the flag that gave the file (the file's own messages name the file).
+    let flagged = |name: &'static str| {
+        move |e: StageError| StageError::Option {
+            name,
+            message: e.to_string(),
+        }
+    };
+    let calibration = Calibration::load(calibration_path)
+        .map_err(StageError::from)
+        .map_err(flagged("calibration"))?;
+    let mesh = load_mesh(mesh_path)
+        .map_err(StageError::from)
+        .map_err(flagged("mesh"))?;
     if mesh.triangles.is_empty() {
-        return Err(StageError::Input {
+        return Err(flagged("mesh")(StageError::Input {
             path: mesh_path.display().to_string(),
             message: "the mesh has no triangles".into(),
-        });
+        }));
     }
     let bvh = Bvh::new(mesh);
-    let meta = container::read_meta(cube_path)?;
+    let meta = container::read_meta(cube_path)
+        .map_err(StageError::from)
+        .map_err(flagged("cube"))?;
     if meta.frame != TimeFrame::World {
-        return Err(StageError::Input {
+        return Err(flagged("cube")(StageError::Input {
             path: cube_path.display().to_string(),
             message: format!(
                 "the cube is in {} time; the renderer needs a world-time cube (unwarp it first)",
                 meta.frame
             ),
-        });
+        }));
     }
     let laser = laser_wavelength(laser_nm, &meta, cube_path)?;
     let mut notes = Vec::new();
@@ -348,7 +361,10 @@ pub fn plan(
     check_options(options)?;
     let (path, default_offset_ps) = match camera {
         Camera::PathFile(p) => {
-            let loaded = CameraPath::load(p)?;
+            let loaded = CameraPath::load(p).map_err(|e| StageError::Option {
+                name: "path",
+                message: e.to_string(),
+            })?;
             let spec = loaded.spec();
             let (width, height) = options.size.unwrap_or((spec.width, spec.height));
             let spec = FrameSpec {
@@ -405,7 +421,15 @@ pub fn plan(
             ),
         });
     }
-    check_path_clear(scene.bvh, &path)?;
+    check_path_clear(scene.bvh, &path).map_err(|e| {
+        let (name, value) = camera_flag(camera);
+        let message = if value.is_empty() {
+            e.to_string()
+        } else {
+            format!("{value}: {e}")
+        };
+        StageError::Option { name, message }
+    })?;
     let frames = options.frames.clone().unwrap_or(0..spec.frames);
     check_frames(&path, &frames).map_err(|e| StageError::Option {
         name: "frames",
@@ -430,6 +454,16 @@ pub fn plan(
         settings,
         frames,
     })
+}
+
+/// The flag that chose `camera`, without dashes, and its value.
+fn camera_flag(camera: &Camera) -> (&'static str, String) {
+    match camera {
+        Camera::PathFile(p) => ("path", p.display().to_string()),
+        Camera::Shortcut(Shortcut::Dolly { beta }) => ("dolly", beta.to_string()),
+        Camera::Shortcut(Shortcut::Orbit { beta }) => ("orbit", beta.to_string()),
+        Camera::Shortcut(Shortcut::CaptureView) => ("capture-view", String::new()),
+    }
 }
 
 /// Whether a rendered frame holds no light at all.
