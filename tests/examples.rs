@@ -86,7 +86,12 @@ fn every_example_points_file_loads_and_each_toml_matches_its_csv() {
     for file in toml.iter().chain(csv.iter()) {
         let points = load_points(file).unwrap_or_else(|e| panic!("{e}"));
         // Enough for a fit of unknown intrinsics.
-        assert!(points.len() >= 6, "{}: {} points", file.display(), points.len());
+        assert!(
+            points.len() >= 6,
+            "{}: {} points",
+            file.display(),
+            points.len()
+        );
     }
     for t in &toml {
         let c = t.with_extension("csv");
@@ -317,7 +322,10 @@ fn walkthrough_practice_run_runs_as_written() {
         "pyramid",
         "render",
     ] {
-        assert!(verbs.iter().any(|v| v == verb), "no femto {verb} in {verbs:?}");
+        assert!(
+            verbs.iter().any(|v| v == verb),
+            "no femto {verb} in {verbs:?}"
+        );
     }
     let dolly_path = commands
         .iter()
@@ -329,7 +337,10 @@ fn walkthrough_practice_run_runs_as_written() {
     let examples = repo().join("examples");
     for line in &commands {
         let mut args = shell_words(line);
-        assert_eq!(args[0], "femto", "a sh block line that is not a femto command: {line}");
+        assert_eq!(
+            args[0], "femto",
+            "a sh block line that is not a femto command: {line}"
+        );
         args.remove(0);
         for a in args.iter_mut() {
             if let Some(rest) = a.strip_prefix("examples/") {
@@ -353,8 +364,8 @@ fn walkthrough_practice_run_runs_as_written() {
         if args[0] == "ingest" {
             // The --value-scale the walkthrough gives is the capture's own (its manifest's
             // png_value_per_count), so that the dark frame's signal values match.
-            let manifest = std::fs::read_to_string(dir.path().join("out/capture/manifest.toml"))
-                .unwrap();
+            let manifest =
+                std::fs::read_to_string(dir.path().join("out/capture/manifest.toml")).unwrap();
             let scale: f64 = manifest
                 .lines()
                 .find_map(|l| l.strip_prefix("png_value_per_count = "))
@@ -384,7 +395,10 @@ fn walkthrough_practice_run_runs_as_written() {
     // "the fit lands within 1 ps of" the truth, t0 = 0.
     let fit = Calibration::load(&out.join("cube.calibration.toml")).unwrap();
     let truth = Calibration::load(&out.join("capture/calibration.toml")).unwrap();
-    println!("walkthrough: t0 {:+.3} ps (truth {})", fit.t0_ps, truth.t0_ps);
+    println!(
+        "walkthrough: t0 {:+.3} ps (truth {})",
+        fit.t0_ps, truth.t0_ps
+    );
     assert!((fit.t0_ps - truth.t0_ps).abs() < 1.0, "{}", fit.t0_ps);
 }
 
@@ -436,16 +450,26 @@ fn the_format_pages_examples_parse() {
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(path.rotation().is_some() && path.spec().frames > 0);
     let points = doc("correspondences.md");
-    let from_toml =
-        femto::calibrate::points::parse_points_toml(&first_block(&points, "toml"), "correspondences.md")
-            .unwrap_or_else(|e| panic!("{e}"));
-    let from_csv =
-        femto::calibrate::points::parse_points_csv(&first_block(&points, "csv"), "correspondences.md")
-            .unwrap_or_else(|e| panic!("{e}"));
+    let from_toml = femto::calibrate::points::parse_points_toml(
+        &first_block(&points, "toml"),
+        "correspondences.md",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let from_csv = femto::calibrate::points::parse_points_csv(
+        &first_block(&points, "csv"),
+        "correspondences.md",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(from_toml.len(), 2);
     // The CSV block shows the same two points, named.
     assert_eq!(
-        from_csv.iter().map(|p| (p.pixel, p.point_m)).collect::<Vec<_>>(),
-        from_toml.iter().map(|p| (p.pixel, p.point_m)).collect::<Vec<_>>()
+        from_csv
+            .iter()
+            .map(|p| (p.pixel, p.point_m))
+            .collect::<Vec<_>>(),
+        from_toml
+            .iter()
+            .map(|p| (p.pixel, p.point_m))
+            .collect::<Vec<_>>()
     );
 }
