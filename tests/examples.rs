@@ -361,6 +361,10 @@ fn walkthrough_practice_run_runs_as_written() {
             run.stdout,
             run.stderr
         );
+        if args[0] == "render" {
+            // The wavelength given to ingest reaches the renderer through the cube.
+            assert!(run.stderr.contains("795 nm"), "{line}: {}", run.stderr);
+        }
         if args[0] == "ingest" {
             // The --value-scale the walkthrough gives is the capture's own (its manifest's
             // png_value_per_count), so that the dark frame's signal values match.
