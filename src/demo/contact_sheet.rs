@@ -312,7 +312,9 @@ mod tests {
         assert_eq!(ink_rows, (5 + 10) * sc * sc, "nothing else is drawn");
         // Both lines centred on the tile (within a pixel).
         for (y, w) in [(bar1, 5 * sc), (bar2, 11 * sc)] {
-            let xmin = (0..two.width).find(|&x| px(&two, x, y) == style.ink).unwrap();
+            let xmin = (0..two.width)
+                .find(|&x| px(&two, x, y) == style.ink)
+                .unwrap();
             let left = xmin - style.gap_px;
             let right = 60 - left - w;
             assert!(left.abs_diff(right) <= 1, "{left} {right}");

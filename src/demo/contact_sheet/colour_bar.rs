@@ -105,9 +105,7 @@ pub fn colour_bar(
 ) -> ColourBar {
     let s = style.label_scale;
     let height = strip_height(style);
-    let mut rgb8: Vec<u8> = (0..width * height)
-        .flat_map(|_| style.background)
-        .collect();
+    let mut rgb8: Vec<u8> = (0..width * height).flat_map(|_| style.background).collect();
     let unit_w = text_width(range.unit, s);
     let unit_x = width.saturating_sub(SIDE * s + unit_w);
     let bx0 = SIDE * s;
@@ -149,7 +147,11 @@ pub fn colour_bar(
             }
             // 1, 2, 5, 10, 20, 50, ...
             let mantissa = k / 10f64.powf(k.log10().floor());
-            k *= if (mantissa - 2.0).abs() < 1e-9 { 2.5 } else { 2.0 };
+            k *= if (mantissa - 2.0).abs() < 1e-9 {
+                2.5
+            } else {
+                2.0
+            };
         }
     }
     if ticks.is_empty() {
@@ -236,7 +238,11 @@ mod tests {
         for t in &bar.ticks {
             let want = ramp(t.value)[0] as i32;
             let got = px(&bar.strip, t.x, y)[0] as i32;
-            assert!((got - want).abs() <= 1, "{}: red {got}, want {want}", t.value);
+            assert!(
+                (got - want).abs() <= 1,
+                "{}: red {got}, want {want}",
+                t.value
+            );
             assert_eq!(px(&bar.strip, t.x, bar.bar_y.1 + 1), style.ink);
         }
         // The bar's ends show the ends of the range.
@@ -259,13 +265,23 @@ mod tests {
         };
         let bar = colour_bar(160, &range, ramp, &style);
         assert!(bar.ticks.len() >= 2, "{:?}", bar.ticks);
-        assert!(bar.ticks.iter().all(|t| t.label.starts_with(['0', '1'])
-            && t.label.contains('.')));
+        assert!(bar
+            .ticks
+            .iter()
+            .all(|t| t.label.starts_with(['0', '1']) && t.label.contains('.')));
         // Redraw each label and the unit on a blank strip; the ink below the tick marks is
         // exactly that.
         let mut want = vec![0u8; 3 * 160 * bar.strip.height];
         for t in &bar.ticks {
-            draw_text(&mut want, 160, t.label_x, bar.label_y, &t.label, 1, [1, 1, 1]);
+            draw_text(
+                &mut want,
+                160,
+                t.label_x,
+                bar.label_y,
+                &t.label,
+                1,
+                [1, 1, 1],
+            );
         }
         draw_text(&mut want, 160, bar.unit_x, bar.label_y, "ps", 1, [1, 1, 1]);
         for y in bar.label_y..bar.strip.height {

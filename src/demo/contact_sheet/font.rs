@@ -186,7 +186,11 @@ mod tests {
                 for (k, b) in row.bytes().enumerate() {
                     let sep = k % (GLYPH_W + 1) == GLYPH_W;
                     assert!(
-                        if sep { b == b' ' } else { b == b'#' || b == b'.' },
+                        if sep {
+                            b == b' '
+                        } else {
+                            b == b'#' || b == b'.'
+                        },
                         "sheet {chars:?}: {row}"
                     );
                 }
@@ -220,8 +224,16 @@ mod tests {
         // Capitals and digits: from the cap height to the baseline, nothing below.
         for c in ('A'..='Z').chain('0'..='9') {
             let rows = inked_rows(c);
-            assert_eq!(rows.first(), Some(&CAP_ROW), "{c} does not reach the cap height");
-            assert_eq!(rows.last(), Some(&BASELINE_ROW), "{c} does not stand on the line");
+            assert_eq!(
+                rows.first(),
+                Some(&CAP_ROW),
+                "{c} does not reach the cap height"
+            );
+            assert_eq!(
+                rows.last(),
+                Some(&BASELINE_ROW),
+                "{c} does not stand on the line"
+            );
         }
         // Lower case: ascenders reach the top, short letters start at the x-height,
         // descenders go below the line and nothing else does (the first font's 'g' was as
