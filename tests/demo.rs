@@ -99,9 +99,10 @@ fn quick_demo_writes_every_figure_with_calibration_in_tolerance() {
     );
 
     // No image is black or saturated. Some frames are mostly black by physics (fig. 8's
-    // sensor edge at beta 0.99 looks past the scene), so "black" means nothing visible: the
-    // brightest channel must reach mid-grey and at least 10 pixels be visibly lit;
-    // "saturated" means more than 1 % of the pixels clipped to white.
+    // sensor edge at beta 0.99 looks past the scene, around the crop that shows its centre),
+    // so "black" means nothing visible: the brightest channel must reach mid-grey and at
+    // least 10 pixels be visibly lit; "saturated" means more than 1 % of the pixels clipped
+    // to white. Panel by panel, [`no_panel_shows_nothing`] asks more of the sheets.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for f in EXPECTED.iter().filter(|f| f.ends_with(".png")) {
         let e = exposure(&out.join(f));
