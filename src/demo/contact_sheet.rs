@@ -1,10 +1,16 @@
 //! Contact sheets: frames of one row of a figure side by side, each above a small label strip
-//! (e.g. `beta=0.6`), as one 8-bit sRGB image.
+//! (e.g. `beta=0.6`, one or more lines), as one 8-bit sRGB image; and colour bars with tick
+//! labels under false-colour images ([`colour_bar`]).
 //!
 //! The seed's Fig. 5 shows each effect as a row of frames at increasing speed; the demo writes
-//! each row as one PNG made here. Labels are drawn with a built-in 5 x 7 pixel font (digits,
-//! lower-case letters, a few signs; upper case is drawn as lower case, anything else as a
-//! hollow box), so no font file or crate is needed. Pure image assembly: no I/O.
+//! each row as one PNG made here. Labels are drawn with a built-in bitmap font ([`font`]:
+//! printable ASCII and the degree sign, with descenders), so no font file or crate is
+//! needed. Pure image assembly: no I/O.
+
+pub mod colour_bar;
+pub mod font;
+
+pub use font::{glyph, GLYPH_H, GLYPH_W};
 
 /// One frame of a sheet: `width x height` pixels of 8-bit sRGB, row-major from the top row,
 /// RGB interleaved (`3 * width * height` bytes), and the text of its label.
@@ -48,81 +54,29 @@ pub struct Sheet {
     pub rgb8: Vec<u8>,
 }
 
-/// Width and height of one font glyph, font pixels.
-pub const GLYPH_W: usize = 5;
-pub const GLYPH_H: usize = 7;
-/// Font pixels between two glyphs.
+/// Font pixels between two glyphs of a line.
 pub const GLYPH_SPACING: usize = 1;
+/// Font pixels between two lines of a label.
+pub const LINE_SPACING: usize = 1;
+/// Font pixels of background above a label's first line and below its last line's cell.
+const LABEL_MARGIN_TOP: usize = 2;
+const LABEL_MARGIN_BOTTOM: usize = 1;
 
-/// Height of the label strip under each tile, pixels: the glyph height and a margin of two
-/// font pixels above and below.
-pub fn label_strip_height(style: &SheetStyle) -> usize {
-    (GLYPH_H + 4) * style.label_scale
+/// Height of a label strip holding `lines` lines of text (at least one), pixels: the glyph
+/// cells (descenders included), the spacing between lines and the margins.
+pub fn label_strip_height(style: &SheetStyle, lines: usize) -> usize {
+    let n = lines.max(1);
+    (LABEL_MARGIN_TOP + n * GLYPH_H + (n - 1) * LINE_SPACING + LABEL_MARGIN_BOTTOM)
+        * style.label_scale
 }
 
-/// Width of `text` drawn at `scale`, pixels.
+/// Width of one line of `text` drawn at `scale`, pixels.
 pub fn text_width(text: &str, scale: usize) -> usize {
     let n = text.chars().count();
     if n == 0 {
         0
     } else {
         (n * (GLYPH_W + GLYPH_SPACING) - GLYPH_SPACING) * scale
-    }
-}
-
-/// The rows of a glyph, 5 bits each, most significant bit on the left.
-pub fn glyph(c: char) -> [u8; GLYPH_H] {
-    match c.to_ascii_lowercase() {
-        '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
-        '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
-        '3' => [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
-        '4' => [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
-        '5' => [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
-        '6' => [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
-        '7' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
-        '8' => [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
-        '9' => [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
-        ' ' => [0; GLYPH_H],
-        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C],
-        ',' => [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08],
-        ':' => [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00],
-        '-' => [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00],
-        '+' => [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00],
-        '=' => [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00],
-        '/' => [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00],
-        '%' => [0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03],
-        '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
-        ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
-        '_' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F],
-        'a' => [0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F],
-        'b' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E],
-        'c' => [0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E],
-        'd' => [0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F],
-        'e' => [0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E],
-        'f' => [0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08],
-        'g' => [0x00, 0x0F, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'h' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'i' => [0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E],
-        'j' => [0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C],
-        'k' => [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12],
-        'l' => [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        'm' => [0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11],
-        'n' => [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'o' => [0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E],
-        'p' => [0x00, 0x00, 0x1E, 0x11, 0x1E, 0x10, 0x10],
-        'q' => [0x00, 0x00, 0x0D, 0x13, 0x0F, 0x01, 0x01],
-        'r' => [0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10],
-        's' => [0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E],
-        't' => [0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06],
-        'u' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D],
-        'v' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04],
-        'w' => [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A],
-        'x' => [0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11],
-        'y' => [0x00, 0x00, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'z' => [0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F],
-        // Unknown characters: a hollow box, so a missing glyph is visible, not silent.
-        _ => [0x1F, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1F],
     }
 }
 
@@ -163,13 +117,38 @@ pub fn draw_text(
     }
 }
 
-/// Lay `tiles` out left to right, each above its label strip (label centred, clipped to the
-/// tile's width), with `style.gap_px` between tiles and around the sheet. Tiles may differ
-/// in size; they are aligned at the top. Panics if a tile's buffer is not
-/// `3 * width * height` bytes (a caller bug).
+/// Draw the lines of `text` (split at `\n`) into an RGB8 image of `img_width` pixels per
+/// row, each line centred on the column `centre_x` (clipped at the image's left edge), the
+/// first line's top at `y0`, [`LINE_SPACING`] font pixels between lines.
+pub fn draw_lines_centred(
+    img: &mut [u8],
+    img_width: usize,
+    centre_x: usize,
+    y0: usize,
+    text: &str,
+    scale: usize,
+    ink: [u8; 3],
+) {
+    for (k, line) in text.lines().enumerate() {
+        let x = centre_x.saturating_sub(text_width(line, scale) / 2);
+        let y = y0 + k * (GLYPH_H + LINE_SPACING) * scale;
+        draw_text(img, img_width, x, y, line, scale, ink);
+    }
+}
+
+/// Lay `tiles` out left to right, each above its label strip (each line of the label centred,
+/// clipped to the tile's width), with `style.gap_px` between tiles and around the sheet. The
+/// strips are as high as the label with the most lines. Tiles may differ in size; they are
+/// aligned at the top. Panics if a tile's buffer is not `3 * width * height` bytes (a caller
+/// bug).
 pub fn contact_sheet(tiles: &[Tile<'_>], style: &SheetStyle) -> Sheet {
     let gap = style.gap_px;
-    let strip = label_strip_height(style);
+    let lines = tiles
+        .iter()
+        .map(|t| t.label.lines().count())
+        .max()
+        .unwrap_or(1);
+    let strip = label_strip_height(style, lines);
     let tile_h = tiles.iter().map(|t| t.height).max().unwrap_or(0);
     let width = gap + tiles.iter().map(|t| t.width + gap).sum::<usize>();
     let height = 2 * gap + tile_h + strip;
@@ -189,19 +168,16 @@ pub fn contact_sheet(tiles: &[Tile<'_>], style: &SheetStyle) -> Sheet {
             let d = 3 * ((gap + y) * width + x0);
             rgb8[d..d + 3 * t.width].copy_from_slice(src);
         }
-        // Label centred under the tile, clipped to the tile's columns.
-        let text_w = text_width(t.label, style.label_scale);
-        let lx = x0 + t.width.saturating_sub(text_w) / 2;
-        let ly = gap + tile_h + 2 * style.label_scale;
+        // The label, drawn into a strip as wide as the tile so that it is clipped there.
         let mut label_img = vec![0u8; 3 * t.width * strip];
         for px in label_img.chunks_exact_mut(3) {
             px.copy_from_slice(&style.background);
         }
-        draw_text(
+        draw_lines_centred(
             &mut label_img,
             t.width,
-            lx - x0,
-            ly - (gap + tile_h),
+            t.width / 2,
+            LABEL_MARGIN_TOP * style.label_scale,
             t.label,
             style.label_scale,
             style.ink,
@@ -254,7 +230,7 @@ mod tests {
         let s = contact_sheet(&tiles, &style);
         let g = style.gap_px;
         assert_eq!(s.width, g + 10 + g + 7 + g);
-        assert_eq!(s.height, g + 6 + label_strip_height(&style) + g);
+        assert_eq!(s.height, g + 6 + label_strip_height(&style, 1) + g);
         assert_eq!(s.rgb8.len(), 3 * s.width * s.height);
         // Corners of each tile, and the pixels just outside them.
         assert_eq!(px(&s, g, g), [255, 0, 0]);
@@ -304,16 +280,45 @@ mod tests {
     }
 
     #[test]
-    fn every_digit_and_label_letter_has_a_distinct_glyph() {
-        let chars: Vec<char> = "0123456789.-=abdeghilnoprstw".chars().collect();
-        let unknown = glyph('\u{2603}');
-        for (i, &a) in chars.iter().enumerate() {
-            assert_ne!(glyph(a), unknown, "{a} has no glyph");
-            for &b in &chars[i + 1..] {
-                assert_ne!(glyph(a), glyph(b), "{a} and {b} look the same");
-            }
+    fn a_two_line_label_gets_a_taller_strip_with_each_line_centred() {
+        let style = SheetStyle::default();
+        let sc = style.label_scale;
+        let tile = solid(60, 5, [0, 0, 0]);
+        let sheet = |label: &str| {
+            contact_sheet(
+                &[Tile {
+                    width: 60,
+                    height: 5,
+                    rgb8: &tile,
+                    label,
+                }],
+                &style,
+            )
+        };
+        let (one, two) = (sheet("-"), sheet("-\n--"));
+        assert_eq!(
+            two.height - one.height,
+            (GLYPH_H + LINE_SPACING) * sc,
+            "one more line of glyph cells"
+        );
+        // Ink rows: the first line's bar at glyph row 3, the second line's one line lower.
+        let ink = |s: &Sheet, y: usize| (0..s.width).filter(|&x| px(s, x, y) == style.ink).count();
+        let top = style.gap_px + 5 + 2 * sc;
+        let bar1 = top + 3 * sc;
+        let bar2 = bar1 + (GLYPH_H + LINE_SPACING) * sc;
+        assert_eq!(ink(&two, bar1), 5 * sc);
+        assert_eq!(ink(&two, bar2), 2 * 5 * sc, "two bars of five font pixels");
+        let ink_rows: usize = (0..two.height).map(|y| ink(&two, y)).sum();
+        assert_eq!(ink_rows, (5 + 10) * sc * sc, "nothing else is drawn");
+        // Both lines centred on the tile (within a pixel).
+        for (y, w) in [(bar1, 5 * sc), (bar2, 11 * sc)] {
+            let xmin = (0..two.width)
+                .find(|&x| px(&two, x, y) == style.ink)
+                .unwrap();
+            let left = xmin - style.gap_px;
+            let right = 60 - left - w;
+            assert!(left.abs_diff(right) <= 1, "{left} {right}");
         }
-        assert_eq!(glyph('B'), glyph('b'));
         assert_eq!(text_width("ab", 2), (5 + 1 + 5) * 2);
     }
 }

@@ -9,7 +9,14 @@
 //! lies inside the scene). The exposure window of a still is [`STILL_WINDOW_BINS`] bins of
 //! the cube; the exposure is the renderer's automatic one ([`crate::render::auto_exposure`],
 //! which depends on the cube only), the same for every frame of a figure so that brightness
-//! changes (searchlight) show.
+//! changes (searchlight) show; fig. 8 alone exposes each frame on its own ([`fig8`]).
+//!
+//! Framing (issue 15: no panel that shows nothing): where aberration shrinks the scene to a
+//! few pixels or spreads a featureless part of it over the frame (fig. 5 at |beta| 0.9 and
+//! 0.99), the panel's field of view is the cone the capture camera's view fills in the moving
+//! camera; where a rolling sensor sees the scene only near its axis (fig. 8 at 0.8 and 0.99),
+//! the panel is the centre of the sensor, magnified ([`framing`]). Labels and captions say so.
+//! Isochrone images carry a colour bar in ps ([`super::contact_sheet::colour_bar`]).
 //!
 //! Camera paths come from [`crate::camera_path`]: [`CameraPath::static_view`] (figs. 4, 8, with
 //! [`CameraPath::with_rotation`] for the rotating sensor), [`CameraPath::dolly`] (fig. 5: frame
@@ -18,23 +25,30 @@
 //! `beta = 0.77` (a cubic Hermite segment with the end velocities as tangents reproduces that
 //! quadratic exactly), so that the speed rises smoothly from rest.
 
-use super::contact_sheet::{contact_sheet, SheetStyle, Tile};
+pub mod framing;
+
+use super::contact_sheet::colour_bar::{colour_bar, stack, BarRange};
+use super::contact_sheet::{contact_sheet, Sheet, SheetStyle, Tile};
 use super::{write_png, DemoError, DemoSizes, OutputFile, OutputKind};
 use crate::camera::Pose;
 use crate::camera_path::{
     CameraPath, Clock, FrameSpec, Interpolation, Keyframe, Motion, Orientation,
 };
+use crate::color::encode_u8;
 use crate::pyramid::PrefixRead;
 use crate::relativity::{gamma, Radiometry, RotationAxis, SensorRotation};
 use crate::render::paths::scene_target;
+use crate::render::views::isochrone_colour;
 use crate::render::{
     auto_exposure, encode_srgb8, isochrone_range, render_frame, ColourOutput, Effects, Isochrones,
     RenderScene, RenderSettings, View,
 };
 use crate::units::{flight_time_ps, C_M_PER_PS};
 use crate::video::{Frame, VideoFormat, VideoWriter};
+use framing::{dolly_framing, DollyFraming, MAX_VFOV_DEG, MIN_SCENE_SPAN};
 use nalgebra::{Point3, Rotation3, Unit, Vector3};
 use std::collections::BTreeMap;
+use std::fmt::Write;
 use std::path::Path;
 
 /// The stills are taken when a camera at rest at their viewpoint has received this fraction
@@ -382,8 +396,14 @@ pub fn fig4(
             view: View::Isochrones(iso),
             ..probe
         };
-        let rgb = render_rgb8(scene, &s, path, 0);
-        write_png(&out.join(file), w, h, &rgb)?;
+        let image = Sheet {
+            width: w,
+            height: h,
+            rgb8: render_rgb8(scene, &s, path, 0),
+        };
+        let bar = isochrone_bar(&iso, w);
+        let with_bar = stack(&image, &bar.strip);
+        write_png(&out.join(file), w, with_bar.height, &with_bar.rgb8)?;
         let mut p = common("isochrones");
         p.retain(|(k, _)| *k != "t_receive_ps" && *k != "exposure_window_ps");
         p.push((
@@ -400,9 +420,49 @@ pub fn fig4(
             format!("{:.1} .. {:.1}", iso.t_min_ps, iso.t_max_ps),
         ));
         p.push(("contour_ps", format!("{}", iso.contour_ps)));
-        outputs.push(still_output("fig4", file, caption, &p));
+        p.push((
+            "colour_bar_ticks_ps",
+            bar.ticks
+                .iter()
+                .map(|t| t.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ));
+        let caption = format!(
+            "{caption}; colour bar below: time in ps, blue early to red late, a dark line every {} ps as in the image",
+            iso.contour_ps
+        );
+        outputs.push(still_output("fig4", file, &caption, &p));
     }
     Ok(outputs)
+}
+
+/// Label scale of text drawn on a still `width` pixels wide: font pixels of 1 screen pixel up
+/// to 239 pixels, 2 from 240 (the full demo's 320).
+fn still_label_scale(width: usize) -> usize {
+    (width / 160).clamp(1, 4)
+}
+
+/// The colour bar under an isochrone image `width` pixels wide: the view's own colour map
+/// ([`isochrone_colour`], contour lines included) over its range, ticks on multiples of the
+/// contour spacing, in ps.
+fn isochrone_bar(iso: &Isochrones, width: usize) -> super::contact_sheet::colour_bar::ColourBar {
+    let style = SheetStyle {
+        label_scale: still_label_scale(width),
+        ..SheetStyle::default()
+    };
+    let range = BarRange {
+        min: iso.t_min_ps,
+        max: iso.t_max_ps,
+        base_step: iso.contour_ps,
+        unit: "ps",
+    };
+    colour_bar(
+        width,
+        &range,
+        |t| encode_u8(isochrone_colour(iso, t, true)),
+        &style,
+    )
 }
 
 /// Seed Fig. 5: one contact sheet per row, each effect alone (with the per-view time
@@ -428,46 +488,175 @@ pub fn fig5(
     let t_receive_ps = st.show_offset(scene, &start);
     for (stem, title, effect, betas) in FIG5_ROWS {
         let effects = Effects::parse(&format!("unwarp,{effect}"))?;
-        let mut frames = Vec::with_capacity(betas.len());
-        for &beta in betas {
-            let path = CameraPath::dolly(start, st.target, up, beta, vfov, spec)?;
+        // Only aberration moves the scene in the frame; the other rows keep the capture
+        // camera's field of view.
+        let framings: Vec<DollyFraming> = betas
+            .iter()
+            .map(|&b| {
+                if effects.aberration {
+                    dolly_framing(b, vfov)
+                } else {
+                    dolly_framing(0.0, vfov)
+                }
+            })
+            .collect();
+        let mut labelled = Vec::with_capacity(betas.len());
+        for (&beta, fr) in betas.iter().zip(&framings) {
+            let path = CameraPath::dolly(start, st.target, up, beta, fr.vfov_deg, spec)?;
             let mut s = settings(w, h, st.dtau_ps, effects, View::Transient);
             s.exposure = st.exposure;
             s.time_offset_ps = t_receive_ps;
-            frames.push(render_rgb8(scene, &s, &path, 0));
+            let label = if effects.aberration {
+                format!("beta={beta}\nfov {}°", fmt_deg(fr.vfov_deg))
+            } else {
+                format!("beta={beta}")
+            };
+            labelled.push((label, render_rgb8(scene, &s, &path, 0)));
         }
-        let labelled: Vec<(String, Vec<u8>)> = betas
-            .iter()
-            .map(|b| format!("beta={b}"))
-            .zip(frames)
-            .collect();
         let file = format!("{stem}.png");
         write_sheet(&out.join(&file), w, h, &labelled)?;
+        let mut pairs = vec![
+            ("effects", effects.to_string()),
+            ("beta", join_betas(betas)),
+            ("frame_size", format!("{w}x{h}")),
+            ("t_receive_ps", format!("{t_receive_ps:.1}")),
+            ("exposure_window_ps", format!("{}", st.dtau_ps)),
+            ("exposure", format!("{:.4e} (every panel)", st.exposure)),
+            (
+                "camera",
+                "frame 0 of a dolly from the capture camera's position; negative beta moves away"
+                    .into(),
+            ),
+        ];
+        let caption = if effects.aberration {
+            pairs.push((
+                "vfov_deg",
+                join(framings.iter().map(|f| fmt_deg(f.vfov_deg))),
+            ));
+            pairs.push((
+                "scene_span_at_capture_fov",
+                join(
+                    framings
+                        .iter()
+                        .map(|f| format!("{:.3}", f.span_at_capture_fov)),
+                ),
+            ));
+            aberration_caption(title, betas, &framings, vfov)
+        } else if effect == "searchlight" {
+            // Doppler factor at the centre of the frame, D = gamma (1 - beta).
+            let d_centre: Vec<f64> = betas
+                .iter()
+                .map(|&b| ((1.0 - b) / (1.0 + b)).sqrt())
+                .collect();
+            format!(
+                "{title}: beta {}. The searchlight brightens the frame, most at its centre (Doppler factor D = {} there; constant light would brighten by D^-4 = {}), the capture's noise with the signal; exposure the same for every panel",
+                join_betas(betas),
+                join(d_centre.iter().map(|d| format!("{d:.2}"))),
+                join(d_centre.iter().map(|d| format!("{:.1}", d.powi(-4))))
+            )
+        } else {
+            format!(
+                "{title}: beta {}; exposure the same for every panel",
+                join_betas(betas)
+            )
+        };
         outputs.push(OutputFile {
             figure: "fig5".into(),
             path: file,
             kind: OutputKind::Sheet,
-            caption: format!("{title}: beta {}", join_betas(betas)),
-            params: params(&[
-                ("effects", effects.to_string()),
-                ("beta", join_betas(betas)),
-                ("frame_size", format!("{w}x{h}")),
-                ("t_receive_ps", format!("{t_receive_ps:.1}")),
-                ("exposure_window_ps", format!("{}", st.dtau_ps)),
-                ("exposure", format!("{:.4e}", st.exposure)),
-                ("camera", "frame 0 of a dolly from the capture camera's position; negative beta moves away".into()),
-            ]),
+            caption,
+            params: params(&pairs),
         });
     }
     Ok(outputs)
 }
 
-fn join_betas(betas: &[f64]) -> String {
-    betas
+/// An angle in degrees as a label shows it: one decimal below 10, none above.
+fn fmt_deg(deg: f64) -> String {
+    if deg < 10.0 {
+        format!("{deg:.1}")
+    } else {
+        format!("{deg:.0}")
+    }
+}
+
+fn join(items: impl Iterator<Item = String>) -> String {
+    items.collect::<Vec<_>>().join(", ")
+}
+
+/// The caption of an aberration row of fig. 5: what aberration does to the capture camera's
+/// view at each speed, and which panels are reframed ([`framing::dolly_framing`]).
+fn aberration_caption(title: &str, betas: &[f64], framings: &[DollyFraming], vfov: f64) -> String {
+    let towards = betas.iter().all(|&b| b >= 0.0);
+    let cones = join(
+        framings
+            .iter()
+            .map(|f| format!("{}°", fmt_deg(2.0 * f.scene_half_deg))),
+    );
+    let spans = join(framings.iter().map(|f| {
+        let x = f.span_at_capture_fov;
+        if towards {
+            format!("{:.0} %", 100.0 * x)
+        } else if x < 10.0 {
+            format!("{x:.1}")
+        } else {
+            format!("{x:.0}")
+        }
+    }));
+    let mut c = format!(
+        "{title}: beta {}. Aberration {} the capture camera's {}° view into a cone of {cones} in the moving camera: at the capture's field of view the scene spans {spans}{}",
+        join_betas(betas),
+        if towards { "squeezes" } else { "spreads" },
+        fmt_deg(vfov),
+        if towards {
+            " of the frame's height"
+        } else {
+            " times the frame's height (the frame shows only its centre)"
+        },
+    );
+    let reframed: Vec<(f64, &DollyFraming)> = betas
         .iter()
-        .map(|b| b.to_string())
-        .collect::<Vec<_>>()
-        .join(", ")
+        .zip(framings)
+        .filter(|(_, f)| f.reframed)
+        .map(|(&b, f)| (b, f))
+        .collect();
+    if !reframed.is_empty() {
+        let capped: Vec<&(f64, &DollyFraming)> = reframed
+            .iter()
+            .filter(|(_, f)| f.shown_fraction < 0.999)
+            .collect();
+        let _ = write!(
+            c,
+            ". Panels where it would span {} (beta {}) are shown with the field of view {} to that cone{} (label: fov), so that the scene fills them: the zoom is framing, the {} is the fov in the label, the distortion inside the frame is the aberration",
+            if towards {
+                format!("less than {:.0} % of the frame", 100.0 * MIN_SCENE_SPAN)
+            } else {
+                format!("more than {:.1} times the frame", 1.0 / MIN_SCENE_SPAN)
+            },
+            join(reframed.iter().map(|(b, _)| b.to_string())),
+            if towards { "narrowed" } else { "widened" },
+            if capped.is_empty() {
+                String::new()
+            } else {
+                format!(", at most {MAX_VFOV_DEG:.0}°")
+            },
+            if towards { "shrinking" } else { "spreading" },
+        );
+        for (b, f) in capped {
+            let _ = write!(
+                c,
+                "; at beta {b} a pinhole would need {}°, so that panel shows the central {:.0} % of the view",
+                fmt_deg(2.0 * f.scene_half_deg),
+                100.0 * f.shown_fraction
+            );
+        }
+    }
+    c.push_str(". Exposure the same for every panel (aberration alone does not change brightness)");
+    c
+}
+
+fn join_betas(betas: &[f64]) -> String {
+    join(betas.iter().map(|b| b.to_string()))
 }
 
 /// The approach path: from `start` towards `target`, proper velocity rising linearly from 0 to
@@ -664,12 +853,23 @@ pub fn frame_exposure(pixels: &[[f32; 3]]) -> Option<f64> {
     )
 }
 
+/// Largest magnification of a fig. 8 crop.
+pub const MAX_CROP_ZOOM: f64 = 8.0;
+
 /// Seed Fig. 8: the capture camera's view with a sensor rolling about its optical axis,
 /// `beta_edge` 0, 0.4, 0.8, 0.99 (every effect on, the camera itself at rest): one PNG each
-/// and a contact sheet. Each frame gets its own exposure ([`frame_exposure`]): away from the
-/// axis the sensor moves across the line of sight, `D` approaches `gamma` and the frame
-/// dims by `D^-3` (about 1/360 at the edge at 0.99), which would leave nothing to see of the
-/// distortion; the exposures relative to the sensor at rest are in the parameters.
+/// and a contact sheet.
+///
+/// Each sensor area moves across the line of sight with `beta_edge r / r_edge`, and
+/// aberration tilts its rays against the motion by `asin(beta)`: only the areas near the axis
+/// still look into the part of the scene the capture camera saw, and the rest of the frame is
+/// black (no captured light there, as in the seed). Where the pixels that show the scene
+/// reach less than [`framing::MIN_SEEN_REACH`] of the way to the border
+/// ([`framing::seen_extent`]), the panel is the centre of the sensor, magnified: the centre crop of a render of the same sensor, with the same field of
+/// view and velocity field, at more pixels ([`framing::zoomed_size`], at most
+/// [`MAX_CROP_ZOOM`]). Each panel gets its own exposure ([`frame_exposure`]); the fast areas
+/// also dim by `D^-3` (`D` near `gamma`: about 1/360 at the edge at 0.99). The exposures
+/// relative to the sensor at rest and the crops are in the parameters and captions.
 pub fn fig8(
     scene: &RenderScene,
     sizes: &DemoSizes,
@@ -682,27 +882,70 @@ pub fn fig8(
     let mut outputs = Vec::new();
     let mut frames = Vec::new();
     let mut reference_exposure = None;
+    let rotating = |beta_edge: f64, width: usize, height: usize| {
+        capture_view(scene, width, height, st.dtau_ps).and_then(|p| {
+            Ok(p.with_rotation(Some(SensorRotation {
+                axis: RotationAxis::Roll,
+                beta_edge,
+            }))?)
+        })
+    };
     for beta_edge in FIG8_BETA_EDGE {
-        let path = capture_view(scene, w, h, st.dtau_ps)?.with_rotation(Some(SensorRotation {
-            axis: RotationAxis::Roll,
-            beta_edge,
-        }))?;
         let mut s = settings(w, h, st.dtau_ps, Effects::ALL, View::Transient);
         s.time_offset_ps = t_receive_ps;
-        let mut pixels = vec![[0.0f32; 3]; w * h];
-        render_frame(scene, &s, &path.frame(0), &mut pixels);
+        let seen = framing::seen_extent(scene, &s, &rotating(beta_edge, w, h)?.frame(0));
+        let zoom = if seen.reach > 0.0 && seen.reach < framing::MIN_SEEN_REACH {
+            (1.0 / seen.reach).min(MAX_CROP_ZOOM)
+        } else {
+            1.0
+        };
+        let (big_w, big_h) = framing::zoomed_size(w, h, zoom);
+        let big = RenderSettings {
+            width: big_w,
+            height: big_h,
+            ..s
+        };
+        let mut big_pixels = vec![[0.0f32; 3]; big_w * big_h];
+        render_frame(
+            scene,
+            &big,
+            &rotating(beta_edge, big_w, big_h)?.frame(0),
+            &mut big_pixels,
+        );
+        let pixels = framing::centre_crop(&big_pixels, big_w, big_h, w, h);
         s.exposure = frame_exposure(&pixels).unwrap_or(st.exposure);
         let relative = s.exposure / *reference_exposure.get_or_insert(s.exposure);
         let mut rgb = vec![0u8; 3 * pixels.len()];
         encode_srgb8(&s, &pixels, &mut rgb);
         let file = format!("fig8_rotation_{beta_edge}.png");
         write_png(&out.join(&file), w, h, &rgb)?;
+        let magnified = big_h as f64 / h as f64;
+        let shown = if big_w > w {
+            format!(
+                "the centre of the sensor magnified x{magnified:.1} (the centre {w}x{h} of a {big_w}x{big_h} render with the same field of view and sensor motion: framing only), because only {:.1} % of the whole frame shows the scene",
+                100.0 * seen.fraction
+            )
+        } else {
+            format!(
+                "the whole sensor ({:.0} % of the frame shows the scene)",
+                100.0 * seen.fraction
+            )
+        };
+        let caption = format!(
+            "sensor rolling clockwise about the optical axis, edge speed beta = {beta_edge}: {shown}. {}Exposure: this frame's own, x{relative:.2} that of the sensor at rest",
+            if beta_edge > 0.0 {
+                format!(
+                    "The sensor's areas move across the line of sight, up to beta {beta_edge} at the corners, and aberration tilts their rays against the motion by up to {:.1}°; outside the areas near the axis the rays miss what the capture camera saw, and the frame is black there for that physical reason. ",
+                    beta_edge.asin().to_degrees()
+                )
+            } else {
+                String::new()
+            }
+        );
         outputs.push(still_output(
             "fig8",
             &file,
-            &format!(
-                "sensor rolling clockwise about the optical axis, edge speed beta = {beta_edge}"
-            ),
+            &caption,
             &[
                 ("beta_edge", format!("{beta_edge}")),
                 ("axis", "roll".into()),
@@ -712,9 +955,26 @@ pub fn fig8(
                 ("exposure_window_ps", format!("{}", st.dtau_ps)),
                 ("exposure", format!("{:.4e} (this frame's own)", s.exposure)),
                 ("exposure_relative_to_edge_0", format!("{relative:.3}")),
+                (
+                    "scene_fraction_of_whole_frame",
+                    format!("{:.4}", seen.fraction),
+                ),
+                (
+                    "crop",
+                    if big_w > w {
+                        format!("centre {w}x{h} of {big_w}x{big_h} (x{magnified:.2})")
+                    } else {
+                        "none".into()
+                    },
+                ),
             ],
         ));
-        frames.push((format!("edge={beta_edge}"), rgb));
+        let label = if big_w > w {
+            format!("edge={beta_edge}\ncentre x{magnified:.1}")
+        } else {
+            format!("edge={beta_edge}\nwhole sensor")
+        };
+        frames.push((label, rgb));
     }
     let file = "fig8_rotation.png";
     write_sheet(&out.join(file), w, h, &frames)?;
@@ -722,7 +982,7 @@ pub fn fig8(
         figure: "fig8".into(),
         path: file.into(),
         kind: OutputKind::Sheet,
-        caption: "the four rotating-sensor frames side by side, each exposed on its own".into(),
+        caption: "the four rotating-sensor frames side by side, each exposed on its own; where only the sensor's centre sees the scene, the panel shows that centre magnified (label); the black around the scene is physical (see each frame's caption)".into(),
         params: params(&[("beta_edge", "0, 0.4, 0.8, 0.99".into())]),
     });
     Ok(outputs)
