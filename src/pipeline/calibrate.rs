@@ -250,6 +250,13 @@ pub fn calibrate_cube(
         DetectionFloor::Level(v) => v,
     };
     let prints = footprints(&reg, &laser_m);
+    let mask = reader.read_mask()?;
+    let slabs = Slabs {
+        reader: &reader,
+        mask: mask.as_deref(),
+        reg: &reg,
+        prints: &prints,
+    };
     let run = |floor: f32, what: &str| -> Result<TimeFitRun, StageError> {
         let arrival = ArrivalOptions {
             threshold_fraction: t,
@@ -258,9 +265,7 @@ pub fn calibrate_cube(
         };
         let (fit, samples) = fit_direct_time(options.eta, options.fit_time_scale, &mut |model| {
             time_samples(
-                &reader,
-                &reg,
-                &prints,
+                &slabs,
                 &laser_m,
                 options.eta,
                 model,
@@ -326,13 +331,18 @@ pub fn calibrate_cube(
     })
 }
 
+/// The cube read by row slabs, with what every pixel sees.
+struct Slabs<'a> {
+    reader: &'a CubeReader,
+    mask: Option<&'a [u8]>,
+    reg: &'a Registration,
+    prints: &'a Footprints,
+}
+
 /// The time samples of one pass of [`fit_direct_time`], streaming the cube by row slabs:
 /// first arrivals (`model` None) or direct-light centroids under `model = (t0_ps, scale)`.
-#[allow(clippy::too_many_arguments)]
 fn time_samples(
-    reader: &CubeReader,
-    reg: &Registration,
-    prints: &Footprints,
+    cube: &Slabs<'_>,
     laser_m: &Point3<f64>,
     eta: f64,
     model: Option<(f64, f64)>,
@@ -340,9 +350,8 @@ fn time_samples(
     what: &str,
     progress: &dyn Progress,
 ) -> Result<Vec<ArrivalSample>, StageError> {
-    let meta = reader.meta();
+    let meta = cube.reader.meta();
     let (nx, ny) = (meta.nx, meta.ny);
-    let mask = reader.read_mask()?;
     let pass = if model.is_some() {
         "direct light"
     } else {
@@ -358,13 +367,13 @@ fn time_samples(
             ny: n,
             axis: meta.axis,
             frame: meta.frame,
-            data: reader.read_rows(y0, n)?,
-            mask: mask.as_ref().map(|m| m[a..b].to_vec()),
+            data: cube.reader.read_rows(y0, n)?,
+            mask: cube.mask.map(|m| m[a..b].to_vec()),
         };
         let found = match model {
-            None => arrival_samples(&slab, &reg.rows(y0, n), laser_m, options),
+            None => arrival_samples(&slab, &cube.reg.rows(y0, n), laser_m, options),
             Some((t0_ps, scale)) => {
-                direct_arrival_samples(&slab, &prints.rows(y0, n), eta, t0_ps, scale, options)
+                direct_arrival_samples(&slab, &cube.prints.rows(y0, n), eta, t0_ps, scale, options)
             }
         }?;
         samples.extend(
