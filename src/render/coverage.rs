@@ -9,18 +9,18 @@
 //! 160 x 120), and the light itself starts some time after the axis does. A path whose times
 //! miss that renders black frames.
 //!
-//! - [`light_span`] and [`light_span_received_at`]: the first and last times at which the
-//!   cube's summed signal exceeds a fraction of its peak, in world time or as received at a
-//!   point (each pixel's signal delayed by its distance to that point). The camera shortcuts
-//!   ([`super::paths`]) choose their times from the second.
+//! - [`LightProfile`]: the cube's signal summed over pixels, each delayed by its own time,
+//!   and the span where it exceeds a fraction of its peak: in world time ([`light_span`]), as
+//!   received at a point, or as received by a frame's camera from the pixels it shows (from
+//!   which the camera shortcuts choose their times, [`super::paths`]).
 //! - [`predict_coverage`]: without rendering, for each frame of a path, the emission times
 //!   that a coarse grid of its pixels ([`GRID`]) sees, through the renderer's own per-pixel
 //!   mapping ([`super::probe_pixel`]), against the cube's light span; its [`Coverage`]
 //!   summary names the frames that will be black and prints as a one-line warning.
 //! - [`frame_is_black`]: whether a rendered frame holds no light at all.
 
-use super::{check_frames, probe_pixel, RenderError, RenderScene, RenderSettings};
-use crate::camera_path::CameraPath;
+use super::{check_frames, probe_pixel, RenderError, RenderScene, RenderSettings, View};
+use crate::camera_path::{CameraPath, FrameState};
 use crate::pyramid::PrefixRead;
 use crate::units::flight_time_ps;
 use nalgebra::Point3;
@@ -34,8 +34,8 @@ use std::ops::Range;
 /// something (8-bit sRGB shows 1.5e-4 of the exposure's white).
 pub const LIGHT_FRACTION: f64 = 0.01;
 
-/// Pixels sampled per frame by [`predict_coverage`] (columns, rows), evenly spread; the
-/// image's centre pixel is sampled too.
+/// Pixels sampled by [`predict_coverage`] (columns, rows), evenly spread over each frame and
+/// again over its central quarter; the image's centre pixel is sampled too.
 pub const GRID: (usize, usize) = (16, 12);
 
 /// An interval of times at which the cube holds light, ps.
@@ -52,66 +52,105 @@ impl LightSpan {
     }
 }
 
-/// The first and last physical world times (0 = the pulse leaves the laser spot) at which
-/// the cube's signal, summed over the capture pixels the renderer can look up (those whose
-/// ray hits the mesh and that the cube's mask keeps), exceeds `fraction` of its peak. The sum
-/// is taken over bins of the cube's width. None when no bin's sum is positive.
-pub fn light_span(scene: &RenderScene, fraction: f64) -> Option<LightSpan> {
-    summed_span(scene, fraction, |_| 0.0)
+/// The cube's signal summed over a set of its pixels (repeats allowed), each delayed by its
+/// own time, in bins of the cube's width: the light as some observer receives it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightProfile {
+    /// Start of bin 0, ps.
+    pub origin_ps: f64,
+    /// Bin width, ps (the cube's, in world time).
+    pub dt_ps: f64,
+    /// Summed signal per bin.
+    pub sums: Vec<f64>,
+    /// Pixels summed.
+    pub pixels: usize,
 }
 
-/// [`light_span`] for the light as it arrives at `o_m`: each capture pixel's signal delayed by
-/// the flight time `eta |p - o| / c` from its point `p` to `o_m`. At the capture camera's
-/// position these are the capture's own camera times (shifted by the calibration's `t0_ps`),
-/// where a streak camera records: light exists there only inside the recording window.
-pub fn light_span_received_at(
-    scene: &RenderScene,
-    o_m: &Point3<f64>,
-    fraction: f64,
-) -> Option<LightSpan> {
-    let eta = scene.capture.eta;
-    summed_span(scene, fraction, |p| flight_time_ps(eta, (p - o_m).norm()))
-}
-
-/// The span where the cube's signal, each pixel delayed by `delay_ps(point)` and summed into
-/// bins of the cube's width (each bin split linearly between the two it overlaps), exceeds
-/// `fraction` of its peak.
-fn summed_span(
-    scene: &RenderScene,
-    fraction: f64,
-    delay_ps: impl Fn(&Point3<f64>) -> f64 + Sync,
-) -> Option<LightSpan> {
-    let w = scene.world;
-    let nt = w.axis.nt;
-    let dt_ps = w.axis.dt_ps / scene.capture.time_scale;
-    let t0_ps = scene.world_time_ps(w.axis.t0_ps);
-    let delays: Vec<Option<f64>> = (0..w.nx * w.ny)
-        .into_par_iter()
-        .map(|pix| {
-            let (x, y) = (pix % w.nx, pix / w.nx);
-            let kept = w.mask.as_ref().is_none_or(|m| m[pix] != 0);
-            let p = scene.capture_hit_m(x, y).filter(|_| kept)?;
-            Some(delay_ps(&p)).filter(|d| d.is_finite())
-        })
-        .collect();
-    let (lo, hi) = delays
-        .iter()
-        .flatten()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| {
-            (a.min(d), b.max(d))
-        });
-    if lo > hi {
-        return None;
+impl LightProfile {
+    /// The signal in physical world time (0 = the pulse leaves the laser spot), summed over
+    /// the capture pixels the renderer can look up (those whose ray hits the mesh and that
+    /// the cube's mask keeps; a regular subset of at most about [`MAX_SUMMED_PIXELS`]).
+    pub fn world(scene: &RenderScene) -> LightProfile {
+        LightProfile::summed(scene, &capture_delays(scene, |_| 0.0))
     }
-    let origin_ps = t0_ps + lo;
-    let n = nt + ((hi - lo) / dt_ps).ceil() as usize + 2;
-    let sums = delays
-        .par_iter()
-        .enumerate()
-        .fold(
-            || vec![0.0f64; n],
-            |mut acc, (pix, d)| {
-                if let Some(d) = d {
+
+    /// [`LightProfile::world`] as the light arrives at `o_m`: each capture pixel's signal
+    /// delayed by the flight time `eta |p - o| / c` from its point `p`. At the capture
+    /// camera's position these are the capture's own camera times (shifted by the
+    /// calibration's `t0_ps`), where a streak camera records: light exists there only inside
+    /// the recording window.
+    pub fn received_at(scene: &RenderScene, o_m: &Point3<f64>) -> LightProfile {
+        let eta = scene.capture.eta;
+        let delays = capture_delays(scene, |p| flight_time_ps(eta, (p - o_m).norm()));
+        LightProfile::summed(scene, &delays)
+    }
+
+    /// The light the frame `state` looks at, as its camera receives it: for every pixel of a
+    /// regular subset of the frame (at most about [`MAX_SUMMED_PIXELS`]) that shows a cube
+    /// pixel, that pixel's signal delayed by the flight time from the hit point to the
+    /// camera, both from [`probe_pixel`] (the renderer's own mapping; transient view, under
+    /// `settings`' effects). Reception times are world times: the frame shows light when its
+    /// `t_receive` falls where this profile holds some.
+    pub fn in_frame(
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        state: &FrameState,
+    ) -> LightProfile {
+        let settings = RenderSettings {
+            view: View::Transient,
+            ..*settings
+        };
+        let (w, h) = (settings.width, settings.height);
+        let stride = subset_stride(w * h);
+        let eta = scene.capture.eta;
+        let nx = scene.world.nx;
+        let delays: Vec<(usize, f64)> = (0..h)
+            .into_par_iter()
+            .step_by(stride)
+            .flat_map_iter(|j| {
+                (0..w).step_by(stride).filter_map(move |i| {
+                    let s = probe_pixel(scene, &settings, state, i, j);
+                    let (x, y) = s.capture_pixel?;
+                    let (_, dist_m) = s.hit_m?;
+                    Some((y * nx + x, flight_time_ps(eta, dist_m)))
+                })
+            })
+            .collect();
+        LightProfile::summed(scene, &delays)
+    }
+
+    /// The signal of the cube pixels `delays` lists (flat index, delay in ps), each delayed
+    /// and summed into bins of the cube's width, each bin split linearly between the two it
+    /// overlaps. Entries with a non-finite delay are left out.
+    fn summed(scene: &RenderScene, delays: &[(usize, f64)]) -> LightProfile {
+        let w = scene.world;
+        let nt = w.axis.nt;
+        let dt_ps = w.axis.dt_ps / scene.capture.time_scale;
+        let t0_ps = scene.world_time_ps(w.axis.t0_ps);
+        let delays: Vec<(usize, f64)> = delays
+            .iter()
+            .copied()
+            .filter(|(_, d)| d.is_finite())
+            .collect();
+        let (lo, hi) = delays
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &(_, d)| {
+                (a.min(d), b.max(d))
+            });
+        if lo > hi {
+            return LightProfile {
+                origin_ps: t0_ps,
+                dt_ps,
+                sums: Vec::new(),
+                pixels: 0,
+            };
+        }
+        let n = nt + ((hi - lo) / dt_ps).ceil() as usize + 2;
+        let sums = delays
+            .par_iter()
+            .fold(
+                || vec![0.0f64; n],
+                |mut acc, &(pix, d)| {
                     let prefix = w.prefix.pixel(pix);
                     let u = (d - lo) / dt_ps;
                     let (j0, frac) = (u.floor() as usize, u - u.floor());
@@ -120,28 +159,91 @@ fn summed_span(
                         acc[j0 + i] += v * (1.0 - frac);
                         acc[j0 + i + 1] += v * frac;
                     }
-                }
-                acc
-            },
-        )
-        .reduce(
-            || vec![0.0f64; n],
-            |mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(a, b)| *a += b);
-                a
-            },
-        );
-    let peak = sums.iter().cloned().fold(0.0f64, f64::max);
-    if !(peak > 0.0 && peak.is_finite()) {
-        return None;
+                    acc
+                },
+            )
+            .reduce(
+                || vec![0.0f64; n],
+                |mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(a, b)| *a += b);
+                    a
+                },
+            );
+        LightProfile {
+            origin_ps: t0_ps + lo,
+            dt_ps,
+            sums,
+            pixels: delays.len(),
+        }
     }
-    let level = fraction * peak;
-    let first = sums.iter().position(|&s| s > level)?;
-    let last = sums.iter().rposition(|&s| s > level)?;
-    Some(LightSpan {
-        start_ps: origin_ps + first as f64 * dt_ps,
-        end_ps: origin_ps + (last + 1) as f64 * dt_ps,
-    })
+
+    /// The largest bin's sum divided by the pixels summed (0 without pixels): the level of
+    /// the brightest moment of an average pixel.
+    pub fn peak_per_pixel(&self) -> f64 {
+        let peak = self.sums.iter().cloned().fold(0.0f64, f64::max);
+        if self.pixels == 0 || !peak.is_finite() {
+            return 0.0;
+        }
+        peak / self.pixels as f64
+    }
+
+    /// From the start of the first to the end of the last bin whose sum per pixel exceeds
+    /// `level_per_pixel`; None when none does or the level is not positive.
+    pub fn span_above(&self, level_per_pixel: f64) -> Option<LightSpan> {
+        if level_per_pixel.is_nan() || level_per_pixel <= 0.0 || self.pixels == 0 {
+            return None;
+        }
+        let level = level_per_pixel * self.pixels as f64;
+        let first = self.sums.iter().position(|&s| s > level)?;
+        let last = self.sums.iter().rposition(|&s| s > level)?;
+        Some(LightSpan {
+            start_ps: self.origin_ps + first as f64 * self.dt_ps,
+            end_ps: self.origin_ps + (last + 1) as f64 * self.dt_ps,
+        })
+    }
+
+    /// [`LightProfile::span_above`] `fraction` of the peak.
+    pub fn span(&self, fraction: f64) -> Option<LightSpan> {
+        self.span_above(fraction * self.peak_per_pixel())
+    }
+}
+
+/// Where the cube holds light in physical world time:
+/// `LightProfile::world(scene).span(fraction)`.
+pub fn light_span(scene: &RenderScene, fraction: f64) -> Option<LightSpan> {
+    LightProfile::world(scene).span(fraction)
+}
+
+/// Most pixels summed by a [`LightProfile`]: larger images are read on a regular grid of
+/// every `s`-th pixel in x and y, which keeps a profile to tens of milliseconds.
+pub const MAX_SUMMED_PIXELS: usize = 1 << 16;
+
+/// The grid step that keeps `pixels` to about [`MAX_SUMMED_PIXELS`].
+fn subset_stride(pixels: usize) -> usize {
+    ((pixels as f64 / MAX_SUMMED_PIXELS as f64).sqrt().ceil() as usize).max(1)
+}
+
+/// `(flat cube pixel, delay_ps(point))` for the capture pixels the renderer can look up (a
+/// hit, kept by the mask), on the grid of [`subset_stride`].
+fn capture_delays(
+    scene: &RenderScene,
+    delay_ps: impl Fn(&Point3<f64>) -> f64 + Sync,
+) -> Vec<(usize, f64)> {
+    let w = scene.world;
+    let stride = subset_stride(w.nx * w.ny);
+    let delay_ps = &delay_ps;
+    (0..w.ny)
+        .into_par_iter()
+        .step_by(stride)
+        .flat_map_iter(|y| {
+            (0..w.nx).step_by(stride).filter_map(move |x| {
+                let pix = y * w.nx + x;
+                let kept = w.mask.as_ref().is_none_or(|m| m[pix] != 0);
+                let p = scene.capture_hit_m(x, y).filter(|_| kept)?;
+                Some((pix, delay_ps(&p)))
+            })
+        })
+        .collect()
 }
 
 /// Whether a frame of scene-linear pixels holds no light: no component is positive. The
@@ -272,7 +374,10 @@ impl fmt::Display for Coverage {
         for (class, what) in [
             (FrameLight::Before, "before the cube's light"),
             (FrameLight::After, "after the cube's light"),
-            (FrameLight::Dark, "where their cube pixels hold no light; the cube's light is"),
+            (
+                FrameLight::Dark,
+                "where their cube pixels hold no light; the cube's light is",
+            ),
         ] {
             let runs = self.runs(class);
             if runs.is_empty() {
@@ -312,8 +417,30 @@ fn grid_positions(n: usize, g: usize) -> Vec<usize> {
     (0..g).map(|k| ((2 * k + 1) * n) / (2 * g)).collect()
 }
 
+/// The pixels [`predict_coverage`] samples in a `width x height` frame: the [`GRID`] over the
+/// whole frame, the same grid over its central quarter (half the width and height: a fast
+/// dolly's aberration gathers the scene there and sends the other rays out of it) and the
+/// centre pixel (where the shortcuts keep their target); no pixel twice.
+fn sample_pixels(width: usize, height: usize) -> Vec<(usize, usize)> {
+    let grid = |x0: usize, y0: usize, w: usize, h: usize| {
+        let cols = grid_positions(w, GRID.0);
+        grid_positions(h, GRID.1)
+            .into_iter()
+            .flat_map(move |j| cols.clone().into_iter().map(move |i| (x0 + i, y0 + j)))
+    };
+    let (qw, qh) = ((width / 2).max(1), (height / 2).max(1));
+    let mut pixels: Vec<(usize, usize)> = grid(0, 0, width, height)
+        .chain(grid((width - qw) / 2, (height - qh) / 2, qw, qh))
+        .chain([(width / 2, height / 2)])
+        .collect();
+    pixels.sort_unstable();
+    pixels.dedup();
+    pixels
+}
+
 /// Predict, without rendering, which of `frames` of `path` under `settings` show light: for a
-/// [`GRID`] of pixels per frame and the image's centre pixel, [`probe_pixel`] gives each one's emission time, Doppler
+/// [`GRID`] of pixels over each frame and over its central quarter and the centre pixel
+/// ([`sample_pixels`]), [`probe_pixel`] gives each one's emission time, Doppler
 /// factor and value; the emission window `[t_e, t_e + dtau / D]` (`D = 1` with the
 /// searchlight off) is compared with the cube's [`light_span`]. A frame is
 /// [`FrameLight::Lit`] when a sampled pixel shows a positive value, and otherwise classed by
@@ -328,18 +455,7 @@ pub fn predict_coverage(
     settings.validate()?;
     check_frames(path, &frames)?;
     let light = light_span(scene, LIGHT_FRACTION);
-    let cols = grid_positions(settings.width, GRID.0);
-    let rows = grid_positions(settings.height, GRID.1);
-    // The grid and the image centre (where the shortcuts keep their target; at high speed
-    // a dolly's rays away from it leave the scene).
-    let centre = (settings.width / 2, settings.height / 2);
-    let mut pixels: Vec<(usize, usize)> = rows
-        .iter()
-        .flat_map(|&j| cols.iter().map(move |&i| (i, j)))
-        .collect();
-    if !pixels.contains(&centre) {
-        pixels.push(centre);
-    }
+    let pixels = sample_pixels(settings.width, settings.height);
     let searchlight = settings.effects.searchlight;
     let predicted: Vec<FrameCoverage> = frames
         .into_par_iter()
@@ -391,13 +507,28 @@ mod tests {
 
     #[test]
     fn grid_positions_are_pixel_centres_spread_over_the_side() {
-        assert_eq!(grid_positions(160, 16), (0..16).map(|k| 5 + 10 * k).collect::<Vec<_>>());
+        assert_eq!(
+            grid_positions(160, 16),
+            (0..16).map(|k| 5 + 10 * k).collect::<Vec<_>>()
+        );
         assert_eq!(grid_positions(4, 16), vec![0, 1, 2, 3]);
         assert_eq!(grid_positions(1, 12), vec![0]);
         for n in [7, 12, 13, 121, 480] {
             let g = grid_positions(n, 12);
             assert!(g.windows(2).all(|w| w[0] < w[1]) && *g.last().unwrap() < n);
         }
+    }
+
+    #[test]
+    fn samples_cover_the_frame_and_its_centre_once() {
+        let p = sample_pixels(160, 120);
+        // 16 x 12 over the frame, 16 x 12 over the middle 80 x 60 (none shared), the centre.
+        assert_eq!(p.len(), 2 * 192 + 1);
+        assert!(p.contains(&(80, 60)) && p.contains(&(5, 5)) && p.contains(&(42, 32)));
+        assert!(p.iter().all(|&(i, j)| i < 160 && j < 120));
+        let q = sample_pixels(3, 2);
+        assert_eq!(q, vec![(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]);
+        assert_eq!(sample_pixels(1, 1), vec![(0, 0)]);
     }
 
     #[test]
