@@ -116,6 +116,7 @@
 //! per-point cast only within one capture pixel of an occlusion edge, where the nearest cube
 //! pixel records the occluder anyway.
 
+pub mod coverage;
 pub mod frame;
 pub mod paths;
 pub mod views;
@@ -546,6 +547,15 @@ impl<'a> RenderScene<'a> {
     #[inline]
     pub fn pixel_total(&self, x: usize, y: usize) -> f64 {
         self.pixel_prefix(x, y).total()
+    }
+
+    /// The first hit of capture pixel `(x, y)`'s centre ray with the mesh (the G-buffer of
+    /// "Visibility" in the module doc), world metres; None where the ray leaves the scene.
+    #[inline]
+    pub fn capture_hit_m(&self, x: usize, y: usize) -> Option<Point3<f64>> {
+        let h = &self.hits[y * self.capture.intrinsics.width + x];
+        (!h.point[0].is_nan())
+            .then(|| Point3::new(h.point[0] as f64, h.point[1] as f64, h.point[2] as f64))
     }
 
     /// Pixel `(x, y)`'s expanded prefix sums, `nt + 1` values.

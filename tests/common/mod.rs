@@ -236,3 +236,63 @@ pub fn photon_camera_to_world(v: &Vector3<f64>, d_cam: &Vector3<f64>) -> (Vector
     let p = Vector3::new(k_world[1], k_world[2], k_world[3]);
     (-p / p.norm(), k_world[0] / k_cam[0])
 }
+
+/// A world-time cube as the unwarp of a streak capture leaves it. Capture pixel `(x, y)`,
+/// whose point lies `r` from the capture camera, recorded only the physical camera times
+/// `t_cam_ps.0 ..= t_cam_ps.1` (cube time minus `cal.t0_ps`), which are the world times
+/// `t_cam_ps - eta r / c`; it holds zero elsewhere. The axis, of bins of `dt_ps`, covers every
+/// pixel's window, as the unwarp's covering axis does, so each pixel is empty over most of it.
+/// Inside its window a pixel holds `energy` plus a dark pedestal of `pedestal_per_ps` (a
+/// capture whose dark signal was not subtracted).
+pub fn windowed_world_cube(
+    cal: &Calibration,
+    bvh: &Bvh,
+    dt_ps: f64,
+    t_cam_ps: (f64, f64),
+    pedestal_per_ps: f64,
+    energy: impl Fn(&Point3<f64>, &Vector3<f64>, f64, f64) -> f64,
+) -> Cube {
+    let o = cal.pose.position_m;
+    let flight = |p: &Point3<f64>| cal.eta * (p - o).norm() / C_M_PER_PS;
+    let (near, far) = capture_hits(cal, bvh)
+        .iter()
+        .flatten()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (p, _)| {
+            (a.min(flight(p)), b.max(flight(p)))
+        });
+    let start_ps = t_cam_ps.0 - far;
+    let axis = TimeAxis {
+        t0_ps: cal.t0_ps + start_ps,
+        dt_ps,
+        nt: ((t_cam_ps.1 - near - start_ps) / dt_ps).ceil() as usize,
+    };
+    world_cube(cal, bvh, axis, |p, n, a, b| {
+        let (lo, hi) = (a.max(t_cam_ps.0 - flight(p)), b.min(t_cam_ps.1 - flight(p)));
+        if lo < hi {
+            energy(p, n, lo, hi) + pedestal_per_ps * (hi - lo)
+        } else {
+            0.0
+        }
+    })
+}
+
+/// [`single_bounce_energy`] plus a stand-in for the indirect light that follows it: a tail
+/// decaying as `exp(-(t - t_arrive) / tail_ps)` after the direct light reaches `p`, holding
+/// `tail_fraction` of the direct energy.
+pub fn single_bounce_with_tail_energy(
+    cal: &Calibration,
+    sigma_ps: f64,
+    tail_fraction: f64,
+    tail_ps: f64,
+) -> impl Fn(&Point3<f64>, &Vector3<f64>, f64, f64) -> f64 {
+    let laser = cal.laser_m;
+    let direct = single_bounce_energy(cal, sigma_ps);
+    move |p, n, a, b| {
+        let to_laser = laser - p;
+        let r = to_laser.norm();
+        let cos = (n.dot(&to_laser) / r).abs();
+        let t_arrive = r / C_M_PER_PS;
+        let decayed = |t: f64| (-(t - t_arrive).max(0.0) / tail_ps).exp();
+        direct(p, n, a, b) + tail_fraction * cos / (r * r) * (decayed(a) - decayed(b))
+    }
+}
