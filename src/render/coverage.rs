@@ -29,9 +29,10 @@ use std::fmt;
 use std::ops::Range;
 
 /// Fraction of the peak of the summed signal above which a time counts as holding light:
-/// 1 %, well above the residue of a dark subtraction summed over the image (0.3 % of the peak
-/// before the first light in the demo's world cube) and well below what a frame needs to show
-/// something (8-bit sRGB shows 1.5e-4 of the exposure's white).
+/// 1 %, above the residue of a dark subtraction summed over the image (0.1-0.3 % of the peak
+/// before the first light in the demo's world cube), and far above the faintest light an
+/// 8-bit frame shows (about 1.5e-4 of the exposure's white), so that the frames at either
+/// end of a span still show theirs.
 pub const LIGHT_FRACTION: f64 = 0.01;
 
 /// Pixels sampled by [`predict_coverage`] (columns, rows), evenly spread over each frame and
@@ -439,9 +440,8 @@ fn sample_pixels(width: usize, height: usize) -> Vec<(usize, usize)> {
 }
 
 /// Predict, without rendering, which of `frames` of `path` under `settings` show light: for a
-/// [`GRID`] of pixels over each frame and over its central quarter and the centre pixel
-/// ([`sample_pixels`]), [`probe_pixel`] gives each one's emission time, Doppler
-/// factor and value; the emission window `[t_e, t_e + dtau / D]` (`D = 1` with the
+/// [`GRID`] of pixels over each frame and over its central quarter and the centre pixel,
+/// [`probe_pixel`] gives each one's emission time, Doppler factor and value; the emission window `[t_e, t_e + dtau / D]` (`D = 1` with the
 /// searchlight off) is compared with the cube's [`light_span`]. A frame is
 /// [`FrameLight::Lit`] when a sampled pixel shows a positive value, and otherwise classed by
 /// where its windows lie (see [`FrameLight`]). A frame lit only between the sampled pixels
