@@ -18,6 +18,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::load::load_mesh;
 use crate::pyramid::Pyramid;
 use crate::relativity::Radiometry;
+use crate::render::coverage::{frame_is_black, predict_coverage};
 use crate::render::paths::{shortcut_path, Shortcut};
 use crate::render::{
     auto_exposure, check_frames, check_path_clear, encode_srgb8, isochrone_range, render_sequence,
@@ -466,11 +467,6 @@ fn camera_flag(camera: &Camera) -> (&'static str, String) {
     }
 }
 
-/// Whether a rendered frame holds no light at all.
-pub fn frame_is_black(pixels: &[[f32; 3]]) -> bool {
-    pixels.iter().flatten().all(|&v| v.is_nan() || v <= 0.0)
-}
-
 /// Render `camera` on `inputs` into `out` (a folder for frame sequences, a file for MP4 and
 /// GIF; never one of the inputs: `inputs_paths`).
 pub fn render_to(
@@ -489,6 +485,9 @@ pub fn render_to(
         frames,
     } = plan(&scene, camera, options)?;
     let spec = path.spec();
+    // Frames whose times miss the cube's light, predicted before rendering (a coarse probe
+    // of each frame, render::coverage); the rendered black frames are counted below.
+    let coverage = predict_coverage(&scene, &settings, &path, frames.clone())?;
     let mut writer =
         VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
             .first_frame_index(frames.start);
@@ -522,15 +521,28 @@ pub fn render_to(
     progress.finish();
     let mut warnings = inputs.notes.clone();
     if !black_frames.is_empty() {
-        let (t_a, t_b) = scene.world_span_ps();
+        // Why, from the prediction when it saw it (with the offset that shows the light).
+        let why: Vec<String> = coverage.to_string().lines().map(str::to_string).collect();
+        let why = if why.is_empty() {
+            let (t_a, t_b) = scene.world_span_ps();
+            format!(
+                "their world times miss the light of the cube ({t_a:.0} .. {t_b:.0} ps world \
+                 time); the time offset was {:.1} ps, give --time-offset-ps or --dtau-ps to move \
+                 the frames onto it",
+                settings.time_offset_ps
+            )
+        } else {
+            let hint = coverage
+                .suggested_time_offset_ps()
+                .map(|t| format!("; try --time-offset-ps {t:.0}"))
+                .unwrap_or_default();
+            format!("{}{hint}", why.join("; "))
+        };
         warnings.push(format!(
-            "{} of {} frames are entirely black ({}): their world times miss the light of the \
-             cube ({t_a:.0} .. {t_b:.0} ps world time); the time offset was {:.1} ps, give \
-             --time-offset-ps or --dtau-ps to move the frames onto it",
+            "{} of {} frames are entirely black ({}): {why}",
             black_frames.len(),
             frames.len(),
             describe_indices(&black_frames),
-            settings.time_offset_ps
         ));
     }
     Ok(Rendered {
@@ -578,12 +590,5 @@ mod tests {
         );
         assert_eq!(describe_indices(&[5]), "5");
         assert_eq!(describe_indices(&[]), "");
-    }
-
-    #[test]
-    fn black_frames_are_those_without_any_positive_value() {
-        assert!(frame_is_black(&[[0.0; 3]; 4]));
-        assert!(frame_is_black(&[[f32::NAN, 0.0, -1.0]]));
-        assert!(!frame_is_black(&[[0.0; 3], [0.0, 1e-9, 0.0]]));
     }
 }
