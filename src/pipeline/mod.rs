@@ -9,6 +9,7 @@
 //!
 //! - [`calibrate`]: camera, registration and `t0` (seed Sec. 3), written as a calibration TOML
 //!   and the cube's `registration` group, both or neither.
+//! - [`describe`]: what a cube, pyramid side file, mesh or streak image holds (`femto info`).
 //! - [`unwarp`]: camera time to world time and back (seed Eq. 2), streamed by row slabs.
 //! - [`pyramid`]: the temporal prefix sums and mip levels of a cube (seed Sec. 5).
 //! - [`render`]: a world-time cube, its calibration and mesh opened into a render scene, and
@@ -18,6 +19,7 @@
 //! [`crate::ingest::plan::IngestPlan`] with [`crate::ingest::assemble::ingest`].
 
 pub mod calibrate;
+pub mod describe;
 pub mod pyramid;
 pub mod render;
 pub mod unwarp;
