@@ -336,6 +336,26 @@ impl CalibrationFile {
                 )));
             }
         }
+        // Every other number must be finite: a NaN or an infinity would reach the ray casts.
+        let finite = [
+            ("intrinsics.cx", k.cx),
+            ("intrinsics.cy", k.cy),
+            ("intrinsics.k1", k.k1),
+            ("intrinsics.k2", k.k2),
+            ("time.t0_ps", self.time.t0_ps),
+        ]
+        .into_iter()
+        .chain(
+            self.extrinsics
+                .position_m
+                .map(|v| ("extrinsics.position_m", v)),
+        )
+        .chain(self.laser.position_m.map(|v| ("laser.position_m", v)));
+        for (key, v) in finite {
+            if !v.is_finite() {
+                return Err(bad(format!("{key} must be finite, got {v}")));
+            }
+        }
         let r = &self.extrinsics.world_from_camera;
         let m = Matrix3::new(
             r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
@@ -376,6 +396,34 @@ impl CalibrationFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn non_finite_numbers_are_refused_naming_the_key() {
+        let text = example().to_toml();
+        for (key, line_start) in [
+            ("intrinsics.cy", "cy = "),
+            ("intrinsics.k2", "k2 = "),
+            ("time.t0_ps", "t0_ps = "),
+        ] {
+            for bad in ["inf", "nan", "-inf"] {
+                let edited: String = text
+                    .lines()
+                    .map(|l| {
+                        if l.starts_with(line_start) {
+                            format!("{line_start}{bad}")
+                        } else {
+                            l.to_string()
+                        }
+                    })
+                    .collect::<Vec<_>>()
+                    .join("\n");
+                let e = Calibration::from_toml(&edited, "c.toml")
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains("c.toml") && e.contains(key), "{e}");
+            }
+        }
+    }
 
     fn example() -> Calibration {
         let mut k = Intrinsics::from_vfov(64, 48, 40.0);
