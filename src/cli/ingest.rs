@@ -97,8 +97,8 @@ pub struct IngestArgs {
     /// h5py's gzip default) is about 8 % smaller for about 1.5x the CPU time. 'none' is
     /// fastest, about 1.7x the time of decoding the images alone, for 2-3.5x the bytes (see
     /// docs/ingest.md).
-    #[arg(long, default_value = "1", value_parser = super::parse_compression)]
-    pub compression: CubeCompression,
+    #[arg(long, value_parser = super::parse_compression)]
+    pub compression: Option<CubeCompression>,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
     #[arg(long, hide = true)]
     pub decode_only: bool,
@@ -315,7 +315,14 @@ pub fn run(args: IngestArgs) -> anyhow::Result<()> {
         bar.set_position(done);
     };
     let provenance = Provenance::new(super::command_line());
-    let s = assemble::ingest(&plan, out, &provenance, args.compression, &progress)?;
+    let s = assemble::ingest(
+        &plan,
+        out,
+        &provenance,
+        args.compression
+            .unwrap_or(femto::pipeline::INGEST_COMPRESSION),
+        &progress,
+    )?;
     bar.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
 
