@@ -123,6 +123,9 @@ pub enum StageError {
     /// An output is one of the inputs.
     #[error("--{flag} {path} is also an input of this command; choose another path")]
     OutputIsInput { flag: &'static str, path: String },
+    /// A request beyond what the machine can hold or a loop may walk ([`crate::limits`]).
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     /// A file could not be written.
     #[error("{path}: {source}")]
     Io {

@@ -16,8 +16,15 @@ pub struct Run {
 
 /// Run `femto args...` in `dir` (None: the test's working directory).
 pub fn femto_in(dir: Option<&Path>, args: &[&str]) -> Run {
+    femto_env(dir, args, &[])
+}
+
+/// Run `femto args...` in `dir` with extra environment variables (`FEMTO_MEMORY_LIMIT_BYTES`
+/// to make memory refusals independent of the machine).
+pub fn femto_env(dir: Option<&Path>, args: &[&str], env: &[(&str, &str)]) -> Run {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_femto"));
     cmd.args(args);
+    cmd.envs(env.iter().copied());
     if let Some(d) = dir {
         cmd.current_dir(d);
     }
@@ -65,4 +72,96 @@ pub fn femto_refused(args: &[&str]) -> String {
 /// A path as a command-line argument.
 pub fn arg(p: &Path) -> &str {
     p.to_str().expect("a UTF-8 path")
+}
+
+/// Every file under a folder (hidden ones included, recursively) with its contents: what a
+/// refused command must leave exactly as it was.
+#[derive(Debug, PartialEq, Eq)]
+pub struct Snapshot(std::collections::BTreeMap<std::path::PathBuf, Vec<u8>>);
+
+impl Snapshot {
+    pub fn of(dir: &Path) -> Snapshot {
+        fn walk(
+            dir: &Path,
+            root: &Path,
+            out: &mut std::collections::BTreeMap<std::path::PathBuf, Vec<u8>>,
+        ) {
+            for entry in std::fs::read_dir(dir).expect("readable folder") {
+                let path = entry.expect("folder entry").path();
+                let rel = path.strip_prefix(root).expect("under root").to_path_buf();
+                let meta = std::fs::symlink_metadata(&path).expect("metadata");
+                if meta.is_dir() {
+                    out.insert(rel, Vec::new());
+                    walk(&path, root, out);
+                } else if meta.file_type().is_symlink() {
+                    let target = std::fs::read_link(&path).expect("link");
+                    out.insert(rel, target.to_string_lossy().as_bytes().to_vec());
+                } else {
+                    out.insert(rel, std::fs::read(&path).expect("readable file"));
+                }
+            }
+        }
+        let mut files = std::collections::BTreeMap::new();
+        walk(dir, dir, &mut files);
+        Snapshot(files)
+    }
+
+    /// The names that differ between two snapshots (added, removed or changed).
+    pub fn changes(&self, after: &Snapshot) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        for (k, v) in &self.0 {
+            match after.0.get(k) {
+                None => names.push(format!("removed {}", k.display())),
+                Some(w) if w != v => names.push(format!("changed {}", k.display())),
+                _ => {}
+            }
+        }
+        for k in after.0.keys() {
+            if !self.0.contains_key(k) {
+                names.push(format!("added {}", k.display()));
+            }
+        }
+        names
+    }
+}
+
+/// Run `femto args...` in `dir` (with `env`) and require what a refused bad input must give:
+/// exit code 2, one line on stderr that contains each of `names` (the file, key or flag at
+/// fault), and no file under `dir` added, removed or changed. Returns the message.
+pub fn refused_unchanged(
+    dir: &Path,
+    args: &[&str],
+    env: &[(&str, &str)],
+    names: &[&str],
+) -> String {
+    let before = Snapshot::of(dir);
+    let run = femto_env(Some(dir), args, env);
+    let err = run.stderr.trim_end().to_string();
+    assert_eq!(
+        run.code,
+        Some(2),
+        "femto {}: exit {:?}: {err}",
+        args.join(" "),
+        run.code
+    );
+    assert_eq!(
+        err.lines().count(),
+        1,
+        "femto {}: one line: {err}",
+        args.join(" ")
+    );
+    for name in names {
+        assert!(
+            err.contains(name),
+            "femto {}: the message names {name}: {err}",
+            args.join(" ")
+        );
+    }
+    let changes = before.changes(&Snapshot::of(dir));
+    assert!(
+        changes.is_empty(),
+        "femto {}: refused but changed {changes:?}",
+        args.join(" ")
+    );
+    err
 }

@@ -1,0 +1,179 @@
+//! Bounds on what a command may ask of the machine, checked before anything is allocated or
+//! walked: a memory estimate against the memory this machine has available, and counts
+//! derived from user numbers (a span divided by a step, a frame count) capped before a loop
+//! or a `Vec` sees them.
+//!
+//! Every refusal names the flag or key that would fix it and gives the estimate, so a user
+//! who asked for `--nt 1000000000` reads "needs 64.0 GB ... lower --nt", not "capacity
+//! overflow" or an OOM kill.
+
+use std::fmt;
+
+/// Environment variable that overrides the memory this machine is taken to have available
+/// (bytes), for tests and for users who share a machine.
+pub const MEMORY_LIMIT_ENV: &str = "FEMTO_MEMORY_LIMIT_BYTES";
+
+/// The largest count any loop or allocation derived from a user number may reach (2^40):
+/// far beyond any real capture, small enough that `count * size_of::<f64>()` cannot
+/// overflow and that refusing takes no time.
+pub const MAX_COUNT: u64 = 1 << 40;
+
+/// A request the machine cannot or must not serve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LimitError {
+    /// The estimate exceeds the memory available.
+    #[error(
+        "{what} needs about {}, more than the {} this machine has available; {fix}",
+        human_bytes(*needed_bytes),
+        human_bytes(*available_bytes as f64)
+    )]
+    Memory {
+        what: String,
+        needed_bytes: f64,
+        available_bytes: u64,
+        fix: String,
+    },
+    /// A count derived from user numbers is not finite, negative or above its cap.
+    #[error("{what} would be {}, more than the limit of {limit}; {fix}", show_count(*value))]
+    Count {
+        what: String,
+        value: f64,
+        limit: u64,
+        fix: String,
+    },
+}
+
+fn show_count(v: f64) -> String {
+    if v.is_finite() && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Bytes as a short human figure: `512 B`, `3.2 MB`, `64.0 GB`, `5.3e4 TB`.
+pub fn human_bytes(bytes: f64) -> String {
+    const UNITS: [&str; 5] = ["B", "kB", "MB", "GB", "TB"];
+    if !bytes.is_finite() {
+        return "an unbounded amount of memory".into();
+    }
+    let mut v = bytes.max(0.0);
+    let mut unit = 0;
+    while v >= 1000.0 && unit + 1 < UNITS.len() {
+        v /= 1000.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{v:.0} B")
+    } else if v >= 1e4 {
+        format!("{v:.1e} {}", UNITS[unit])
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
+/// The memory this machine has available for one command, in bytes: the environment
+/// override [`MEMORY_LIMIT_ENV`] if set, else `MemAvailable` of `/proc/meminfo`, else 8 GB
+/// (a machine whose memory cannot be read is taken to be a modest one).
+pub fn available_memory_bytes() -> u64 {
+    if let Some(v) = std::env::var(MEMORY_LIMIT_ENV)
+        .ok()
+        .and_then(|s| s.trim().parse::<u64>().ok())
+    {
+        return v;
+    }
+    meminfo_available().unwrap_or(8_000_000_000)
+}
+
+fn meminfo_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    parse_meminfo_available(&text)
+}
+
+fn parse_meminfo_available(text: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kb.checked_mul(1024)
+}
+
+/// Refuse when `needed_bytes` (an estimate; `f64` so that products of user numbers cannot
+/// overflow) exceeds the memory available. `what` says what needs it ("the world cube of
+/// 512 x 512 x 1000000000 bins"), `fix` the flag that would help ("lower --nt").
+pub fn check_memory(
+    needed_bytes: f64,
+    what: impl fmt::Display,
+    fix: &str,
+) -> Result<(), LimitError> {
+    let available = available_memory_bytes();
+    if needed_bytes.is_finite() && needed_bytes <= available as f64 {
+        return Ok(());
+    }
+    Err(LimitError::Memory {
+        what: what.to_string(),
+        needed_bytes,
+        available_bytes: available,
+        fix: fix.to_string(),
+    })
+}
+
+/// A count computed from user numbers (`span / step`, a frame count read from a file) as a
+/// `usize`, refused when it is not finite, negative or above `limit` (at most
+/// [`MAX_COUNT`]). Use it before `Vec::with_capacity`, `vec![..; n]` or a loop of `n` turns.
+pub fn bounded_count(
+    value: f64,
+    limit: u64,
+    what: impl fmt::Display,
+    fix: &str,
+) -> Result<usize, LimitError> {
+    let limit = limit.min(MAX_COUNT);
+    if value.is_finite() && value >= 0.0 && value <= limit as f64 {
+        return Ok(value as usize);
+    }
+    Err(LimitError::Count {
+        what: what.to_string(),
+        value,
+        limit,
+        fix: fix.to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn meminfo_is_read_in_kilobytes() {
+        let text = "MemTotal: 24000000 kB\nMemFree: 100 kB\nMemAvailable:   2048 kB\n";
+        assert_eq!(parse_meminfo_available(text), Some(2048 * 1024));
+        assert_eq!(parse_meminfo_available("MemTotal: 1 kB\n"), None);
+    }
+
+    #[test]
+    fn memory_beyond_the_machine_is_refused_with_the_estimate_and_the_fix() {
+        let e = check_memory(64e12, "the world cube", "lower --nt").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("64.0 TB"), "{msg}");
+        assert!(msg.ends_with("lower --nt"), "{msg}");
+        assert!(check_memory(f64::NAN, "x", "y").is_err());
+        assert!(check_memory(f64::INFINITY, "x", "y").is_err());
+        assert!(check_memory(1.0, "x", "y").is_ok());
+    }
+
+    #[test]
+    fn counts_are_bounded_before_use() {
+        assert_eq!(bounded_count(12.0, 100, "bins", "fix").unwrap(), 12);
+        for bad in [f64::NAN, f64::INFINITY, -1.0, 101.0, 1e300] {
+            assert!(bounded_count(bad, 100, "bins", "fix").is_err(), "{bad}");
+        }
+        let e = bounded_count(1e300, u64::MAX, "time bins", "raise --dt-ps").unwrap_err();
+        assert!(e.to_string().contains("1e300"), "{e}");
+        assert!(e.to_string().contains(&MAX_COUNT.to_string()), "{e}");
+    }
+
+    #[test]
+    fn bytes_read_as_people_write_them() {
+        assert_eq!(human_bytes(512.0), "512 B");
+        assert_eq!(human_bytes(6.4e9), "6.4 GB");
+        assert_eq!(human_bytes(5.3e16), "5.3e4 TB");
+    }
+}
