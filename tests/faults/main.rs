@@ -1,0 +1,106 @@
+//! The fault corpus (issue 16): hand-made bad inputs and hostile flags, each run through the
+//! `femto` binary as a user would, each required to give exit code 2, one line on stderr that
+//! names the file, key or flag at fault, and a folder left exactly as it was
+//! ([`cli::refused_unchanged`]).
+//!
+//! One small realistic chain is built once ([`fixture`]) and copied into a fresh folder per
+//! case ([`case`]), so a case that writes where it must not is caught, and cases stay fast.
+//! The modules group the cases by kind of fault.
+
+#[path = "../common/cli.rs"]
+mod cli;
+
+mod consistency;
+mod numbers;
+mod outputs;
+mod sizes;
+
+use cli::{arg, femto_ok};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// The files of one small realistic chain, built once per test run: the simulated capture
+/// folder `cap/` (built-in cube scene, 32 x 24 pixels, every `--realistic` flaw, PNG16
+/// scanlines), `cube.h5` (ingested with defaults), `cube.calibration.toml` (calibrated with
+/// defaults), `world.h5` (unwarped) with its pyramid group.
+pub struct Fixture {
+    _dir: tempfile::TempDir,
+    pub root: PathBuf,
+}
+
+pub fn fixture() -> &'static Fixture {
+    static FIXTURE: OnceLock<Fixture> = OnceLock::new();
+    FIXTURE.get_or_init(|| {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let root = dir.path().to_path_buf();
+        let cap = root.join("cap");
+        femto_ok(&[
+            "simulate",
+            "--scene",
+            "cube",
+            "--size",
+            "32x24",
+            "--spp",
+            "16",
+            "--realistic",
+            "--out",
+            arg(&cap),
+        ]);
+        let cube = root.join("cube.h5");
+        femto_ok(&["ingest", arg(&cap), "-o", arg(&cube)]);
+        let truth = femto::camera::Calibration::load(&cap.join("calibration.toml")).unwrap();
+        let l = truth.laser_m;
+        femto_ok(&[
+            "calibrate",
+            arg(&cube),
+            "--mesh",
+            arg(&cap.join("scene.glb")),
+            "--points",
+            arg(&cap.join("fiducials.toml")),
+            &format!("--laser={},{},{}", l.x, l.y, l.z),
+        ]);
+        let world = root.join("world.h5");
+        femto_ok(&["unwarp", arg(&cube), "--out", arg(&world)]);
+        femto_ok(&["pyramid", arg(&world)]);
+        Fixture { _dir: dir, root }
+    })
+}
+
+/// A fresh folder holding copies of the fixture's `names` (files or folders, relative to the
+/// fixture's root, e.g. `"world.h5"`, `"cap"`, `"cap/scene.glb"`), in the same relative places.
+pub fn case(names: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    for name in names {
+        copy_into(&fixture().root.join(name), &dir.path().join(name));
+    }
+    dir
+}
+
+fn copy_into(from: &Path, to: &Path) {
+    if let Some(parent) = to.parent() {
+        std::fs::create_dir_all(parent).unwrap();
+    }
+    if from.is_dir() {
+        std::fs::create_dir_all(to).unwrap();
+        for entry in std::fs::read_dir(from).unwrap() {
+            let entry = entry.unwrap();
+            copy_into(&entry.path(), &to.join(entry.file_name()));
+        }
+    } else {
+        std::fs::copy(from, to).unwrap_or_else(|e| panic!("{}: {e}", from.display()));
+    }
+}
+
+/// The fixture chain itself runs with defaults and exit 0 (what every case starts from).
+#[test]
+fn the_fixture_chain_runs() {
+    let root = &fixture().root;
+    for name in [
+        "cube.h5",
+        "cube.calibration.toml",
+        "world.h5",
+        "cap/manifest.toml",
+    ] {
+        assert!(root.join(name).is_file(), "{name}");
+    }
+}

@@ -1,0 +1,4 @@
+//! Fault cases: numbers (issue 16).
+
+#[allow(unused_imports)]
+use super::{case, cli};

@@ -1,0 +1,4 @@
+//! Fault cases: sizes (issue 16).
+
+#[allow(unused_imports)]
+use super::{case, cli};
