@@ -137,7 +137,8 @@ fn main() {
 
     // Unwarp camera -> world onto the covering axis.
     if run("unwarp") {
-        let dst_axis = covering_axis(&src_axis, 1.0, 1.1, 1.0, Direction::CameraToWorld);
+        let dst_axis = covering_axis(&src_axis, 1.0, 1.1, 1.0, Direction::CameraToWorld)
+            .expect("a 10 cm span of distances gives a small axis");
         let mut dst = vec![0.0f32; n_pix * dst_axis.nt];
         let mut mask = vec![0u8; n_pix];
         touch(&mut dst, 1.0);

@@ -410,6 +410,15 @@ impl Manifest {
         }
 
         let ny = c.ny;
+        // The entries must cover 0..ny once each: more rows than entries is refused before
+        // anything is sized by ny (a ny of 2^64 - 1 asked for that many flags).
+        if ny > self.scanlines.len() {
+            return Err(format!(
+                "capture.ny = {ny} but only {} scanline entries are listed (indices must cover \
+                 0..ny exactly once)",
+                self.scanlines.len()
+            ));
+        }
         let mut seen = vec![false; ny];
         for (k, s) in self.scanlines.iter().enumerate() {
             if s.index >= ny {
@@ -446,11 +455,7 @@ impl Manifest {
                 ));
             }
         }
-        if let Some(missing) = seen.iter().position(|&s| !s) {
-            return Err(format!(
-                "scanline index {missing} is missing (indices must cover 0..{ny} exactly once)"
-            ));
-        }
+        // ny <= entries, each in 0..ny and none twice: every index is covered.
 
         let im = &self.imperfections;
         if let Some(p) = &im.photon_noise {
@@ -482,11 +487,11 @@ impl Manifest {
         if let Some(s) = &im.sweep {
             finite("imperfections.sweep.strength", s.strength)?;
             let t = &s.bin_times_ps;
-            if t.len() != c.nt + 1 {
+            if t.len() != c.nt.saturating_add(1) {
                 return Err(format!(
                     "imperfections.sweep.bin_times_ps has {} values, expected nt + 1 = {}",
                     t.len(),
-                    c.nt + 1
+                    c.nt as u128 + 1
                 ));
             }
             if let Some(i) = t.iter().position(|v| !v.is_finite()) {
@@ -590,7 +595,17 @@ mod tests {
         m.scanlines[1].index = 0;
         assert!(m.validate().unwrap_err().contains("index 0 appears twice"));
         m.scanlines.pop();
-        assert!(m.validate().unwrap_err().contains("index 1 is missing"));
+        let e = m.validate().unwrap_err();
+        assert!(
+            e.contains("capture.ny = 2 but only 1 scanline entries"),
+            "{e}"
+        );
+        // A row count no memory holds is refused by the same comparison, at once.
+        m.capture.ny = usize::MAX;
+        let e = m.validate().unwrap_err();
+        assert!(e.contains(&format!("capture.ny = {}", usize::MAX)), "{e}");
+        m.capture.ny = 2;
+        m.scanlines.push(m.scanlines[0].clone());
         m.scanlines[0].index = 5;
         assert!(m
             .validate()

@@ -62,11 +62,22 @@ pub fn level_nt(nt: usize, k: usize) -> usize {
 /// Number of mip levels above level 0 for `nt` bins: the smallest `K` with `2^K >= nt`,
 /// where the top level holds one sample per pixel.
 pub fn top_level(nt: usize) -> usize {
-    let mut k = 0;
-    while (1usize << k) < nt {
-        k += 1;
+    // ceil(log2(nt)) without a loop that a shift overflow could make endless.
+    if nt <= 1 {
+        0
+    } else {
+        (usize::BITS - (nt - 1).leading_zeros()) as usize
     }
-    k
+}
+
+/// Bytes a [`Pyramid`] of `n_pix` pixels of `nt` bins holds: the two-level prefix sums, every
+/// mip level (their samples add up to at most `nt + top_level(nt)` per pixel) and the mask.
+/// Floats, so that sizes read from a file cannot overflow the product.
+pub fn memory_bytes(n_pix: f64, nt: f64) -> f64 {
+    let fine = 4.0 * (nt + 1.0);
+    let coarse = 8.0 * (nt / PREFIX_BLOCK_BINS as f64 + 1.0);
+    let levels = 4.0 * (nt + nt.max(1.0).log2().ceil());
+    n_pix * (fine + coarse + levels + 1.0)
 }
 
 /// Pixels per parallel task of [`pyramid_rows`].
@@ -809,6 +820,42 @@ mod tests {
                 }
             }
             prop_assert_eq!(pyr.levels.last().map_or(1, |l| l.nt), 1);
+        }
+    }
+
+    #[test]
+    fn top_level_is_the_ceiling_log2_even_at_the_top_of_usize() {
+        for (nt, k) in [
+            (0, 0),
+            (1, 0),
+            (2, 1),
+            (3, 2),
+            (4, 2),
+            (5, 3),
+            (1024, 10),
+            (1025, 11),
+        ] {
+            assert_eq!(top_level(nt), k, "{nt}");
+        }
+        // The loop it replaced shifted 1usize by 64 for these: an overflow panic in debug, an
+        // endless loop in release.
+        assert_eq!(top_level(usize::MAX), 64);
+        assert_eq!(top_level((1usize << 63) + 1), 64);
+    }
+
+    #[test]
+    fn memory_bytes_bounds_a_built_pyramid_within_a_factor_two() {
+        for (nx, ny, nt) in [(8, 6, 256), (3, 2, 1000), (16, 16, 17)] {
+            let cube = Cube::zeros(nx, ny, axis(0.0, 1.0, nt), TimeFrame::World);
+            let pyr = Pyramid::build(&cube);
+            let held = 8 * pyr.prefix.coarse.len()
+                + 4 * pyr.prefix.fine.len()
+                + pyr.levels.iter().map(|l| 4 * l.data.len()).sum::<usize>();
+            let est = memory_bytes((nx * ny) as f64, nt as f64);
+            assert!(
+                est >= held as f64 && est <= 2.0 * held as f64,
+                "{est} vs {held}"
+            );
         }
     }
 

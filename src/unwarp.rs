@@ -36,6 +36,7 @@
 //! come out as zeros with mask 0.
 
 use crate::cube::{Cube, TimeAxis, TimeFrame};
+use crate::limits::{bounded_count, check_memory, LimitError, MAX_COUNT};
 use crate::resample;
 use crate::units::flight_time_ps;
 use rayon::prelude::*;
@@ -105,6 +106,10 @@ pub enum UnwarpError {
     /// The refractive index is not a finite positive number.
     #[error("refractive index eta must be finite and positive, got {0}")]
     BadEta(f64),
+    /// The output axis or the output cube is larger than a loop may walk or the machine
+    /// can hold.
+    #[error(transparent)]
+    Limit(#[from] LimitError),
     /// The requested output axis has a non-positive or non-finite bin width or start.
     #[error("output time axis must have a finite start and a positive bin width, got t0 {t0_ps} ps, dt {dt_ps} ps")]
     BadAxis {
@@ -124,29 +129,38 @@ fn has_geometry(dist_m: f32) -> bool {
 /// An axis with the bin width of `in_axis` that covers every profile of `in_axis` shifted
 /// for distances in `[min_dist_m, max_dist_m]`. Its bins are aligned with those of `in_axis`
 /// (its start differs by a whole number of bins), so a shift that is a whole number of bins
-/// moves bins exactly. Distances must be finite; their order does not matter.
+/// moves bins exactly. Distances must be finite; their order does not matter. Refused when
+/// its bin count is not finite or beyond [`crate::limits::MAX_COUNT`] (a bin width of
+/// 1e-300 ps, a distance of 1e12 m), before any buffer is sized by it.
 pub fn covering_axis(
     in_axis: &TimeAxis,
     min_dist_m: f64,
     max_dist_m: f64,
     eta: f64,
     direction: Direction,
-) -> TimeAxis {
-    assert!(
-        min_dist_m.is_finite() && max_dist_m.is_finite(),
-        "covering_axis needs finite distances"
-    );
+) -> Result<TimeAxis, LimitError> {
     let a = direction.shift_ps(eta, min_dist_m);
     let b = direction.shift_ps(eta, max_dist_m);
     let (lo_ps, hi_ps) = (a.min(b), a.max(b));
     // The data occupies [lo, nt + hi] in input-bin coordinates.
     let k_lo = (lo_ps / in_axis.dt_ps).floor();
     let k_hi = (hi_ps / in_axis.dt_ps).ceil();
-    TimeAxis {
+    let nt = bounded_count(
+        in_axis.nt as f64 + k_hi - k_lo,
+        MAX_COUNT,
+        format_args!(
+            "the time axis covering distances of {min_dist_m} to {max_dist_m} m in bins of {} ps \
+             (bins)",
+            in_axis.dt_ps
+        ),
+        "check the cube's dt_ps and the registration's dist_m, or give the output axis \
+         (--t0-ps, --nt)",
+    )?;
+    Ok(TimeAxis {
         t0_ps: in_axis.t0_ps + k_lo * in_axis.dt_ps,
         dt_ps: in_axis.dt_ps,
-        nt: (in_axis.nt as f64 + k_hi - k_lo) as usize,
-    }
+        nt,
+    })
 }
 
 /// Shift `rows` full rows of `nx` pixels (`src_rows`: `[y][x][t]` on `src_axis`) into
@@ -252,12 +266,20 @@ pub fn unwarp_cube(
                     (lo.min(d as f64), hi.max(d as f64))
                 });
             if lo <= hi {
-                covering_axis(&cube.axis, lo, hi, eta, direction)
+                covering_axis(&cube.axis, lo, hi, eta, direction)?
             } else {
                 cube.axis
             }
         }
     };
+    check_memory(
+        4.0 * n_pix as f64 * dst_axis.nt as f64,
+        format_args!(
+            "the unwarped cube of {} x {} pixels x {} bins",
+            cube.nx, cube.ny, dst_axis.nt
+        ),
+        "give a shorter output axis",
+    )?;
     let mut out = Cube::zeros(cube.nx, cube.ny, dst_axis, direction.target_frame());
     let mut out_mask = vec![0u8; n_pix];
     unwarp_rows(
@@ -353,7 +375,7 @@ mod tests {
         let a = axis(100.0, 2.0, 50);
         let (d_lo, d_hi) = (0.2, 0.35);
         for dir in [Direction::CameraToWorld, Direction::WorldToCamera] {
-            let c = covering_axis(&a, d_hi, d_lo, 1.0, dir);
+            let c = covering_axis(&a, d_hi, d_lo, 1.0, dir).unwrap();
             assert_eq!(c.dt_ps, 2.0);
             let k = (c.t0_ps - a.t0_ps) / a.dt_ps;
             assert!((k - k.round()).abs() < 1e-9, "start not aligned: {k}");
@@ -368,6 +390,21 @@ mod tests {
         }
     }
 
+    #[test]
+    fn covering_axes_beyond_any_buffer_are_refused_before_use() {
+        // "capacity overflow" (issue 16): bins of 1e-300 ps, or one distance of 1e12 m.
+        let tiny = axis(0.0, 1e-300, 64);
+        let e = covering_axis(&tiny, 0.5, 1.2, 1.0, Direction::CameraToWorld).unwrap_err();
+        assert!(e.to_string().contains("dt_ps"), "{e}");
+        let a = axis(0.0, 2.0, 64);
+        let e = covering_axis(&a, 0.5, 1e12, 1.0, Direction::CameraToWorld).unwrap_err();
+        assert!(e.to_string().contains("dist_m"), "{e}");
+        assert!(covering_axis(&a, 0.5, f64::INFINITY, 1.0, Direction::CameraToWorld).is_err());
+        // A realistic span stays as it was: 0.7 m at eta 1 is 2335 ps, 1168 bins of 2 ps.
+        let c = covering_axis(&a, 0.5, 1.2, 1.0, Direction::CameraToWorld).unwrap();
+        assert!((64 + 1168..=64 + 1170).contains(&c.nt), "{}", c.nt);
+    }
+
     /// A pixel whose flight time is a whole number of bins moves bit for bit.
     #[test]
     fn whole_bin_distance_copies_bins() {
@@ -375,7 +412,8 @@ mod tests {
         let tof_ps = d as f64 / C_M_PER_PS;
         let a = axis(10.0, tof_ps / 3.0, 8); // flight time = 3 bins
         let src: Vec<f32> = (1..=8).map(|v| v as f32 * 0.1).collect();
-        let dst_axis = covering_axis(&a, d as f64, d as f64, 1.0, Direction::CameraToWorld);
+        let dst_axis =
+            covering_axis(&a, d as f64, d as f64, 1.0, Direction::CameraToWorld).unwrap();
         let mut dst = vec![f32::NAN; dst_axis.nt];
         let mut m = [0u8];
         unwarp_rows(
@@ -537,7 +575,7 @@ mod tests {
             .collect();
         let before = cube.time_integral();
         // Covering axis with the same bin width, then a finer and a coarser covering axis.
-        let cover = covering_axis(&cam, 0.0, 0.05, 1.5, Direction::CameraToWorld);
+        let cover = covering_axis(&cam, 0.0, 0.05, 1.5, Direction::CameraToWorld).unwrap();
         let finer = axis(
             cover.t0_ps - 0.3,
             0.7,

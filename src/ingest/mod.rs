@@ -226,6 +226,9 @@ pub enum IngestError {
     /// `auto` saturation asked of files with floating-point samples, which have no maximum.
     #[error("{}: automatic saturation level needs integer samples, this file has {pixel_type} (give a level)", path.display())]
     SaturationAuto { path: PathBuf, pixel_type: String },
+    /// A count or a memory estimate beyond what the machine can hold ([`crate::limits`]).
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     /// An option value out of its range (names the option and the value).
     #[error("{what} = {value}: {message}")]
     BadValue {

@@ -59,6 +59,7 @@ use super::time_axis::{self, AxisRequest, Recorded, RecordedEdges};
 use super::IngestError;
 use crate::cube::TimeAxis;
 use crate::formats::{read_streak, streak_extension, PixelType, StreakImage};
+use crate::limits::{bounded_count, check_memory};
 use crate::manifest::Manifest;
 
 pub use super::time_axis::edges_from_starts;
@@ -173,7 +174,12 @@ impl InputSpec {
             return match rows {
                 Some(rows) if rows > 0 => Ok(InputSpec::Printf {
                     pattern: input.to_string(),
-                    rows,
+                    rows: bounded_count(
+                        rows as f64,
+                        MAX_SCANLINES,
+                        format_args!("the scanlines of {input} (--rows)"),
+                        "lower --rows",
+                    )?,
                 }),
                 _ => Err(IngestError::PrintfNeedsRows {
                     pattern: input.to_string(),
@@ -438,6 +444,17 @@ pub struct SaturationCorrection {
     /// How the level was chosen (for provenance).
     pub source: String,
 }
+
+/// Most scanlines of one capture (the seed's has 600): a printf pattern's `--rows` beyond it
+/// is refused before a file name is formatted.
+pub const MAX_SCANLINES: u64 = 1 << 20;
+
+/// Memory of the process before the stage allocates anything (code, threads, HDF5), bytes.
+const BASE_BYTES: f64 = 24e6;
+
+/// Bytes held per pixel of the cube: the masks of both passes, the row-offset fit's edge and
+/// the power fit's log integral (`Option<f64>` each).
+const BYTES_PER_PIXEL: f64 = 36.0;
 
 /// Everything an ingest needs, resolved and checked: the files, the sizes, the axes and the
 /// corrections with their parameters.
@@ -782,7 +799,7 @@ impl IngestPlan {
             }
         };
 
-        Ok(IngestPlan {
+        let plan = IngestPlan {
             input: describe,
             source: listed.source,
             nx,
@@ -804,7 +821,33 @@ impl IngestPlan {
             jitter: options.jitter.then(RowOffsetFit::default),
             saturation,
             missing,
-        })
+        };
+        check_memory(
+            plan.memory_estimate(),
+            format_args!(
+                "ingesting {} ({} x {} pixels, {} recorded and {} output bins)",
+                plan.input, plan.nx, plan.ny, plan.nt_recorded, plan.out_axis.nt
+            ),
+            "ingest fewer scanlines, or raise --dt-ps when resampling",
+        )?;
+        Ok(plan)
+    }
+
+    /// Peak memory of [`super::assemble::ingest`] for this plan, bytes: the per-pixel maps,
+    /// the rows in flight (each decoded, in recorded bins, and corrected, in output bins, for
+    /// `2 threads + 2` rows) and an HDF5 stack input, which is read whole. A float, so that no
+    /// product of sizes can overflow.
+    pub fn memory_estimate(&self) -> f64 {
+        let (fx, fy) = (self.nx as f64, self.ny as f64);
+        let (rec, out) = (self.nt_recorded as f64, self.out_axis.nt as f64);
+        let threads = rayon::current_num_threads().max(1) as f64;
+        let in_flight = 2.0 * threads + 2.0;
+        let row = 4.0 * fx * (2.0 * rec + out);
+        let stack = match &self.source {
+            RowSource::Stack { values, .. } => 4.0 * values.len() as f64,
+            RowSource::Files(_) => 0.0,
+        };
+        BASE_BYTES + BYTES_PER_PIXEL * fx * fy + in_flight * row + stack
     }
 
     /// Whether the plan needs a first pass over every scanline before the cube can be

@@ -16,6 +16,7 @@ use crate::container::{self, CubeMeta};
 use crate::cube::TimeFrame;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::load::load_mesh;
+use crate::limits::check_memory;
 use crate::pyramid::Pyramid;
 use crate::relativity::Radiometry;
 use crate::render::coverage::{frame_is_black, predict_coverage};
@@ -38,6 +39,41 @@ pub const LASER_NM_NOTES: [&str; 3] = ["laser_nm", "laser_wavelength_nm", "laser
 pub const MAX_SIDE: usize = 16384;
 /// Largest number of frames accepted.
 pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Memory of the process before the stage allocates anything (code, threads, HDF5, the mesh
+/// of a scanned scene), bytes.
+const BASE_BYTES: f64 = 32e6;
+
+/// Bytes per frame pixel held while a sequence renders: the linear RGB frame (12), the camera
+/// rays of the frame in world space (24) with their Doppler factors (8), the frame handed to
+/// the writer (12 as linear RGB, 3 as sRGB) and the encoder's copy.
+const BYTES_PER_FRAME_PIXEL: f64 = 64.0;
+
+/// Bytes per cube pixel of the renderer's scene besides the pyramid: the capture camera's
+/// G-buffer entry (point, normal, tolerance, side).
+const BYTES_PER_CUBE_PIXEL: f64 = 40.0;
+
+/// Peak memory of reading a world-time cube of `nx` x `ny` pixels and `nt` bins for the
+/// renderer, bytes: its pyramid, the prefix sums expanded to f64 (`nt + 1` per pixel), the
+/// G-buffer and, when the pyramid is built in memory (`build_pyramid`), the cube itself.
+pub fn inputs_memory_estimate(nx: usize, ny: usize, nt: usize, build_pyramid: bool) -> f64 {
+    let (n_pix, fnt) = (nx as f64 * ny as f64, nt as f64);
+    let cube = if build_pyramid {
+        4.0 * n_pix * fnt
+    } else {
+        0.0
+    };
+    BASE_BYTES
+        + crate::pyramid::memory_bytes(n_pix, fnt)
+        + n_pix * (8.0 * (fnt + 1.0) + BYTES_PER_CUBE_PIXEL)
+        + cube
+}
+
+/// Peak memory of rendering `width` x `height` frames from a world-time cube of `nx` x `ny`
+/// pixels and `nt` bins whose pyramid is in memory, bytes.
+pub fn memory_estimate(nx: usize, ny: usize, nt: usize, width: usize, height: usize) -> f64 {
+    inputs_memory_estimate(nx, ny, nt, false) + BYTES_PER_FRAME_PIXEL * width as f64 * height as f64
+}
 
 /// Where the laser wavelength came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -171,6 +207,18 @@ pub fn open_render_inputs(
         }));
     }
     let laser = laser_wavelength(laser_nm, &meta, cube_path)?;
+    let stored = pyramid_file.is_some() || meta.groups.iter().any(|g| g == stored_pyramid::GROUP);
+    check_memory(
+        inputs_memory_estimate(meta.nx, meta.ny, meta.axis.nt, !stored),
+        format_args!(
+            "--cube {}: rendering its {} x {} pixels of {} bins",
+            cube_path.display(),
+            meta.nx,
+            meta.ny,
+            meta.axis.nt
+        ),
+        "render a cropped or coarser cube, on a machine with more memory",
+    )?;
     let mut notes = Vec::new();
     let pyramid = if let Some(side) = pyramid_file {
         read_pyramid_for(cube_path, Some(side)).map_err(|e| StageError::Option {
@@ -410,6 +458,15 @@ pub fn plan(
             ),
         });
     }
+    let w = scene.world;
+    check_memory(
+        memory_estimate(w.nx, w.ny, w.axis.nt, spec.width, spec.height),
+        format_args!(
+            "rendering {}x{} frames from a {} x {} x {} cube",
+            spec.width, spec.height, w.nx, w.ny, w.axis.nt
+        ),
+        "lower --size",
+    )?;
     if options.format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         return Err(StageError::Option {
             name: "size",

@@ -17,12 +17,57 @@ use crate::camera::Calibration;
 use crate::container::{CubeCompression, CubeReader, CubeWriter, GroupData, Provenance};
 use crate::cube::{row_slabs, TimeAxis, TimeFrame};
 use crate::geometry::bvh::Bvh;
+use crate::limits::check_memory;
 use crate::store::registration::{self, StoredRegistration};
 use crate::unwarp::{covering_axis, unwarp_rows, Direction};
 use std::path::Path;
 
 /// Largest slab of input plus output rows moved at once, bytes.
 const SLAB_BYTES: usize = 64 << 20;
+
+/// Memory of the process before the stage allocates anything (code, threads, HDF5), bytes.
+const BASE_BYTES: f64 = 24e6;
+
+/// Bytes held per pixel: the registration group as read and as typed (distance, mask,
+/// normal and point per pixel), the distances used, the input and output masks.
+const BYTES_PER_PIXEL: f64 = 64.0;
+
+/// Peak memory of [`unwarp_file`] on an `nx` x `ny` cube of `nt_in` bins unwarped onto
+/// `nt_out` bins, bytes: the per-pixel maps and one slab of input and output rows (at least
+/// one row, however long). A float, so that no product of file sizes can overflow.
+pub fn memory_estimate(nx: usize, ny: usize, nt_in: usize, nt_out: usize) -> f64 {
+    let (fx, fy) = (nx as f64, ny as f64);
+    let row_bytes = 4.0 * fx * (nt_in as f64 + nt_out as f64);
+    let rows = (SLAB_BYTES as f64 / row_bytes.max(1.0))
+        .floor()
+        .clamp(1.0, fy.max(1.0));
+    BASE_BYTES + BYTES_PER_PIXEL * fx * fy + rows * row_bytes
+}
+
+/// Refuse an unwarp of `input` whose [`memory_estimate`] exceeds the memory available; the
+/// fix is the output axis's flags when they set it, else the input's own axis and distances.
+fn check_unwarp_memory(
+    input: &Path,
+    (nx, ny, nt_in): (usize, usize, usize),
+    nt_out: usize,
+    axis_given: bool,
+) -> Result<(), StageError> {
+    let fix = if axis_given {
+        "lower --nt or raise --dt-ps"
+    } else {
+        "check the cube's dt_ps and the registration's dist_m, or give a shorter output axis \
+         (--t0-ps, --nt, --dt-ps)"
+    };
+    check_memory(
+        memory_estimate(nx, ny, nt_in, nt_out),
+        format_args!(
+            "unwarping {} ({nx} x {ny} pixels) onto {nt_out} bins",
+            input.display()
+        ),
+        fix,
+    )?;
+    Ok(())
+}
 
 /// Where the per-pixel distances come from.
 #[derive(Clone, Copy)]
@@ -95,6 +140,10 @@ pub fn unwarp_file(
     let meta = reader.meta().clone();
     let (nx, ny) = (meta.nx, meta.ny);
     let direction = options.direction;
+    let shape = (nx, ny, meta.axis.nt);
+    // Before the registration is read or cast: the cube's own size and a given axis.
+    let nt_given = options.axis.map_or(meta.axis.nt, |a| a.nt);
+    check_unwarp_memory(input, shape, nt_given, options.axis.is_some())?;
     if meta.frame != direction.source_frame() {
         return Err(StageError::Input {
             path: input.display().to_string(),
@@ -187,10 +236,16 @@ pub fn unwarp_file(
             a
         }
         None => match dist_range_m {
-            Some((lo, hi)) => covering_axis(&meta.axis, lo, hi, eta, direction),
+            Some((lo, hi)) => covering_axis(&meta.axis, lo, hi, eta, direction).map_err(|e| {
+                StageError::Input {
+                    path: input.display().to_string(),
+                    message: e.to_string(),
+                }
+            })?,
             None => meta.axis,
         },
     };
+    check_unwarp_memory(input, shape, axis.nt, options.axis.is_some())?;
 
     let mut notes: Vec<(String, String)> = meta
         .notes

@@ -38,6 +38,10 @@ pub enum SimulateError {
     /// An imperfection parameter is out of range.
     #[error(transparent)]
     Flaw(#[from] FlawError),
+    /// The capture is larger than the machine can hold or a loop may walk
+    /// ([`super::budget`]).
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     /// The destination exists and is not an empty folder (and `force` was not given), or
     /// it is not a folder at all.
     #[error("{}: {message}", path.display())]
@@ -111,7 +115,8 @@ impl Default for SimulateOptions {
 }
 
 impl SimulateOptions {
-    /// Check every option and imperfection; the error names the one at fault.
+    /// Check every option and imperfection, and the capture's sizes against their caps and
+    /// the memory available ([`super::budget`]); the error names the one at fault.
     pub fn validate(&self, scene: &Scene) -> Result<(), SimulateError> {
         let bad = |option: &'static str, message: String| {
             Err(SimulateError::InvalidOption { option, message })
@@ -159,6 +164,7 @@ impl SimulateOptions {
             );
         }
         self.flaws.validate()?;
+        super::budget::check(scene, self)?;
         Ok(())
     }
 }
@@ -369,7 +375,7 @@ pub fn simulate_capture(
 }
 
 /// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
-const BAND_TARGET_BYTES: usize = 64 << 20;
+pub(crate) const BAND_TARGET_BYTES: usize = 64 << 20;
 
 /// Render the true cubes band by band, writing the three truth files into `dir` as the bands
 /// come (so only one band of rows is ever held), and return the camera-time cube's peaks

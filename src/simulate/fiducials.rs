@@ -112,60 +112,105 @@ fn well_separated(points: Vec<Correspondence>, min_m: f64) -> Vec<Correspondence
         .collect()
 }
 
+/// A planar mesh entry in its own 2-D frame: `origin + a u_axis + b v_axis`, the triangles'
+/// coordinates and their extent `lo..hi` along `(a, b)`.
+struct PlanarEntry {
+    origin: Point3<f64>,
+    u_axis: Vector3<f64>,
+    v_axis: Vector3<f64>,
+    tris_2d: Vec<[(f64, f64); 3]>,
+    lo: (f64, f64),
+    hi: (f64, f64),
+}
+
+impl PlanarEntry {
+    /// The entry of material `material`, if all its triangles lie in one plane.
+    fn of(scene: &Scene, material: u32) -> Option<PlanarEntry> {
+        let mesh = &scene.mesh;
+        let tris: Vec<[Point3<f64>; 3]> = (0..mesh.triangle_count())
+            .filter(|&i| mesh.material[i] == material)
+            .map(|i| mesh.corners(i).map(|p| p.cast::<f64>()))
+            .collect();
+        let first = tris.first()?;
+        let e1 = first[1] - first[0];
+        let n = e1.cross(&(first[2] - first[0]));
+        if n.norm() < 1e-12 {
+            return None;
+        }
+        let n = n.normalize();
+        let origin = first[0];
+        if tris
+            .iter()
+            .flatten()
+            .any(|p| (p - origin).dot(&n).abs() > PLANARITY_TOLERANCE_M)
+        {
+            return None;
+        }
+        let u_axis = e1.normalize();
+        let v_axis = n.cross(&u_axis);
+        let coords = |p: &Point3<f64>| ((p - origin).dot(&u_axis), (p - origin).dot(&v_axis));
+        let (mut lo, mut hi) = (
+            (f64::INFINITY, f64::INFINITY),
+            (f64::NEG_INFINITY, f64::NEG_INFINITY),
+        );
+        for p in tris.iter().flatten() {
+            let (a, b) = coords(p);
+            lo = (lo.0.min(a), lo.1.min(b));
+            hi = (hi.0.max(a), hi.1.max(b));
+        }
+        let tris_2d = tris.iter().map(|t| t.map(|p| coords(&p))).collect();
+        Some(PlanarEntry {
+            origin,
+            u_axis,
+            v_axis,
+            tris_2d,
+            lo,
+            hi,
+        })
+    }
+}
+
+/// Grid nodes along an extent `lo..hi` at `spacing_m`: `floor(extent / spacing)`, at least 1
+/// (as a float: a tiny spacing gives a count no `usize` holds).
+fn axis_node_count(lo: f64, hi: f64, spacing_m: f64) -> f64 {
+    ((hi - lo) / spacing_m + 1e-6).floor().max(1.0)
+}
+
+/// How many grid nodes [`fiducials`] would test on the planar entries of `scene` at
+/// `spacing_m` (before the triangle, image and occlusion tests drop some): the count that
+/// sizes its work and memory, computed without walking them.
+pub fn marker_candidates(scene: &Scene, spacing_m: f64) -> f64 {
+    (0..scene.labels.len())
+        .filter_map(|m| PlanarEntry::of(scene, m as u32))
+        .map(|e| {
+            axis_node_count(e.lo.0, e.hi.0, spacing_m) * axis_node_count(e.lo.1, e.hi.1, spacing_m)
+        })
+        .sum()
+}
+
 /// Grid points `spacing_m` apart on the entry of material `material`, if all its triangles
 /// lie in one plane: `floor(extent / spacing)` nodes along each of two in-plane axes, centred
 /// in the entry's extent (so half a spacing in from a rectangle's edges), kept where they fall
-/// on one of its triangles. Empty for a non-planar entry.
+/// on one of its triangles. Empty for a non-planar entry. The caller bounds the node count
+/// first ([`marker_candidates`]).
 fn planar_grid(scene: &Scene, material: u32, spacing_m: f64) -> Vec<Point3<f64>> {
-    let mesh = &scene.mesh;
-    let tris: Vec<[Point3<f64>; 3]> = (0..mesh.triangle_count())
-        .filter(|&i| mesh.material[i] == material)
-        .map(|i| mesh.corners(i).map(|p| p.cast::<f64>()))
-        .collect();
-    let Some(first) = tris.first() else {
-        return Vec::new();
-    };
     if !(spacing_m.is_finite() && spacing_m > 0.0) {
         return Vec::new();
     }
-    let e1 = first[1] - first[0];
-    let n = e1.cross(&(first[2] - first[0]));
-    if n.norm() < 1e-12 {
+    let Some(e) = PlanarEntry::of(scene, material) else {
         return Vec::new();
-    }
-    let n = n.normalize();
-    let origin = first[0];
-    if tris
-        .iter()
-        .flatten()
-        .any(|p| (p - origin).dot(&n).abs() > PLANARITY_TOLERANCE_M)
-    {
-        return Vec::new();
-    }
-    let u_axis = e1.normalize();
-    let v_axis = n.cross(&u_axis);
-    let coords = |p: &Point3<f64>| ((p - origin).dot(&u_axis), (p - origin).dot(&v_axis));
-    let (mut lo, mut hi) = (
-        (f64::INFINITY, f64::INFINITY),
-        (f64::NEG_INFINITY, f64::NEG_INFINITY),
-    );
-    for p in tris.iter().flatten() {
-        let (a, b) = coords(p);
-        lo = (lo.0.min(a), lo.1.min(b));
-        hi = (hi.0.max(a), hi.1.max(b));
-    }
+    };
     let axis_nodes = |lo: f64, hi: f64| -> Vec<f64> {
         let extent = hi - lo;
-        let n = ((extent / spacing_m + 1e-6).floor() as usize).max(1);
+        let n = axis_node_count(lo, hi, spacing_m) as usize;
         let start = lo + (extent - (n - 1) as f64 * spacing_m) / 2.0;
         (0..n).map(|i| start + i as f64 * spacing_m).collect()
     };
-    let tris_2d: Vec<[(f64, f64); 3]> = tris.iter().map(|t| t.map(|p| coords(&p))).collect();
     let mut out = Vec::new();
-    for &b in &axis_nodes(lo.1, hi.1) {
-        for &a in &axis_nodes(lo.0, hi.0) {
-            if tris_2d.iter().any(|t| inside(t, (a, b))) {
-                let p: Vector3<f64> = origin.coords + u_axis * a + v_axis * b;
+    for &b in &axis_nodes(e.lo.1, e.hi.1) {
+        for &a in &axis_nodes(e.lo.0, e.hi.0) {
+            if e.tris_2d.iter().any(|t| inside(t, (a, b))) {
+                let p: Vector3<f64> = e.origin.coords + e.u_axis * a + e.v_axis * b;
                 out.push(Point3::from(p));
             }
         }
@@ -233,6 +278,20 @@ mod tests {
         }
         let box_entry = scene.labels.iter().position(|l| l == "cube").unwrap();
         assert!(planar_grid(&scene, box_entry as u32, 0.01).is_empty());
+    }
+
+    #[test]
+    fn marker_candidates_count_the_grid_without_walking_it() {
+        let scene = Scene::builtin("cube", None).unwrap();
+        // Every planar entry of the cube scene is a rectangle: each node is a candidate.
+        let walked: usize = (0..scene.labels.len())
+            .map(|m| planar_grid(&scene, m as u32, 0.01).len())
+            .sum();
+        assert!(walked >= 40 * 35, "{walked}");
+        assert_eq!(marker_candidates(&scene, 0.01), walked as f64);
+        // A nanometre grid on the 0.40 x 0.35 m floor alone: 1.4e17 nodes, counted at once.
+        let huge = marker_candidates(&scene, 1e-9);
+        assert!(huge.is_finite() && huge > 1.4e17, "{huge}");
     }
 
     #[test]

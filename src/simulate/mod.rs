@@ -26,6 +26,7 @@
 //! Determinism: the tracer and every imperfection draw from streams seeded by the seed and
 //! the pixel or scanline, so a capture is bit-identical whatever the thread count.
 
+pub mod budget;
 pub mod capture;
 pub mod fiducials;
 pub mod flaws;

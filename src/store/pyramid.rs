@@ -30,6 +30,7 @@ use crate::container::{
     GroupReader, GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
+use crate::limits::check_memory;
 use crate::pyramid::{
     coarse_len, level_nt, pyramid_rows, top_level, Level, PrefixSlices, PrefixSums, Pyramid,
 };
@@ -164,10 +165,14 @@ pub fn info_from_attrs(
     Ok(info)
 }
 
+/// Memory of the process before the pyramid stage allocates anything, bytes.
+const PYRAMID_BASE_BYTES: f64 = 24e6;
+
 /// Build the pyramid of the cube `reader` reads, keeping mip levels `1 ..= levels`, and write
 /// it as group [`GROUP`] into `out` (the cube's own file or a side file), row slab by row slab.
 /// `source` names the cube in the `source` attribute; `on_rows` is called with the number of
-/// rows done so far.
+/// rows done so far. Refused, before anything is allocated, when one slab of rows needs more
+/// memory than the machine has ([`crate::limits::check_memory`]).
 pub fn write_pyramid(
     reader: &CubeReader,
     out: &mut GroupUpdate,
@@ -177,8 +182,26 @@ pub fn write_pyramid(
     on_rows: &dyn Fn(usize),
 ) -> Result<PyramidInfo, StoreError> {
     let meta = reader.meta();
-    let row_bytes = meta.nx * (coarse_len(meta.axis.nt) * 8 + (meta.axis.nt + 1) * 4);
-    let rows_per_slab = SLAB_TARGET_BYTES / row_bytes;
+    // Sizes from the file's attributes, in floats: one row of the source, its prefix sums and
+    // levels, refused before a slab is allocated when it cannot be held.
+    let (nx, ny, nt) = (meta.nx as f64, meta.ny as f64, meta.axis.nt as f64);
+    let row_bytes = 4.0 * nx * nt + crate::pyramid::memory_bytes(nx, nt);
+    let rows_per_slab = (SLAB_TARGET_BYTES as f64 / row_bytes.max(1.0))
+        .floor()
+        .clamp(1.0, ny.max(1.0));
+    check_memory(
+        PYRAMID_BASE_BYTES + rows_per_slab * row_bytes,
+        format_args!(
+            "{source}: the pyramid of {} x {} pixels of {} bins, {rows_per_slab} rows at a time",
+            meta.nx, meta.ny, meta.axis.nt
+        ),
+        "store fewer --levels or use a machine with more memory",
+    )
+    .map_err(|e| StoreError::Mismatch {
+        path: Path::new(source).to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let rows_per_slab = rows_per_slab as usize;
     write_pyramid_slabs(
         reader,
         out,

@@ -134,13 +134,37 @@ pub struct ResponseTable {
 }
 
 impl ResponseTable {
-    pub fn new(response: &TimeResponse) -> ResponseTable {
-        let s = response.sigma_bins;
-        let rows = if s == 0.0 {
+    /// Rows per bin of the table for a pulse of `sigma_bins` bins (1 for a delta pulse).
+    fn rows_for(sigma_bins: f64) -> usize {
+        if sigma_bins == 0.0 {
             1
         } else {
-            ((128.0 / s.sqrt()).ceil().min(TABLE_ROWS_MAX as f64) as usize).max(TABLE_ROWS_MIN)
-        };
+            ((128.0 / sigma_bins.sqrt())
+                .ceil()
+                .min(TABLE_ROWS_MAX as f64) as usize)
+                .max(TABLE_ROWS_MIN)
+        }
+    }
+
+    /// Bins one sample weighs before trimming, for a pulse of `sigma_ps` on bins of `dt_ps`:
+    /// the work of every splat and the table's width. A float, so that a pulse of 1e300 bins
+    /// can be refused ([`crate::limits::bounded_count`]) before anything is computed.
+    pub fn weights_per_sample(dt_ps: f64, sigma_ps: f64) -> f64 {
+        let s = (sigma_ps / dt_ps).max(0.0);
+        2.0 * (1.0 + TRUNCATE_SIGMAS * s) + 2.0
+    }
+
+    /// Bytes [`ResponseTable::new`] holds at its peak (the exact rows and the table, f64),
+    /// for a pulse of `sigma_ps` on bins of `dt_ps`.
+    pub fn bytes_estimate(dt_ps: f64, sigma_ps: f64) -> f64 {
+        let s = (sigma_ps / dt_ps).max(0.0);
+        let rows = if s.is_finite() { Self::rows_for(s) } else { 1 };
+        2.0 * (rows + 1) as f64 * Self::weights_per_sample(dt_ps, sigma_ps) * 8.0
+    }
+
+    pub fn new(response: &TimeResponse) -> ResponseTable {
+        let s = response.sigma_bins;
+        let rows = Self::rows_for(s);
         let mut scratch = Vec::new();
         let exact: Vec<(isize, Vec<f64>)> = (0..=rows)
             .map(|j| {
@@ -397,6 +421,25 @@ mod tests {
             dt_ps: 2.0,
             nt: 64,
         }
+    }
+
+    #[test]
+    fn table_size_estimates_bound_the_built_tables() {
+        // Pulses of 0, 0.1, 1, 5 and 40 bins of 2 ps.
+        for sigma_ps in [0.0, 0.2, 2.0, 10.0, 80.0] {
+            let table = ResponseTable::new(&TimeResponse::new(axis(), sigma_ps));
+            let per_sample = ResponseTable::weights_per_sample(2.0, sigma_ps);
+            assert!(table.len as f64 <= per_sample, "{sigma_ps}: {}", table.len);
+            // The peak holds the exact rows and the table: twice the table, at most.
+            let held = 8.0 * table.table.len() as f64;
+            let est = ResponseTable::bytes_estimate(2.0, sigma_ps);
+            assert!(
+                est >= held && est <= 2.0 * 2.0 * held,
+                "{sigma_ps}: {est} vs {held}"
+            );
+        }
+        // A bin of 1e-300 ps: refused by its count before any table exists.
+        assert!(ResponseTable::weights_per_sample(1e-300, 0.02) > 1e290);
     }
 
     #[test]
