@@ -51,6 +51,16 @@ fn show_count(v: f64) -> String {
     }
 }
 
+/// A user's number as they would write it: plain between 1e-4 and 1e15 (`0.008`, `4`),
+/// in exponent form beyond (`1e-300`, `1e-9`), so that a message stays one short line.
+pub fn short_number(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// Bytes as a short human figure: `512 B`, `3.2 MB`, `64.0 GB`, `5.3e4 TB`.
 pub fn human_bytes(bytes: f64) -> String {
     const UNITS: [&str; 5] = ["B", "kB", "MB", "GB", "TB"];
@@ -168,6 +178,16 @@ mod tests {
         let e = bounded_count(1e300, u64::MAX, "time bins", "raise --dt-ps").unwrap_err();
         assert!(e.to_string().contains("1e300"), "{e}");
         assert!(e.to_string().contains(&MAX_COUNT.to_string()), "{e}");
+    }
+
+    #[test]
+    fn numbers_in_messages_stay_short() {
+        assert_eq!(short_number(0.008), "0.008");
+        assert_eq!(short_number(4.0), "4");
+        assert_eq!(short_number(1e-9), "1e-9");
+        assert_eq!(short_number(1e-300), "1e-300");
+        assert_eq!(short_number(1e300), "1e300");
+        assert_eq!(short_number(0.0), "0");
     }
 
     #[test]

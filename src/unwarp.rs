@@ -36,7 +36,7 @@
 //! come out as zeros with mask 0.
 
 use crate::cube::{Cube, TimeAxis, TimeFrame};
-use crate::limits::{bounded_count, check_memory, LimitError, MAX_COUNT};
+use crate::limits::{bounded_count, check_memory, short_number, LimitError, MAX_COUNT};
 use crate::resample;
 use crate::units::flight_time_ps;
 use rayon::prelude::*;
@@ -149,9 +149,10 @@ pub fn covering_axis(
         in_axis.nt as f64 + k_hi - k_lo,
         MAX_COUNT,
         format_args!(
-            "the time axis covering distances of {min_dist_m} to {max_dist_m} m in bins of {} ps \
-             (bins)",
-            in_axis.dt_ps
+            "the time axis covering distances of {} to {} m in bins of {} ps (bins)",
+            short_number(min_dist_m),
+            short_number(max_dist_m),
+            short_number(in_axis.dt_ps)
         ),
         "check the cube's dt_ps and the registration's dist_m, or give the output axis \
          (--t0-ps, --nt)",

@@ -12,7 +12,7 @@
 
 use super::capture::{SimulateOptions, BAND_TARGET_BYTES};
 use super::fiducials::marker_candidates;
-use crate::limits::{bounded_count, check_memory, LimitError, MAX_COUNT};
+use crate::limits::{bounded_count, check_memory, short_number, LimitError, MAX_COUNT};
 use crate::scene::Scene;
 use crate::tracer::binning::ResponseTable;
 use crate::units::flight_time_ps;
@@ -92,7 +92,8 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
         MAX_PULSE_BINS,
         format!(
             "the laser pulse (pulse_width_fs = {}) measured in bins of {} ps (bins per sample)",
-            scene.laser.pulse_width_fs, axis.dt_ps
+            short_number(scene.laser.pulse_width_fs),
+            short_number(axis.dt_ps)
         ),
         "raise --dt-ps or shorten the pulse",
     )?;
@@ -101,7 +102,7 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
         MAX_BINS,
         format!(
             "the world-time bins of {} ps covering the scene",
-            axis.dt_ps
+            short_number(axis.dt_ps)
         ),
         "raise --dt-ps",
     )?;
@@ -110,7 +111,7 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
         MAX_MARKER_CANDIDATES,
         format!(
             "the fiducial grid at {} m spacing (nodes)",
-            opts.marker_spacing_m
+            short_number(opts.marker_spacing_m)
         ),
         "raise --marker-spacing-m",
     )?;
