@@ -28,6 +28,7 @@ fn refused_fast(dir: &Path, args: &[&str], names: &[&str]) -> String {
         "femto {}: refused after {took:?}",
         args.join(" ")
     );
+    eprintln!("femto {}: {took:.2?}: {err}", args[0]);
     err
 }
 
