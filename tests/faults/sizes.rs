@@ -415,3 +415,17 @@ fn render_memory_estimate_is_within_a_factor_two_of_the_peak() {
         "estimate {est:.3e} B, peak {peak} B"
     );
 }
+
+#[test]
+fn pyramid_slabs_beyond_the_memory_are_refused_before_writing() {
+    // The pyramid stage sized its slabs from the cube's attributes unchecked; with 20 MB
+    // available not even the process fits, and the cube is left as it was.
+    let dir = case(&["world.h5"]);
+    let err = cli::refused_unchanged(
+        dir.path(),
+        &["pyramid", "world.h5"],
+        &[("FEMTO_MEMORY_LIMIT_BYTES", "20000000")],
+        &["world.h5", "20.0 MB"],
+    );
+    assert!(err.contains("pyramid"), "{err}");
+}
