@@ -949,7 +949,7 @@ impl Resolver<'_> {
             q.coords
                 .iter()
                 .copied()
-                .find(|x| !(x.abs() <= MAX_EXTENT_M))
+                .find(|x| !x.is_finite() || x.abs() > MAX_EXTENT_M)
         });
         if let Some(r) = far {
             return Err(self.bad(
