@@ -324,39 +324,15 @@ impl CalibrationFile {
             message,
         };
         let k = &self.intrinsics;
-        if k.width == 0 || k.height == 0 {
-            return Err(bad(
-                "intrinsics.width and intrinsics.height must be positive".into(),
-            ));
-        }
-        for (key, v) in [("fx", k.fx), ("fy", k.fy)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(format!(
-                    "intrinsics.{key} must be a positive number, got {v}"
-                )));
-            }
-        }
-        // Every other number must be finite: a NaN or an infinity would reach the ray casts.
-        let finite = [
-            ("intrinsics.cx", k.cx),
-            ("intrinsics.cy", k.cy),
-            ("intrinsics.k1", k.k1),
-            ("intrinsics.k2", k.k2),
-            ("time.t0_ps", self.time.t0_ps),
-        ]
-        .into_iter()
-        .chain(
-            self.extrinsics
-                .position_m
-                .map(|v| ("extrinsics.position_m", v)),
-        )
-        .chain(self.laser.position_m.map(|v| ("laser.position_m", v)));
-        for (key, v) in finite {
-            if !v.is_finite() {
-                return Err(bad(format!("{key} must be finite, got {v}")));
-            }
-        }
+        check_intrinsics(k).map_err(bad)?;
+        check_finite("time.t0_ps", self.time.t0_ps).map_err(bad)?;
+        check_finite3("extrinsics.position_m", &self.extrinsics.position_m).map_err(bad)?;
+        check_finite3("laser.position_m", &self.laser.position_m).map_err(bad)?;
         let r = &self.extrinsics.world_from_camera;
+        // Finite first: the orthogonality test below cannot see a NaN (`max` skips it).
+        for (i, row) in r.iter().enumerate() {
+            check_finite3(&format!("extrinsics.world_from_camera[{i}]"), row).map_err(bad)?;
+        }
         let m = Matrix3::new(
             r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
         );
@@ -367,12 +343,7 @@ impl CalibrationFile {
                 m.determinant()
             )));
         }
-        if !(self.medium.eta.is_finite() && self.medium.eta >= 1.0) {
-            return Err(bad(format!(
-                "medium.eta must be >= 1, got {}",
-                self.medium.eta
-            )));
-        }
+        check_eta(self.medium.eta).map_err(bad)?;
         if !(self.time.time_scale.is_finite() && self.time.time_scale > 0.0) {
             return Err(bad(format!(
                 "time.time_scale must be positive, got {}",
@@ -389,6 +360,121 @@ impl CalibrationFile {
             time_scale: self.time.time_scale,
             laser_m: Point3::from(self.laser.position_m),
             eta: self.medium.eta,
+        })
+    }
+}
+
+/// `key` must be finite: a NaN or an infinity would reach the ray casts.
+fn check_finite(key: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{key} must be finite, got {v}"))
+    }
+}
+
+/// Each component of `key` finite (named `key[i]`).
+fn check_finite3(key: &str, v: &[f64; 3]) -> Result<(), String> {
+    for (i, &x) in v.iter().enumerate() {
+        check_finite(&format!("{key}[{i}]"), x)?;
+    }
+    Ok(())
+}
+
+/// The `[intrinsics]` table's ranges: positive size and focal lengths, finite principal point
+/// and distortion. Shared by calibration files and `calibrate --intrinsics`.
+fn check_intrinsics(k: &Intrinsics) -> Result<(), String> {
+    if k.width == 0 || k.height == 0 {
+        return Err("intrinsics.width and intrinsics.height must be positive".into());
+    }
+    for (key, v) in [("fx", k.fx), ("fy", k.fy)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!(
+                "intrinsics.{key} must be a positive number, got {v}"
+            ));
+        }
+    }
+    for (key, v) in [
+        ("intrinsics.cx", k.cx),
+        ("intrinsics.cy", k.cy),
+        ("intrinsics.k1", k.k1),
+        ("intrinsics.k2", k.k2),
+    ] {
+        check_finite(key, v)?;
+    }
+    Ok(())
+}
+
+/// `[medium] eta`: a refractive index, finite and at least 1.
+fn check_eta(eta: f64) -> Result<(), String> {
+    if eta.is_finite() && eta >= 1.0 {
+        Ok(())
+    } else {
+        Err(format!("medium.eta must be >= 1, got {eta}"))
+    }
+}
+
+/// What `femto calibrate --intrinsics FILE` takes from a calibration TOML: its intrinsics,
+/// and its laser spot and medium when it has them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KnownIntrinsics {
+    pub intrinsics: Intrinsics,
+    pub laser_m: Option<Point3<f64>>,
+    pub eta: Option<f64>,
+}
+
+/// A calibration TOML read for its `[intrinsics]` (`calibrate --intrinsics`): the same tables
+/// and keys as [`CalibrationFile`], any other refused as `render --calibration` refuses it;
+/// only `[intrinsics]` is required, `[extrinsics]` and `[time]` are checked for their keys
+/// and otherwise ignored (they are what calibrate fits).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KnownIntrinsicsFile {
+    intrinsics: Intrinsics,
+    #[serde(default)]
+    #[allow(dead_code)]
+    extrinsics: Option<ExtrinsicsFile>,
+    #[serde(default)]
+    #[allow(dead_code)]
+    time: Option<TimeFile>,
+    #[serde(default)]
+    laser: Option<LaserFile>,
+    #[serde(default)]
+    medium: Option<MediumFile>,
+}
+
+impl KnownIntrinsics {
+    /// Read `path` (see [`KnownIntrinsics`]); errors name the file and the key.
+    pub fn load(path: &Path) -> Result<KnownIntrinsics, CameraError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CameraError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        KnownIntrinsics::from_toml(&text, &name)
+    }
+
+    /// Parse calibration TOML for its intrinsics; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<KnownIntrinsics, CameraError> {
+        let bad = |message: String| CameraError::Invalid {
+            path: origin.to_string(),
+            message,
+        };
+        let file: KnownIntrinsicsFile = toml::from_str(text).map_err(|e| CameraError::Parse {
+            path: origin.to_string(),
+            message: one_line_toml_error(&e, text),
+        })?;
+        check_intrinsics(&file.intrinsics).map_err(bad)?;
+        if let Some(l) = &file.laser {
+            check_finite3("laser.position_m", &l.position_m).map_err(bad)?;
+        }
+        if let Some(m) = &file.medium {
+            check_eta(m.eta).map_err(bad)?;
+        }
+        Ok(KnownIntrinsics {
+            intrinsics: file.intrinsics,
+            laser_m: file.laser.map(|l| Point3::from(l.position_m)),
+            eta: file.medium.map(|m| m.eta),
         })
     }
 }
@@ -423,6 +509,100 @@ mod tests {
                 assert!(e.contains("c.toml") && e.contains(key), "{e}");
             }
         }
+    }
+
+    /// `calibrate --intrinsics` reads the same tables and keys as `render --calibration`
+    /// (issue 16: unknown tables and keys were ignored) and checks the same ranges.
+    #[test]
+    fn known_intrinsics_refuse_what_calibration_files_refuse() {
+        let text = example().to_toml();
+        let k = KnownIntrinsics::from_toml(&text, "k.toml").unwrap();
+        assert_eq!(k.intrinsics, example().intrinsics);
+        assert_eq!(k.laser_m, Some(example().laser_m));
+        assert_eq!(k.eta, Some(1.0));
+        let only = "[intrinsics]\nwidth = 4\nheight = 3\nfx = 2.0\nfy = 2.0\ncx = 2.0\ncy = 1.5\n";
+        let k = KnownIntrinsics::from_toml(only, "k.toml").unwrap();
+        assert_eq!((k.laser_m, k.eta), (None, None));
+        for (edit, key, full) in [
+            (
+                text.replace("[laser]", "[lens]\nmodel = 1\n[laser]"),
+                "lens",
+                true,
+            ),
+            (
+                text.replace("[laser]", "[laser]\ncolour = 3"),
+                "colour",
+                true,
+            ),
+            (
+                text.replace("[medium]", "[medium]\nindex = 2"),
+                "index",
+                true,
+            ),
+            (format!("{only}skew = 0.1\n"), "skew", false),
+        ] {
+            let e = KnownIntrinsics::from_toml(&edit, "k.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("k.toml: ") && e.contains(key), "{e}");
+            if full {
+                let e = Calibration::from_toml(&edit, "k.toml")
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains(key), "{e}");
+            }
+        }
+        for (from, to, key) in [
+            ("cy = ", "cy = inf", "intrinsics.cy"),
+            ("k2 = ", "k2 = nan", "intrinsics.k2"),
+            ("eta = ", "eta = 0.5", "medium.eta"),
+        ] {
+            let edited: String = text
+                .lines()
+                .map(|l| {
+                    if l.starts_with(from) {
+                        to.to_string()
+                    } else {
+                        l.to_string()
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n");
+            let e = KnownIntrinsics::from_toml(&edited, "k.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        let e = KnownIntrinsics::from_toml(
+            &format!("{only}[laser]\nposition_m = [0.0, nan, 0.0]\n"),
+            "k.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("laser.position_m[1] must be finite, got NaN"),
+            "{e}"
+        );
+    }
+
+    /// A NaN in the rotation was accepted (nalgebra's `max` skips NaN, so the orthogonality
+    /// error read 0) and reached the ray casts (issue 16).
+    #[test]
+    fn a_nan_in_the_rotation_is_refused_naming_its_entry() {
+        let mut file = CalibrationFile::from(&example());
+        file.extrinsics.world_from_camera[1][1] = f64::NAN;
+        let e = file.resolve("c.toml").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "c.toml: extrinsics.world_from_camera[1][1] must be finite, got NaN"
+        );
+        file.extrinsics.world_from_camera[1][1] = 1.0;
+        file.extrinsics.world_from_camera[0] = [1.0, f64::NEG_INFINITY, 0.0];
+        let e = file.resolve("c.toml").unwrap_err().to_string();
+        assert!(
+            e.contains("world_from_camera[0][1] must be finite, got -inf"),
+            "{e}"
+        );
     }
 
     fn example() -> Calibration {

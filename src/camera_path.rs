@@ -503,6 +503,52 @@ fn finite3(v: &Vector3<f64>) -> bool {
     v.iter().all(|c| c.is_finite())
 }
 
+/// The most frames a path may have: [`CameraPath::new`] walks every frame to check its speed,
+/// so the count is capped before the walk (`frames = 18446744073709551615` would never end).
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// The largest distance from the origin, in metres, of any point of a path (positions, look-at
+/// targets, an orbit's centre and radius). The renderer casts rays in `f32`, which turns a
+/// coordinate above about 3.4e38 into an infinity and loses every millimetre beyond 1e4 m;
+/// a thousand kilometres is far beyond any scene a streak camera records.
+pub const MAX_COORD_M: f64 = 1e6;
+
+/// `key` (a number of the path, named as in the file) must be finite.
+fn check_finite(key: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{key} must be finite, got {v}"))
+    }
+}
+
+/// Every component of `key` finite (named `key[i]`).
+fn check_finite_all(key: &str, v: &[f64]) -> Result<(), String> {
+    for (i, &x) in v.iter().enumerate() {
+        check_finite(&format!("{key}[{i}]"), x)?;
+    }
+    Ok(())
+}
+
+/// A length or coordinate of the path: finite and at most [`MAX_COORD_M`] in magnitude.
+fn check_length(key: &str, x: f64) -> Result<(), String> {
+    check_finite(key, x)?;
+    if x.abs() > MAX_COORD_M {
+        return Err(format!(
+            "{key} = {x:e} m is beyond the {MAX_COORD_M:e} m from the origin that a path may reach"
+        ));
+    }
+    Ok(())
+}
+
+/// A point of the path: each coordinate (named `key[i]`) as [`check_length`].
+fn check_point(key: &str, v: &[f64]) -> Result<(), String> {
+    for (i, &x) in v.iter().enumerate() {
+        check_length(&format!("{key}[{i}]"), x)?;
+    }
+    Ok(())
+}
+
 impl CameraPath {
     /// Validate a path and precompute its clock table. `origin` names the source (a file or a
     /// constructor) in error messages. `tau0_ps`: proper time of frame 0; None: the first
@@ -527,6 +573,14 @@ impl CameraPath {
         if spec.frames == 0 {
             return Err(bad("frames = 0: need at least one frame".into()));
         }
+        // Capped before anything walks the frames (check_frames visits every one).
+        crate::limits::bounded_count(
+            spec.frames as f64,
+            MAX_FRAMES as u64,
+            "frames",
+            "use fewer frames (split a longer sequence into several paths)",
+        )
+        .map_err(|e| bad(e.to_string()))?;
         if !(spec.dtau_ps.is_finite() && spec.dtau_ps > 0.0) {
             return Err(bad(format!(
                 "dtau_ps = {}: the frame interval must be a positive number of picoseconds",
@@ -593,12 +647,14 @@ impl CameraPath {
         }
         for k in 0..self.spec.frames {
             let f = self.frame(k);
+            if !(f.t_world_ps.is_finite() && finite3(&f.position_m.coords)) {
+                return Err(bad(format!(
+                    "frame {k} (tau = {} ps): its world time or position is not finite; use a smaller tau0_ps or dtau_ps",
+                    f.tau_ps
+                )));
+            }
             let speed = f.beta.norm();
-            if speed.is_nan()
-                || speed >= 1.0
-                || !f.t_world_ps.is_finite()
-                || !finite3(&f.position_m.coords)
-            {
+            if speed.is_nan() || speed >= 1.0 {
                 return Err(bad(format!(
                     "frame {k} (tau = {} ps): speed |beta| = {speed} is not below the speed of light",
                     f.tau_ps
@@ -839,6 +895,32 @@ impl CameraPath {
     }
 }
 
+/// Every number of a keyframe finite, its points within [`MAX_COORD_M`] (messages name the
+/// file's keys: `look_at_m[1] must be finite, got -inf`).
+fn check_keyframe_numbers(kf: &Keyframe) -> Result<(), String> {
+    check_finite("time_ps", kf.time_ps)?;
+    check_point("position_m", kf.position_m.coords.as_slice())?;
+    match &kf.orientation {
+        Orientation::LookAt { target_m, up } => {
+            check_point("look_at_m", target_m.coords.as_slice())?;
+            check_finite_all("up", up.as_slice())?;
+        }
+        Orientation::Fixed(r) => {
+            let m = r.matrix();
+            for row in 0..3 {
+                for col in 0..3 {
+                    check_finite(&format!("world_from_camera[{row}][{col}]"), m[(row, col)])?;
+                }
+            }
+        }
+    }
+    check_finite("vfov_deg", kf.vfov_deg)?;
+    if let Some(b) = &kf.beta {
+        check_finite_all("beta", b.as_slice())?;
+    }
+    Ok(())
+}
+
 fn resolve_keyframes(
     clock: Clock,
     interpolation: Interpolation,
@@ -852,15 +934,7 @@ fn resolve_keyframes(
     let mut rotations = Vec::with_capacity(n);
     for (i, kf) in keyframes.iter().enumerate() {
         let name = ordinal(i, n);
-        if !kf.time_ps.is_finite() {
-            return Err(bad(format!(
-                "{name}: time_ps = {} is not finite",
-                kf.time_ps
-            )));
-        }
-        if !finite3(&kf.position_m.coords) {
-            return Err(bad(format!("{name}: position_m is not finite")));
-        }
+        check_keyframe_numbers(kf).map_err(|m| bad(format!("{name}: {m}")))?;
         if !valid_vfov(kf.vfov_deg) {
             return Err(bad(format!(
                 "{name}: vfov_deg = {} must be between 0 and 180 degrees",
@@ -978,10 +1052,25 @@ fn resolve_keyframes(
     Ok(track)
 }
 
+/// Every number of an orbit finite, its points and lengths within [`MAX_COORD_M`] (messages
+/// name the file's keys: `orbit.look_at_m[1] must be finite, got -inf`).
+fn check_orbit_numbers(o: &Orbit) -> Result<(), String> {
+    check_point("orbit.centre_m", o.centre_m.coords.as_slice())?;
+    check_point("orbit.look_at_m", o.look_at_m.coords.as_slice())?;
+    check_finite_all("orbit.axis", o.axis.as_slice())?;
+    check_length("orbit.radius_m", o.radius_m)?;
+    check_length("orbit.height_m", o.height_m)?;
+    check_finite("orbit.start_angle_deg", o.start_angle_deg)?;
+    check_finite("orbit.beta", o.beta)?;
+    check_finite("orbit.vfov_deg", o.vfov_deg)?;
+    Ok(())
+}
+
 fn resolve_orbit(
     o: &Orbit,
     bad: &dyn Fn(String) -> CameraPathError,
 ) -> Result<OrbitTrack, CameraPathError> {
+    check_orbit_numbers(o).map_err(bad)?;
     if !(o.radius_m.is_finite() && o.radius_m > 0.0) {
         return Err(bad(format!(
             "orbit.radius_m = {} must be positive",
@@ -1006,15 +1095,6 @@ fn resolve_orbit(
             "orbit.vfov_deg = {} must be between 0 and 180 degrees",
             o.vfov_deg
         )));
-    }
-    if !(finite3(&o.centre_m.coords)
-        && finite3(&o.look_at_m.coords)
-        && o.height_m.is_finite()
-        && o.start_angle_deg.is_finite())
-    {
-        return Err(bad(
-            "orbit: centre_m, look_at_m, height_m and start_angle_deg must be finite".into(),
-        ));
     }
     let (e1, e2) = unit_basis(&o.axis);
     // The view direction must never be along the axis: check the whole circle.
@@ -1256,7 +1336,7 @@ impl CameraPathFile {
                             }
                             Orientation::Fixed(
                                 rotation_from_rows(&r)
-                                    .map_err(|m| bad(format!("{name}: world_from_camera {m}")))?,
+                                    .map_err(|m| bad(format!("{name}: world_from_camera{m}")))?,
                             )
                         }
                         (Some(_), Some(_)) => {
@@ -1313,13 +1393,20 @@ impl CameraPathFile {
 }
 
 fn rotation_from_rows(r: &[[f64; 3]; 3]) -> Result<Rotation3<f64>, String> {
+    for (i, row) in r.iter().enumerate() {
+        for (j, &x) in row.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(format!("[{i}][{j}] must be finite, got {x}"));
+            }
+        }
+    }
     let m = Matrix3::new(
         r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
     );
     let ortho_err = (m.transpose() * m - Matrix3::identity()).abs().max();
     if ortho_err.is_nan() || ortho_err >= 1e-6 || (m.determinant() - 1.0).abs() > 1e-6 {
         return Err(format!(
-            "is not a rotation (|R^T R - I| = {ortho_err:.2e}, det = {:.6})",
+            " is not a rotation (|R^T R - I| = {ortho_err:.2e}, det = {:.6})",
             m.determinant()
         ));
     }
@@ -1829,6 +1916,185 @@ vfov_deg = 45.0
         .unwrap();
         let back = CameraPath::from_toml(&dolly.to_toml(), "dolly.toml").unwrap();
         assert_same_frames(&dolly, &back);
+    }
+
+    fn orbit_toml() -> String {
+        r#"width = 32
+height = 24
+frames = 6
+dtau_ps = 20.0
+tau0_ps = 2000.0
+
+[orbit]
+centre_m = [0.0, 0.03, 0.0]
+axis = [0.0, 1.0, 0.0]
+height_m = 0.2
+radius_m = 0.5
+start_angle_deg = -41.8
+beta = 0.3
+look_at_m = [0.16, 0.05, 0.07]
+vfov_deg = 40.0
+"#
+        .to_string()
+    }
+
+    /// Every number of both path kinds, made non-finite (or too far), is refused naming the
+    /// keyframe and the key (issue 16: `look_at_m = [0, -inf, 0]` reached the BVH).
+    #[test]
+    fn every_number_must_be_finite_and_the_message_names_its_key() {
+        let key = example_toml();
+        let orbit = orbit_toml();
+        assert!(CameraPath::from_toml(&orbit, "o.toml").is_ok());
+        let cases: &[(&String, &str, &str, &str)] = &[
+            (
+                &key,
+                "look_at_m = [0.0, 0.3, 0.0]",
+                "look_at_m = [0.0, -inf, 0.0]",
+                "keyframe 1 of 3: look_at_m[1] must be finite, got -inf",
+            ),
+            (
+                &key,
+                "position_m = [0.01, 0.5, 2.97]",
+                "position_m = [0.01, nan, 2.97]",
+                "keyframe 2 of 3: position_m[1] must be finite, got NaN",
+            ),
+            (
+                &key,
+                "position_m = [0.0, 0.5, 3.0]",
+                "position_m = [1e39, 0.5, 3.0]",
+                "keyframe 1 of 3: position_m[0] = 1e39 m is beyond",
+            ),
+            (
+                &key,
+                "up = [0.0, 1.0, 0.1]",
+                "up = [0.0, inf, 0.1]",
+                "keyframe 3 of 3: up[1] must be finite, got inf",
+            ),
+            (
+                &key,
+                "time_ps = 300.0",
+                "time_ps = nan",
+                "keyframe 2 of 3: time_ps must be finite, got NaN",
+            ),
+            (
+                &key,
+                "vfov_deg = 40.0",
+                "vfov_deg = inf",
+                "keyframe 1 of 3: vfov_deg must be finite, got inf",
+            ),
+            (
+                &key,
+                "beta = [0.0, 0.0, -0.4]",
+                "beta = [0.0, 0.0, -inf]",
+                "keyframe 1 of 3: beta[2] must be finite, got -inf",
+            ),
+            (
+                &key,
+                "[[1.0, 0.0, 0.0], [0.0, -1.0",
+                "[[1.0, 0.0, 0.0], [0.0, nan",
+                "keyframe 2 of 3: world_from_camera[1][1] must be finite, got NaN",
+            ),
+            (&key, "dtau_ps = 40.0", "dtau_ps = inf", "dtau_ps = inf"),
+            (
+                &key,
+                "beta_edge = 0.3",
+                "beta_edge = nan",
+                "rotation.beta_edge = NaN",
+            ),
+            (
+                &key,
+                "dtau_ps = 40.0",
+                "dtau_ps = 40.0\ntau0_ps = -inf",
+                "tau0_ps = -inf",
+            ),
+            (
+                &orbit,
+                "centre_m = [0.0, 0.03, 0.0]",
+                "centre_m = [0.0, 0.03, nan]",
+                "orbit.centre_m[2] must be finite, got NaN",
+            ),
+            (
+                &orbit,
+                "look_at_m = [0.16, 0.05, 0.07]",
+                "look_at_m = [0.0, -inf, 0.0]",
+                "orbit.look_at_m[1] must be finite, got -inf",
+            ),
+            (
+                &orbit,
+                "axis = [0.0, 1.0, 0.0]",
+                "axis = [0.0, inf, 0.0]",
+                "orbit.axis[1] must be finite, got inf",
+            ),
+            (
+                &orbit,
+                "height_m = 0.2",
+                "height_m = -inf",
+                "orbit.height_m must be finite",
+            ),
+            (
+                &orbit,
+                "radius_m = 0.5",
+                "radius_m = 1e300",
+                "orbit.radius_m = 1e300 m is beyond",
+            ),
+            (
+                &orbit,
+                "start_angle_deg = -41.8",
+                "start_angle_deg = nan",
+                "orbit.start_angle_deg must be finite, got NaN",
+            ),
+            (
+                &orbit,
+                "beta = 0.3",
+                "beta = inf",
+                "orbit.beta must be finite, got inf",
+            ),
+            (
+                &orbit,
+                "vfov_deg = 40.0",
+                "vfov_deg = -inf",
+                "orbit.vfov_deg must be finite",
+            ),
+            (
+                &orbit,
+                "tau0_ps = 2000.0",
+                "tau0_ps = nan",
+                "tau0_ps = NaN is not a finite",
+            ),
+        ];
+        for (text, from, to, want) in cases {
+            assert!(text.contains(from), "{from}");
+            let edited = text.replacen(from, to, 1);
+            let e = CameraPath::from_toml(&edited, "p.toml")
+                .map(|_| ())
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("p.toml: ") && e.contains(want), "{to}: {e}");
+            assert_eq!(e.lines().count(), 1, "{e}");
+        }
+    }
+
+    /// The frame count is capped before the frames are walked: a count of 2^64 - 1 is refused
+    /// at once instead of checking frames for ever (issue 16).
+    #[test]
+    fn frame_counts_are_capped_before_the_walk() {
+        let started = std::time::Instant::now();
+        let text = orbit_toml().replace("frames = 6", "frames = 18446744073709551615");
+        let e = CameraPath::from_toml(&text, "p.toml")
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frames") && e.contains("1000000"), "{e}");
+        assert!(started.elapsed().as_secs_f64() < 1.0);
+        let at_cap = CameraPath::orbit(
+            Point3::origin(),
+            1.0,
+            0.1,
+            Vector3::y(),
+            40.0,
+            spec(MAX_FRAMES + 1, 1.0),
+        );
+        assert!(at_cap.is_err());
     }
 
     #[test]

@@ -50,6 +50,12 @@
 //! albedo = 0.7               # Lambertian reflectance at the laser wavelength, 0..1
 //! ```
 //!
+//! Ranges: every number finite; `eta` in [1, 10]; `laser.pulse_width_fs` in [0, 1e6] and no
+//! longer than the camera's window `nt * dt_ps`; `laser.wavelength_nm` in [1, 1e6];
+//! `laser.energy` in (0, 1e12]; `camera.nx`, `camera.ny` in [1, 16384], `camera.nt` in
+//! [1, 2^20], `camera.dt_ps` in [1e-3, 1e6]; every point (camera, look-at, laser, translation,
+//! and every vertex after its entry's transform) within 1e4 m of the origin on each axis.
+//!
 //! Each entry is transformed as: fit (file meshes), scale, rotate, translate. Any unknown key,
 //! missing field, out-of-range value, a camera inside a closed mesh (box, icosphere, closed
 //! file mesh) or within 1 mm of a surface, or a laser spot inside a closed mesh is an error
@@ -377,6 +383,29 @@ struct MeshEntry {
 
 /// Most subdivisions an icosphere may ask for (20 * 4^7 = 327 680 triangles).
 const MAX_SUBDIVISIONS: u32 = 7;
+/// The range of `eta`: from vacuum to well beyond any transparent medium (water 1.33,
+/// diamond 2.42, germanium about 4 in the infrared). A larger index multiplies every flight
+/// time and the world-time axis with it (`eta = 1e19` asked for an impossible allocation).
+pub const ETA_RANGE: (f64, f64) = (1.0, 10.0);
+/// The largest pulse width, fs (1 ns): far beyond femtosecond lasers, small enough that the
+/// pulse's time response stays a bounded number of bins (4294967296 fs hung the tracer).
+/// The pulse must also be shorter than the camera's time window.
+pub const MAX_PULSE_WIDTH_FS: f64 = 1e6;
+/// How far from the origin, in metres, any point of a scene may lie (camera, laser, look-at
+/// target, every vertex after its entry's transform): the tracer casts rays in `f32`, which
+/// loses millimetres beyond about 1e4 m and turns coordinates above 3.4e38 into infinities.
+pub const MAX_EXTENT_M: f64 = 1e4;
+/// The range of `camera.dt_ps`: a femtosecond to a microsecond per bin.
+pub const DT_PS_RANGE: (f64, f64) = (1e-3, 1e6);
+/// The range of `laser.wavelength_nm`: soft X-rays to far infrared (the Doppler-shifted
+/// colour and the CIE tables need a positive, finite wavelength).
+pub const WAVELENGTH_NM_RANGE: (f64, f64) = (1.0, 1e6);
+/// The largest `laser.energy` (cube values are `f32` and scale with it).
+pub const MAX_ENERGY: f64 = 1e12;
+/// The largest `camera.nx` and `camera.ny`.
+pub const MAX_SIDE: u64 = 16384;
+/// The largest `camera.nt`.
+pub const MAX_NT: u64 = 1 << 20;
 /// Closest a camera may be to a surface, metres.
 const CAMERA_CLEARANCE_M: f64 = 1e-3;
 
@@ -411,6 +440,42 @@ impl Resolver<'_> {
         }
     }
 
+    /// A number within `[lo, hi]` (`unit` follows the numbers in the message).
+    fn in_range(
+        &self,
+        v: &Spanned<f64>,
+        key: &str,
+        (lo, hi): (f64, f64),
+        unit: &str,
+    ) -> Result<f64, SceneError> {
+        let x = *v.get_ref();
+        if x.is_finite() && x >= lo && x <= hi {
+            Ok(x)
+        } else {
+            Err(self.bad(
+                &v.span(),
+                key,
+                format!("must lie in [{lo:e}, {hi:e}]{unit}, got {x:e}"),
+            ))
+        }
+    }
+
+    /// A point within [`MAX_EXTENT_M`] of the origin.
+    fn point(&self, v: &Spanned<[f64; 3]>, key: &str) -> Result<Vector3<f64>, SceneError> {
+        let p = self.finite3(v, key)?;
+        match p.iter().position(|x| x.abs() > MAX_EXTENT_M) {
+            None => Ok(p),
+            Some(i) => Err(self.bad(
+                &v.span(),
+                key,
+                format!(
+                    "[{i}] = {:e} m lies beyond the {MAX_EXTENT_M:e} m from the origin that a scene may reach",
+                    p[i]
+                ),
+            )),
+        }
+    }
+
     fn finite3(&self, v: &Spanned<[f64; 3]>, key: &str) -> Result<Vector3<f64>, SceneError> {
         let a = *v.get_ref();
         if a.iter().all(|x| x.is_finite()) {
@@ -434,8 +499,15 @@ impl Resolver<'_> {
         let eta = match &file.eta {
             Some(e) => {
                 let x = *e.get_ref();
-                if !(x.is_finite() && x >= 1.0) {
-                    return Err(self.bad(&e.span(), "eta", format!("must be >= 1, got {x}")));
+                if !(x.is_finite() && x >= ETA_RANGE.0 && x <= ETA_RANGE.1) {
+                    return Err(self.bad(
+                        &e.span(),
+                        "eta",
+                        format!(
+                            "must lie in [{}, {}] (a refractive index), got {x}",
+                            ETA_RANGE.0, ETA_RANGE.1
+                        ),
+                    ));
                 }
                 x
             }
@@ -443,6 +515,19 @@ impl Resolver<'_> {
         };
         let laser = self.laser(&file.laser)?;
         let camera = self.camera(&file.camera)?;
+        // The pulse must fit in the camera's time window.
+        let window_fs = camera.axis.nt as f64 * camera.axis.dt_ps * 1e3;
+        if laser.pulse_width_fs > window_fs {
+            let p = &file.laser.get_ref().pulse_width_fs;
+            return Err(self.bad(
+                &p.span(),
+                "laser.pulse_width_fs",
+                format!(
+                    "{} fs is longer than the camera's time window (camera.nt x camera.dt_ps = {window_fs} fs)",
+                    laser.pulse_width_fs
+                ),
+            ));
+        }
         if file.mesh.is_empty() {
             return Err(SceneError::Invalid {
                 origin: self.origin.to_string(),
@@ -519,30 +604,41 @@ impl Resolver<'_> {
 
     fn laser(&self, l: &Spanned<LaserEntry>) -> Result<Laser, SceneError> {
         let e = l.get_ref();
-        let position = self.finite3(&e.position_m, "laser.position_m")?;
+        let position = self.point(&e.position_m, "laser.position_m")?;
         let normal = self.direction(&e.normal, "laser.normal")?;
-        let pulse = *e.pulse_width_fs.get_ref();
-        if !(pulse.is_finite() && pulse >= 0.0) {
+        let pulse = self.in_range(
+            &e.pulse_width_fs,
+            "laser.pulse_width_fs",
+            (0.0, MAX_PULSE_WIDTH_FS),
+            " fs",
+        )?;
+        let energy = self.positive(&e.energy, "laser.energy")?;
+        if energy > MAX_ENERGY {
             return Err(self.bad(
-                &e.pulse_width_fs.span(),
-                "laser.pulse_width_fs",
-                format!("must be >= 0, got {pulse}"),
+                &e.energy.span(),
+                "laser.energy",
+                format!("must lie in (0, {MAX_ENERGY:e}], got {energy:e}"),
             ));
         }
         Ok(Laser {
             position_m: Point3::from(position),
             normal,
             emission: e.emission.unwrap_or(Emission::Cosine),
-            wavelength_nm: self.positive(&e.wavelength_nm, "laser.wavelength_nm")?,
+            wavelength_nm: self.in_range(
+                &e.wavelength_nm,
+                "laser.wavelength_nm",
+                WAVELENGTH_NM_RANGE,
+                " nm",
+            )?,
             pulse_width_fs: pulse,
-            energy: self.positive(&e.energy, "laser.energy")?,
+            energy,
         })
     }
 
     fn camera(&self, c: &Spanned<CameraEntry>) -> Result<StreakCamera, SceneError> {
         let e = c.get_ref();
-        let position = self.finite3(&e.position_m, "camera.position_m")?;
-        let look_at = self.finite3(&e.look_at_m, "camera.look_at_m")?;
+        let position = self.point(&e.position_m, "camera.position_m")?;
+        let look_at = self.point(&e.look_at_m, "camera.look_at_m")?;
         let up = match &e.up {
             Some(u) => self.direction(u, "camera.up")?.into_inner(),
             None => Vector3::y(),
@@ -555,16 +651,25 @@ impl Resolver<'_> {
                 format!("must lie in (0, 180), got {vfov}"),
             ));
         }
-        for (v, key) in [
-            (&e.nx, "camera.nx"),
-            (&e.ny, "camera.ny"),
-            (&e.nt, "camera.nt"),
+        for (v, key, limit) in [
+            (&e.nx, "camera.nx", MAX_SIDE),
+            (&e.ny, "camera.ny", MAX_SIDE),
+            (&e.nt, "camera.nt", MAX_NT),
         ] {
             if *v.get_ref() == 0 {
                 return Err(self.bad(&v.span(), key, "must be positive, got 0"));
             }
+            crate::limits::bounded_count(*v.get_ref() as f64, limit, key, "use fewer").map_err(
+                |_| {
+                    self.bad(
+                        &v.span(),
+                        key,
+                        format!("must lie in [1, {limit}], got {}", v.get_ref()),
+                    )
+                },
+            )?;
         }
-        let dt_ps = self.positive(&e.dt_ps, "camera.dt_ps")?;
+        let dt_ps = self.in_range(&e.dt_ps, "camera.dt_ps", DT_PS_RANGE, " ps")?;
         let t0_ps = *e.t0_ps.get_ref();
         if !t0_ps.is_finite() {
             return Err(self.bad(&e.t0_ps.span(), "camera.t0_ps", "must be finite"));
@@ -831,12 +936,30 @@ impl Resolver<'_> {
             }
         };
         let translate = match &e.translate_m {
-            Some(t) => self.finite3(t, &k("translate_m"))?,
+            Some(t) => self.point(t, &k("translate_m"))?,
             None => Vector3::zeros(),
         };
         let m: Matrix4<f64> = Matrix4::new_translation(&translate)
             * rotation.to_homogeneous()
             * Matrix4::new_scaling(scale);
+        // Every vertex, after fit, scale, rotation and translation, within the scene's extent
+        // (checked in f64, before the f32 mesh can hold an infinity).
+        let far = mesh.positions.iter().find_map(|p| {
+            let q = m.transform_point(&p.cast::<f64>());
+            q.coords
+                .iter()
+                .copied()
+                .find(|x| !x.is_finite() || x.abs() > MAX_EXTENT_M)
+        });
+        if let Some(r) = far {
+            return Err(self.bad(
+                &entry.span(),
+                key,
+                format!(
+                    "after fit, scale, rotation and translation a vertex has a coordinate of {r:.3e} m, beyond the {MAX_EXTENT_M:e} m from the origin that a scene may reach"
+                ),
+            ));
+        }
         mesh.transform(&m.cast::<f32>());
         let fiducials = local_fiducials
             .into_iter()
@@ -1302,6 +1425,94 @@ albedo = 0.3
             e.contains(&format!("line {line},")),
             "expected line {line} in: {e}"
         );
+    }
+
+    /// Every number of a scene finite and in its physical range, the range given in the
+    /// message (issue 16: `eta = 1e19` gave "capacity overflow", `pulse_width_fs =
+    /// 4294967296` hung the tracer, a far translation put infinities in the f32 mesh).
+    #[test]
+    fn numbers_outside_their_physical_range_name_the_key_and_the_range() {
+        for (from, to, key, range) in [
+            ("eta = 1.0", "eta = 1e19", "eta", "[1, 10]"),
+            ("eta = 1.0", "eta = nan", "eta", "[1, 10]"),
+            (
+                "pulse_width_fs = 100.0",
+                "pulse_width_fs = 4294967296",
+                "laser.pulse_width_fs",
+                "[0e0, 1e6] fs",
+            ),
+            (
+                "pulse_width_fs = 100.0",
+                "pulse_width_fs = 200000",
+                "laser.pulse_width_fs",
+                "camera.nt x camera.dt_ps = 128000 fs",
+            ),
+            (
+                "wavelength_nm = 795.0",
+                "wavelength_nm = inf",
+                "laser.wavelength_nm",
+                "[1e0, 1e6] nm",
+            ),
+            ("energy = 1.0", "energy = 1e300", "laser.energy", "1e12"),
+            (
+                "dt_ps = 4.0",
+                "dt_ps = 1e-300",
+                "camera.dt_ps",
+                "[1e-3, 1e6] ps",
+            ),
+            (
+                "nt = 32",
+                "nt = 9223372036854775807",
+                "camera.nt",
+                "[1, 1048576]",
+            ),
+            ("nx = 16", "nx = 100000", "camera.nx", "[1, 16384]"),
+            (
+                "position_m = [0.0, 0.4, 1.2]",
+                "position_m = [0.0, 1e39, 1.2]",
+                "camera.position_m",
+                "[1] = 1e39 m",
+            ),
+            (
+                "look_at_m = [0.0, 0.1, 0.0]",
+                "look_at_m = [0.0, -inf, 0.0]",
+                "camera.look_at_m",
+                "must be finite",
+            ),
+            (
+                "position_m = [-0.3, 0.3, 0.3]",
+                "position_m = [-0.3, 0.3, 2e4]",
+                "laser.position_m",
+                "1e4 m",
+            ),
+            (
+                "translate_m = [0.0, 0.1, 0.0]",
+                "translate_m = [1e39, 0.1, 0.0]",
+                "mesh[1].translate_m",
+                "1e4 m",
+            ),
+            (
+                "size = [1.0, 1.0]",
+                "size = [1e30, 1.0]",
+                "mesh[0]",
+                "a vertex has a coordinate of -5.000e29 m",
+            ),
+            (
+                "radius = 0.1",
+                "radius = 0.1\nscale = 1e38",
+                "mesh[2]",
+                "beyond the 1e4 m",
+            ),
+        ] {
+            assert!(BASE.contains(from), "{from}");
+            let e = err(&BASE.replacen(from, to, 1));
+            assert!(e.starts_with("t.toml: line "), "{e}");
+            assert!(e.contains(key) && e.contains(range), "{to}: {e}");
+        }
+        // The built-in scenes lie inside every range.
+        for name in ["cube", "cornell"] {
+            Scene::builtin(name, None).unwrap();
+        }
     }
 
     #[test]

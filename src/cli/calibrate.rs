@@ -8,10 +8,10 @@
 //! [`femto::pipeline::calibrate::calibrate_cube`] and
 //! [`femto::pipeline::calibrate::write_calibration`] (both files or neither).
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::Args;
 use femto::calibrate::load_points;
-use femto::camera::{one_line_toml_error, Intrinsics, LaserFile, MediumFile};
+use femto::camera::{Intrinsics, KnownIntrinsics};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
 use femto::pipeline::calibrate::{
@@ -20,7 +20,6 @@ use femto::pipeline::calibrate::{
 use femto::pipeline::StageError;
 use femto::store::registration;
 use nalgebra::Point3;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
@@ -91,43 +90,24 @@ pub fn parse_point(s: &str) -> Result<[f64; 3], String> {
     }
 }
 
-/// The parts of a calibration TOML that `--intrinsics` uses (other tables are ignored).
-#[derive(Deserialize)]
-struct IntrinsicsFile {
-    intrinsics: Intrinsics,
-    #[serde(default)]
-    laser: Option<LaserFile>,
-    #[serde(default)]
-    medium: Option<MediumFile>,
-}
-
+/// The `--intrinsics` file ([`KnownIntrinsics`]: the same tables and keys as a calibration
+/// file), for a cube of `nx x ny` pixels.
 fn read_intrinsics(
     path: &Path,
     nx: usize,
     ny: usize,
 ) -> anyhow::Result<(Intrinsics, Option<[f64; 3]>, Option<f64>)> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| name.clone())?;
-    let file: IntrinsicsFile = toml::from_str(&text)
-        .map_err(|e| anyhow::anyhow!("{name}: {}", one_line_toml_error(&e, &text)))?;
-    let k = file.intrinsics;
-    for (key, v) in [("fx", k.fx), ("fy", k.fy)] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name}: intrinsics.{key} must be a positive number, got {v}");
-        }
-    }
+    let known = KnownIntrinsics::load(path)?;
+    let k = known.intrinsics;
     if (k.width, k.height) != (nx, ny) {
         bail!(
-            "{name}: the intrinsics are for {} x {} pixels but the cube is {nx} x {ny}",
+            "{}: the intrinsics are for {} x {} pixels but the cube is {nx} x {ny}",
+            path.display(),
             k.width,
             k.height
         );
     }
-    Ok((
-        k,
-        file.laser.map(|l| l.position_m),
-        file.medium.map(|m| m.eta),
-    ))
+    Ok((k, known.laser_m.map(|p| p.coords.into()), known.eta))
 }
 
 /// The calibration TOML's default path: `<dir>/<stem>.calibration.toml`.

@@ -446,6 +446,12 @@ impl<const N: usize> Wide<N> {
         if t_min.is_nan() || t_max.is_nan() || t_min >= t_max || self.root == EMPTY_CHILD {
             return;
         }
+        // A ray with a NaN or infinite component meets nothing. (Its slab tests give NaN,
+        // which `max`/`min` ignore, so it would enter every box, empty child slots included,
+        // whose leaf reference holds no packet.)
+        if !(ray.origin.iter().all(|x| x.is_finite()) && ray.dir.iter().all(|x| x.is_finite())) {
+            return;
+        }
         let consts = RayConsts::new(ray);
         let node_ray = NodeRay::<V, N>::new(&consts);
         let tri_ray = T::ray(&consts);
@@ -823,9 +829,17 @@ fn leaf_by_pairs<T: Pairs>(
     t_min: f32,
     t_max: f32,
 ) -> PacketHits<8> {
-    let pair = PacketPair(&packets[first], &packets[first + count - 1]);
+    // Leaves hold one or two packets; a count of 0 (an empty child slot, which traversal
+    // never enters with a finite ray) tests packet `first` and keeps no lane, instead of
+    // indexing `first - 1`.
+    debug_assert!((1..=2).contains(&count), "leaf of {count} packets");
+    let pair = PacketPair(&packets[first], &packets[first + count.max(1) - 1]);
     let mut h = packet_test::<T, 8, _>(&pair, r, t_min, t_max);
-    h.mask &= if count == 2 { 0xff } else { 0x0f };
+    h.mask &= match count {
+        2 => 0xff,
+        1 => 0x0f,
+        _ => 0,
+    };
     h
 }
 
@@ -1365,6 +1379,52 @@ mod tests {
         let bvh = Bvh::new(mesh);
         assert!(bvh.intersect(&ray, 0.0, f32::INFINITY).is_none());
         assert!(!bvh.occluded(&ray, 0.0, f32::INFINITY));
+    }
+
+    /// Rays with a NaN or an infinite component (a camera path or calibration gone wrong,
+    /// issue 16) meet nothing and never reach an empty child slot's leaf of no packets,
+    /// whose eight-lane test indexed `first - 1` ("index out of bounds in leaf_by_pairs").
+    /// Triangles with a non-finite corner are left out of the tree.
+    #[test]
+    fn non_finite_rays_and_corners_meet_nothing() {
+        let mut rng = Uniforms(7);
+        let mut mesh = test_mesh(&mut rng);
+        // One triangle with a NaN corner among the others.
+        let bad = mesh.positions.len() as u32;
+        mesh.positions.push(Point3::new(f32::NAN, 0.0, 0.0));
+        mesh.triangles.push([bad, 0, 1]);
+        mesh.material.push(0);
+        let finite = Ray::new(Point3::new(0.1, 0.2, -5.0), Vector3::new(0.0, 0.0, 1.0));
+        let (nan, inf) = (f32::NAN, f32::INFINITY);
+        let rays = [
+            Ray::new(Point3::new(0.0, nan, 0.0), Vector3::new(0.0, 0.0, 1.0)),
+            Ray::new(Point3::new(0.0, -inf, 0.0), Vector3::new(0.0, 0.0, 1.0)),
+            Ray::new(Point3::new(0.0, 0.0, -5.0), Vector3::new(nan, nan, nan)),
+            Ray::new(Point3::new(0.0, 0.0, -5.0), Vector3::new(0.0, inf, 1.0)),
+        ];
+        for width in [4, 8] {
+            let b = Bvh::with_width(mesh.clone(), width);
+            if width == 4 || has_avx() {
+                // The finite ray still works (and never reports the NaN triangle).
+                let hit = brute_force(&mesh, &finite, f32::INFINITY);
+                let got = b.intersect(&finite, 0.0, f32::INFINITY);
+                assert_eq!(got.map(|h| h.triangle), hit.map(|h| h.0));
+                assert_ne!(got.map(|h| h.triangle), Some(bad));
+            }
+            for r in &rays {
+                if width == 4 || has_avx() {
+                    assert!(b.intersect(r, 0.0, f32::INFINITY).is_none(), "{r:?}");
+                    assert!(!b.occluded(r, 0.0, f32::INFINITY), "{r:?}");
+                }
+                if width == 8 {
+                    let w = eight(&b);
+                    assert!(w
+                        .intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, inf)
+                        .is_none());
+                    assert!(!w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, inf));
+                }
+            }
+        }
     }
 
     #[test]
