@@ -278,3 +278,63 @@ fn info_describes_a_cube_with_nan() {
     let j: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
     assert!(j["non_finite_values"].is_null(), "{}", run.stdout);
 }
+
+// ---------------------------------------------------------------------------------------------
+// clap's errors.
+
+/// Each kind of command-line error is one line on stderr with exit code 2, naming the flag
+/// or subcommand at fault and where to read more. Before, clap printed 3-4 lines.
+#[test]
+fn command_line_errors_are_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&[&str], &[&str]); 7] = [
+        (
+            &["render", "--frobnicate"],
+            &[
+                "unexpected argument '--frobnicate' for 'femto render'",
+                "(see 'femto render --help')",
+            ],
+        ),
+        (
+            &["unwarp", "c.h5", "--out"],
+            &["'--out <OUT>'", "femto unwarp --help"],
+        ),
+        (
+            &["simulate", "--spp", "many", "--out", "x"],
+            &["invalid value 'many' for '--spp", "femto simulate --help"],
+        ),
+        (
+            &["unwarp", "--to", "sideways", "c.h5", "-o", "w.h5"],
+            &[
+                "invalid value 'sideways' for '--to <TO>'",
+                "possible values: world, camera",
+                "femto unwarp --help",
+            ],
+        ),
+        (
+            &["unwarp", "c.h5"],
+            &["required arguments were not provided", "--out <OUT>"],
+        ),
+        (
+            &["frobnicate"],
+            &["unrecognized subcommand 'frobnicate'", "femto --help"],
+        ),
+        (&[], &["no command given", "render", "femto --help"]),
+    ];
+    for (args, names) in cases {
+        refused_unchanged(dir.path(), args, &[], names);
+    }
+}
+
+/// `--help` and `--version` still print as clap prints them, on stdout, with exit code 0.
+#[test]
+fn help_and_version_still_print() {
+    for args in [&["--help"][..], &["render", "--help"], &["--version"]] {
+        let run = cli::femto_in(None, args);
+        assert_eq!(run.code, Some(0), "{args:?}: {}", run.stderr);
+        assert!(run.stderr.is_empty(), "{args:?}: {}", run.stderr);
+        assert!(!run.stdout.is_empty());
+    }
+    let run = cli::femto_in(None, &["render", "--help"]);
+    assert!(run.stdout.lines().count() > 10 && run.stdout.contains("--cube"));
+}
