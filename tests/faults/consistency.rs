@@ -338,3 +338,65 @@ fn help_and_version_still_print() {
     let run = cli::femto_in(None, &["render", "--help"]);
     assert!(run.stdout.lines().count() > 10 && run.stdout.contains("--cube"));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Messages that name the right culprit.
+
+/// Out-of-range ingest flags are named as the user typed them (`--dt-ps`, not the library's
+/// `dt_ps`; `--power-ref`, not "power reference region"). Before, the message named the
+/// library's value: `dt_ps = 0: must be finite (and dt_ps > 0)`.
+#[test]
+fn ingest_value_errors_name_the_flag() {
+    let dir = case(&["cap"]);
+    let cases: [(&[&str], &str); 5] = [
+        (&["--dt-ps=0"], "--dt-ps 0: "),
+        (&["--value-scale=0"], "--value-scale 0: "),
+        (&["--saturation=-5"], "--saturation -5: "),
+        (&["--dark", "nan"], "--dark NaN: "),
+        (&["--power-ref", "0:1000,0:10"], "--power-ref: "),
+    ];
+    for (flag, named) in cases {
+        let mut args = vec!["ingest", "cap", "-o", "cube.h5"];
+        args.extend_from_slice(flag);
+        let err = refused_unchanged(dir.path(), &args, &[], &[named]);
+        assert!(err.starts_with(&format!("femto: error: {named}")), "{err}");
+    }
+}
+
+/// A calibration made for another pixel grid than the world cube's: `render` names the
+/// calibration file (and its flag) and the cube. Before, the message named neither file:
+/// `the world cube is 32 x 24 pixels but the calibration's camera is 40 x 24`.
+#[test]
+fn render_names_the_calibration_of_another_size() {
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let cal = dir.path().join("cube.calibration.toml");
+    let text = std::fs::read_to_string(&cal).unwrap();
+    let edited = text.replacen("width = 32", "width = 40", 1);
+    assert_ne!(edited, text, "the fixture's calibration has width = 32");
+    std::fs::write(&cal, edited).unwrap();
+    refused_unchanged(
+        dir.path(),
+        &[
+            "render",
+            "--cube",
+            "world.h5",
+            "--calibration",
+            "cube.calibration.toml",
+            "--mesh",
+            "cap/scene.glb",
+            "--dolly",
+            "0.5",
+            "--frame-count",
+            "2",
+            "--size",
+            "16x12",
+            "--out",
+            "out.gif",
+        ],
+        &[],
+        &[
+            "--calibration cube.calibration.toml: intrinsics are for 40 x 24 pixels, but \
+             world.h5 is 32 x 24",
+        ],
+    );
+}
