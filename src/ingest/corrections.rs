@@ -730,4 +730,49 @@ mod tests {
         let want: Vec<u8> = (0..nx).map(|x| u8::from(![2, 5, 9].contains(&x))).collect();
         assert_eq!(mask, want);
     }
+
+    /// Grey stored as colour reads like grey of its depth; any other difference of depth or
+    /// kind is refused, naming both formats and the reference scanline.
+    #[test]
+    fn sample_types_must_match_the_first_scanline() {
+        use std::path::Path;
+        let (p, r) = (Path::new("s_0003.png"), Path::new("s_0000.png"));
+        let ok = [
+            (PixelType::U16, PixelType::U16),
+            (PixelType::RgbU16, PixelType::U16),
+            (PixelType::U8, PixelType::RgbU8),
+            (PixelType::RgbF32, PixelType::F32),
+        ];
+        for (found, expected) in ok {
+            assert!(
+                check_sample_type(p, found, expected, r).is_ok(),
+                "{found:?}"
+            );
+        }
+        let refused = [
+            (PixelType::U8, PixelType::U16),
+            (PixelType::U16, PixelType::U32),
+            (PixelType::F16, PixelType::F32),
+            (PixelType::I16, PixelType::U16),
+            (PixelType::F32, PixelType::U16),
+        ];
+        for (found, expected) in refused {
+            let e = check_sample_type(p, found, expected, r)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("s_0003.png: ") && e.contains("(s_0000.png)"),
+                "{found:?}: {e}"
+            );
+            assert!(e.contains(sample_format(found)) && e.contains(sample_format(expected)));
+        }
+        assert_eq!(
+            check_sample_type(p, PixelType::U8, PixelType::U16, r)
+                .unwrap_err()
+                .to_string(),
+            "s_0003.png: 8-bit integer samples, but the capture's are 16-bit integer \
+             (s_0000.png): every scanline must be stored alike (convert this file to the \
+             capture's format)"
+        );
+    }
 }
