@@ -146,6 +146,15 @@ pub enum ContainerError {
     /// range past the end, a reserved or duplicate name, rows never written.
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },
+    /// A dataset read for computation holds a NaN or an infinity (a cube or pyramid written by
+    /// another tool, or damaged): named with its first pixel and bin, before any stage uses it.
+    #[error("{}: {dataset} has {} at x {}, y {}, bin {}", path.display(), at.kind(), at.x, at.y, at.bin)]
+    NonFinite {
+        path: PathBuf,
+        /// The dataset, e.g. `cube` or `pyramid/level_2`.
+        dataset: String,
+        at: cube::NonFiniteAt,
+    },
     /// Any other failure reported by the HDF5 library (a corrupt or unsupported file).
     #[error("{}: HDF5: {message}", path.display())]
     Hdf5 { path: PathBuf, message: String },
@@ -1443,7 +1452,27 @@ impl CubeReader {
     }
 
     /// Read rows starting at `y0` into `out`, whose length must be a whole number of rows.
+    /// A NaN or infinite value is refused ([`ContainerError::NonFinite`], naming its pixel
+    /// and bin): every stage reads the cube through here, so none of them sees one.
     pub fn read_rows_into(&self, y0: usize, out: &mut [f32]) -> Result<()> {
+        self.read_rows_as_stored(y0, out)?;
+        let (nx, nt) = (self.meta.nx, self.meta.axis.nt);
+        match cube::first_non_finite(out, nx, nt) {
+            None => Ok(()),
+            Some(mut at) => {
+                at.y += y0;
+                Err(ContainerError::NonFinite {
+                    path: self.path.clone(),
+                    dataset: CUBE_DATASET.into(),
+                    at,
+                })
+            }
+        }
+    }
+
+    /// [`Self::read_rows_into`] without the check of the values (for [`Self::value_scan`],
+    /// which describes a cube whatever it holds).
+    fn read_rows_as_stored(&self, y0: usize, out: &mut [f32]) -> Result<()> {
         let row_len = self.meta.row_len();
         if !out.len().is_multiple_of(row_len) {
             return Err(invalid(
@@ -1549,22 +1578,36 @@ impl CubeReader {
     }
 
     /// Smallest and largest finite values (None when there are none), streaming the cube
-    /// by slabs; `on_rows` is called with the number of rows scanned so far.
+    /// by slabs; `on_rows` is called with the number of rows scanned so far. NaN and
+    /// infinite values are skipped, not refused ([`Self::value_scan`] counts them).
     pub fn value_range(&self, on_rows: &dyn Fn(usize)) -> Result<Option<(f32, f32)>> {
+        Ok(self.value_scan(on_rows)?.range)
+    }
+
+    /// The finite values' range and the NaN and infinite values (how many, the first),
+    /// streaming the cube by slabs: what `femto info` reports of a cube that the stages
+    /// refuse. `on_rows` is called with the number of rows scanned so far.
+    pub fn value_scan(&self, on_rows: &dyn Fn(usize)) -> Result<ValueScan> {
         let row_len = self.meta.row_len();
+        let (nx, nt) = (self.meta.nx, self.meta.axis.nt);
         let rows = slab_rows(row_len * 4, self.meta.ny);
         let mut buf = vec![0.0f32; rows * row_len];
-        let mut range: Option<(f32, f32)> = None;
+        let mut scan = ValueScan::default();
         for y0 in (0..self.meta.ny).step_by(rows) {
             let n = rows.min(self.meta.ny - y0);
             let slab = &mut buf[..n * row_len];
-            self.read_rows_into(y0, slab)?;
+            self.read_rows_as_stored(y0, slab)?;
             if let Some((lo, hi)) = cube::value_range(slab) {
-                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+                scan.range = Some(scan.range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+            if let Some(mut at) = cube::first_non_finite(slab, nx, nt) {
+                at.y += y0;
+                scan.first_non_finite.get_or_insert(at);
+                scan.non_finite += slab.iter().filter(|v| !v.is_finite()).count();
             }
             on_rows(y0 + n);
         }
-        Ok(range)
+        Ok(scan)
     }
 
     /// Read one extra group whole.
@@ -1605,6 +1648,17 @@ impl CubeReader {
     ) -> Result<DataBuf> {
         read_group_rows_in(&self.file, &self.path, group, dataset, r0, n)
     }
+}
+
+/// What [`CubeReader::value_scan`] finds in a cube's values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ValueScan {
+    /// Smallest and largest finite value (None when there are none).
+    pub range: Option<(f32, f32)>,
+    /// How many values are NaN or infinite.
+    pub non_finite: usize,
+    /// The first of them in storage order.
+    pub first_non_finite: Option<cube::NonFiniteAt>,
 }
 
 /// Reader of the extra groups of any HDF5 file: a cube file, or a side file that holds

@@ -28,6 +28,13 @@ const NY: usize = 4;
 /// A cube whose values are distinct, negative in places, NaN at one sample; pixels `i` with
 /// `i % 3 != 0` valid.
 fn test_cube() -> Cube {
+    let mut c = finite_cube();
+    c.profile_mut(NX - 1, NY - 1)[AXIS.nt - 1] = f32::NAN;
+    c
+}
+
+/// [`test_cube`] without the NaN (the stages, `pyramid` among them, refuse a NaN).
+fn finite_cube() -> Cube {
     let mut c = Cube::zeros(NX, NY, AXIS, TimeFrame::World);
     for y in 0..NY {
         for x in 0..NX {
@@ -36,7 +43,6 @@ fn test_cube() -> Cube {
             }
         }
     }
-    c.profile_mut(NX - 1, NY - 1)[AXIS.nt - 1] = f32::NAN;
     c.mask = Some((0..NX * NY).map(|i| u8::from(i % 3 != 0)).collect());
     c
 }
@@ -125,7 +131,12 @@ fn a_cube_with_registration_and_pyramid_is_described_by_typed_figures() {
         levels: Some(2),
         ..PyramidOptions::default()
     };
-    pyramid_file(&path, &options, &Quiet).unwrap();
+    // `pyramid` refuses the NaN: the pyramid of the finite twin, stored with this cube.
+    let twin = dir.path().join("twin.h5");
+    container::write_cube(&twin, &finite_cube(), &Provenance::new("femto test")).unwrap();
+    pyramid_file(&twin, &options, &Quiet).unwrap();
+    let group = container::read_group(&twin, "pyramid").unwrap();
+    container::write_groups(&path, &[("pyramid", group)]).unwrap();
 
     let progress = Record::default();
     let d = describe_file(&path, &DescribeOptions::default(), &progress).unwrap();
@@ -161,6 +172,13 @@ fn a_cube_with_registration_and_pyramid_is_described_by_typed_figures() {
         finite.iter().copied().fold(f32::NEG_INFINITY, f32::max)
     );
     assert_eq!(range.max, (3 * 1000 + 4 * 10 + 5) as f32 * 0.5 - 3.0);
+    // The NaN is counted and located, not refused.
+    let (count, at) = d.non_finite.unwrap();
+    assert_eq!(
+        (count, at.x, at.y, at.bin),
+        (1, NX - 1, NY - 1, AXIS.nt - 1)
+    );
+    assert!(at.value.is_nan());
     let valid = (0..NX * NY).filter(|i| i % 3 != 0).count();
     assert_eq!(d.mask, Some((valid, NX * NY)));
 
@@ -210,7 +228,7 @@ fn a_side_file_and_a_stale_pyramid_are_told_apart() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cube.h5");
     let side = dir.path().join("pyr.h5");
-    container::write_cube(&path, &test_cube(), &Provenance::new("femto test")).unwrap();
+    container::write_cube(&path, &finite_cube(), &Provenance::new("femto test")).unwrap();
     let options = PyramidOptions {
         side_file: Some(side.clone()),
         ..PyramidOptions::default()
@@ -230,7 +248,7 @@ fn a_side_file_and_a_stale_pyramid_are_told_apart() {
     assert_eq!(*matches_cube, None, "no cube to compare with");
 
     // The pyramid of another cube, stored with this one: stale.
-    let mut other = test_cube();
+    let mut other = finite_cube();
     other.axis.dt_ps = 1.0;
     let other_path = dir.path().join("other.h5");
     container::write_cube(&other_path, &other, &Provenance::new("femto test")).unwrap();

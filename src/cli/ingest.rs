@@ -189,6 +189,18 @@ fn axis_flag(what: AxisValue) -> &'static str {
     }
 }
 
+/// The flag that gives the value the library calls `what` in [`IngestError::BadValue`].
+fn value_flag(what: &str) -> Option<&'static str> {
+    Some(match what {
+        "value scale" => "--value-scale",
+        "dt_ps" => "--dt-ps",
+        "t0_ps" => "--t0-ps",
+        "dark level" => "--dark",
+        "saturation level" => "--saturation",
+        _ => return None,
+    })
+}
+
 /// Name the flag where the library's message names an option, and add the flag to use where
 /// it names a missing value.
 fn with_hint(e: IngestError) -> anyhow::Error {
@@ -247,6 +259,18 @@ fn with_hint(e: IngestError) -> anyhow::Error {
         }
         IngestError::BadValue { what, value, .. } if what == "laser_nm" => {
             return anyhow::anyhow!("--laser-nm {value}: must be a positive wavelength in nm")
+        }
+        IngestError::BadValue {
+            what,
+            value,
+            message,
+        } => {
+            if let Some(flag) = value_flag(what) {
+                return anyhow::anyhow!("{flag} {value}: {message}");
+            }
+        }
+        IngestError::Correction { what, source } if what == "power reference region" => {
+            return anyhow::anyhow!("--power-ref: {source}");
         }
         IngestError::FolderWithoutManifest { dir, found } => {
             let ext = found.first().map_or("png", |(e, _)| e.as_str());

@@ -67,6 +67,75 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// Parse the command line. `--help` and `--version` print as clap prints them and give exit
+/// code 0; any other parse error is printed as one line on stderr ([`clap_error_line`]) and
+/// gives exit code 2, like every other bad input.
+pub fn parse_args() -> Result<Cli, ExitCode> {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    Cli::try_parse_from(&args).map_err(|e| {
+        use clap::error::ErrorKind;
+        match e.kind() {
+            ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+                // Ignored like any write to a closed stdout (`femto --help | head`).
+                let _ = e.print();
+                ExitCode::SUCCESS
+            }
+            _ => {
+                eprintln!("femto: error: {}", clap_error_line(&e, &args));
+                ExitCode::from(2)
+            }
+        }
+    })
+}
+
+/// A clap error as one line: clap's message with its continuation lines (the missing
+/// arguments, a tip, the possible values) joined on, the command it is about, and where to
+/// read more, e.g. `unexpected argument '--frobnicate' for 'femto render' (see 'femto render
+/// --help')`. clap's own form takes 3-4 lines (message, blank, usage, help hint). `args` is
+/// the command line that failed (program name first).
+pub fn clap_error_line(e: &clap::Error, args: &[std::ffi::OsString]) -> String {
+    use clap::CommandFactory;
+    let cli = Cli::command();
+    // The subcommand is the first word that is not a flag (femto itself takes no values).
+    let sub = args
+        .iter()
+        .skip(1)
+        .filter_map(|a| a.to_str())
+        .find(|a| !a.starts_with('-'))
+        .filter(|a| cli.find_subcommand(a).is_some());
+    let command = match sub {
+        Some(s) => format!("femto {s}"),
+        None => "femto".to_string(),
+    };
+    if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand && sub.is_none()
+    {
+        let names: Vec<&str> = cli.get_subcommands().map(|c| c.get_name()).collect();
+        return format!(
+            "no command given, one of: {} (see 'femto --help')",
+            names.join(", ")
+        );
+    }
+    let text = e.render().to_string();
+    let mut lines = text
+        .lines()
+        .map(str::trim)
+        .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+        .filter(|l| !l.is_empty());
+    let first = lines.next().unwrap_or("invalid command line");
+    let mut line = first.strip_prefix("error: ").unwrap_or(first).to_string();
+    if let Some(stripped) = line.strip_suffix(" found") {
+        line = format!("{stripped} for '{command}'");
+    }
+    let more: Vec<&str> = lines
+        .map(|l| l.trim_start_matches('[').trim_end_matches(']'))
+        .collect();
+    if !more.is_empty() {
+        let sep = if line.ends_with(':') { " " } else { "; " };
+        line = format!("{line}{sep}{}", more.join(", "));
+    }
+    format!("{line} (see '{command} --help')")
+}
+
 /// Marks an error as an internal failure (exit code 1) rather than bad input (exit code 2).
 #[derive(Debug, thiserror::Error)]
 #[error("internal error: {0}")]

@@ -55,8 +55,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Condvar, Mutex};
 
 use super::corrections::{
-    apply_gain, divide_flat, power_factor, power_gains, remove_shift, resample_sweep,
-    saturation_mask, subtract_dark, Dark,
+    apply_gain, check_sample_type, divide_flat, power_factor, power_gains, remove_shift,
+    resample_sweep, saturation_mask, subtract_dark, Dark,
 };
 use super::plan::{
     stack_image, to_row_layout, to_row_layout_u16, DarkCorrection, IngestPlan, PowerCorrection,
@@ -67,7 +67,7 @@ use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
 use crate::formats::raster::read_png_grey16_into;
-use crate::formats::{read_streak, StreakImage};
+use crate::formats::{read_streak, PixelType, StreakImage};
 
 /// Which pass a progress report is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -527,13 +527,15 @@ fn load_row(plan: &IngestPlan, y: usize, pool: &RowPool) -> Result<Option<RawRow
             };
             let img = match decode_row(plan, path, pool)? {
                 Loaded::Row(values_xt) => {
+                    check_sample_type(path, PixelType::U16, plan.pixel_type, &plan.reference)?;
                     return Ok(Some(RawRow {
                         values_xt,
                         bytes: file_size(path),
-                    }))
+                    }));
                 }
                 Loaded::Image(img) => img,
             };
+            check_sample_type(path, img.pixel_type, plan.pixel_type, &plan.reference)?;
             if (img.nx, img.nt) != (nx, nt) {
                 return Err(IngestError::SizeMismatch {
                     path: path.clone(),

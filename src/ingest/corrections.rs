@@ -28,7 +28,9 @@
 use thiserror::Error;
 
 use crate::cube::TimeAxis;
+use crate::formats::PixelType;
 use crate::resample::{rebin_add, shift_into};
+use std::path::{Path, PathBuf};
 
 /// Invalid correction inputs.
 #[derive(Debug, Error, PartialEq)]
@@ -53,6 +55,18 @@ pub enum CorrectionError {
     /// A time scaling table entry is not finite or not above the previous one.
     #[error("time scaling table entry {index} ({centre_ps} ps) is not finite or not above the previous entry")]
     CentresNotIncreasing { index: usize, centre_ps: f64 },
+    /// A scanline whose samples are stored at another depth or in another format than the
+    /// capture's first scanline (`reference`).
+    #[error(
+        "{found} samples, but the capture's are {expected} ({}): every scanline must be \
+         stored alike (convert this file to the capture's format)",
+        reference.display()
+    )]
+    MixedSampleTypes {
+        found: &'static str,
+        expected: &'static str,
+        reference: PathBuf,
+    },
     /// The power reference region is empty or leaves the scanline.
     #[error(
         "reference region x {x0}..{x1}, bins {t0_bin}..{t1_bin} is empty or outside the \
@@ -66,6 +80,48 @@ pub enum CorrectionError {
         nx: usize,
         nt: usize,
     },
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sample formats.
+
+/// What a sample type means for the values read: its width and kind. Grey stored as colour
+/// (equal R, G, B) reads like grey of the same depth, so the two are the same here.
+fn sample_format(t: PixelType) -> &'static str {
+    match t {
+        PixelType::U8 | PixelType::RgbU8 => "8-bit integer",
+        PixelType::U16 | PixelType::RgbU16 => "16-bit integer",
+        PixelType::U32 => "32-bit integer",
+        PixelType::I16 => "16-bit signed integer",
+        PixelType::I32 => "32-bit signed integer",
+        PixelType::F16 | PixelType::RgbF16 => "16-bit float",
+        PixelType::F32 | PixelType::RgbF32 => "32-bit float",
+        PixelType::F64 => "64-bit float",
+        PixelType::Rgbe => "RGBE",
+    }
+}
+
+/// Refuse scanline `path` when its samples are not stored like the capture's first
+/// scanline (`reference`, of type `expected`). The value scale and the saturation level are
+/// set once from the first scanline, so a scanline of another depth would be read wrong
+/// without a word (an 8-bit PNG among 16-bit ones, 256 times too dim).
+pub fn check_sample_type(
+    path: &Path,
+    found: PixelType,
+    expected: PixelType,
+    reference: &Path,
+) -> Result<(), super::IngestError> {
+    if sample_format(found) == sample_format(expected) {
+        return Ok(());
+    }
+    Err(super::IngestError::Correction {
+        what: path.display().to_string(),
+        source: CorrectionError::MixedSampleTypes {
+            found: sample_format(found),
+            expected: sample_format(expected),
+            reference: reference.to_path_buf(),
+        },
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -673,5 +729,50 @@ mod tests {
         let mask = saturation_mask(&row, nx, nt, level);
         let want: Vec<u8> = (0..nx).map(|x| u8::from(![2, 5, 9].contains(&x))).collect();
         assert_eq!(mask, want);
+    }
+
+    /// Grey stored as colour reads like grey of its depth; any other difference of depth or
+    /// kind is refused, naming both formats and the reference scanline.
+    #[test]
+    fn sample_types_must_match_the_first_scanline() {
+        use std::path::Path;
+        let (p, r) = (Path::new("s_0003.png"), Path::new("s_0000.png"));
+        let ok = [
+            (PixelType::U16, PixelType::U16),
+            (PixelType::RgbU16, PixelType::U16),
+            (PixelType::U8, PixelType::RgbU8),
+            (PixelType::RgbF32, PixelType::F32),
+        ];
+        for (found, expected) in ok {
+            assert!(
+                check_sample_type(p, found, expected, r).is_ok(),
+                "{found:?}"
+            );
+        }
+        let refused = [
+            (PixelType::U8, PixelType::U16),
+            (PixelType::U16, PixelType::U32),
+            (PixelType::F16, PixelType::F32),
+            (PixelType::I16, PixelType::U16),
+            (PixelType::F32, PixelType::U16),
+        ];
+        for (found, expected) in refused {
+            let e = check_sample_type(p, found, expected, r)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("s_0003.png: ") && e.contains("(s_0000.png)"),
+                "{found:?}: {e}"
+            );
+            assert!(e.contains(sample_format(found)) && e.contains(sample_format(expected)));
+        }
+        assert_eq!(
+            check_sample_type(p, PixelType::U8, PixelType::U16, r)
+                .unwrap_err()
+                .to_string(),
+            "s_0003.png: 8-bit integer samples, but the capture's are 16-bit integer \
+             (s_0000.png): every scanline must be stored alike (convert this file to the \
+             capture's format)"
+        );
     }
 }

@@ -206,6 +206,22 @@ pub fn open_render_inputs(
             ),
         }));
     }
+    // Checked here, where both files are known, so that the message names them (the
+    // renderer's own check, RenderScene::new, knows neither).
+    let k = &calibration.intrinsics;
+    if (meta.nx, meta.ny) != (k.width, k.height) {
+        return Err(flagged("calibration")(StageError::Input {
+            path: calibration_path.display().to_string(),
+            message: format!(
+                "intrinsics are for {} x {} pixels, but {} is {} x {}",
+                k.width,
+                k.height,
+                cube_path.display(),
+                meta.nx,
+                meta.ny
+            ),
+        }));
+    }
     let laser = laser_wavelength(laser_nm, &meta, cube_path)?;
     let stored = pyramid_file.is_some() || meta.groups.iter().any(|g| g == stored_pyramid::GROUP);
     check_memory(

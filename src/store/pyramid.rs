@@ -26,8 +26,8 @@
 
 use super::{attr, GroupView, StoreError};
 use crate::container::{
-    AttrValue, CubeCompression, CubeMeta, CubeReader, DataBuf, DatasetSpec, GroupData, GroupElem,
-    GroupReader, GroupUpdate,
+    AttrValue, ContainerError, CubeCompression, CubeMeta, CubeReader, DataBuf, DatasetSpec,
+    GroupData, GroupElem, GroupReader, GroupUpdate,
 };
 use crate::cube::{TimeAxis, TimeFrame};
 use crate::limits::check_memory;
@@ -319,21 +319,33 @@ pub fn from_group(path: &Path, data: GroupData) -> Result<Pyramid, StoreError> {
         data: &data,
     };
     let (nx, ny, nt) = (info.nx, info.ny, info.axis.nt);
+    // Every value the renderer reads must be finite: refused here, naming the dataset and
+    // the first pixel and bin, like the cube's own values ([`CubeReader::read_rows_into`]).
+    let finite =
+        |name: &str, values: &[f32], bins: usize| finite_or_refused(path, name, values, nx, bins);
     let prefix = if data.dataset(COARSE).is_none() && data.dataset(LEGACY_PREFIX).is_some() {
-        PrefixSums::from_plain(v.typed(LEGACY_PREFIX, &[ny, nx, nt + 1])?, nt)
+        let plain: &[f64] = v.typed(LEGACY_PREFIX, &[ny, nx, nt + 1])?;
+        finite_or_refused(path, LEGACY_PREFIX, plain, nx, nt + 1)?;
+        PrefixSums::from_plain(plain, nt)
     } else {
+        let coarse: &[f64] = v.typed(COARSE, &[ny, nx, coarse_len(nt)])?;
+        finite_or_refused(path, COARSE, coarse, nx, coarse_len(nt))?;
+        let fine = v.typed(FINE, &[ny, nx, nt + 1])?;
+        finite(FINE, fine, nt + 1)?;
         PrefixSums {
             nt,
-            coarse: v.typed(COARSE, &[ny, nx, coarse_len(nt)])?.to_vec(),
-            fine: v.typed(FINE, &[ny, nx, nt + 1])?.to_vec(),
+            coarse: coarse.to_vec(),
+            fine: fine.to_vec(),
         }
     };
     let mut levels = Vec::with_capacity(info.levels);
     for (k, nt_k) in (1..=info.levels).zip(info.level_nts()) {
+        let data = v.typed(&level_name(k), &[ny, nx, nt_k])?;
+        finite(&level_name(k), data, nt_k)?;
         levels.push(Level {
             bins_per_sample: 1 << k,
             nt: nt_k,
-            data: v.typed(&level_name(k), &[ny, nx, nt_k])?.to_vec(),
+            data: data.to_vec(),
         });
     }
     let mask = match data.dataset("mask") {
@@ -348,6 +360,26 @@ pub fn from_group(path: &Path, data: GroupData) -> Result<Pyramid, StoreError> {
         levels,
         mask,
     })
+}
+
+/// Refuse a NaN or infinite value of dataset `name` of the group (`[y][x][t]`, `nx` pixels
+/// by `bins` per row), naming the file, `pyramid/<name>` and the first pixel and bin.
+fn finite_or_refused<T: crate::cube::Sample>(
+    path: &Path,
+    name: &str,
+    values: &[T],
+    nx: usize,
+    bins: usize,
+) -> Result<(), StoreError> {
+    match crate::cube::first_non_finite(values, nx, bins) {
+        None => Ok(()),
+        Some(at) => Err(ContainerError::NonFinite {
+            path: path.to_path_buf(),
+            dataset: format!("{GROUP}/{name}"),
+            at,
+        }
+        .into()),
+    }
 }
 
 /// Load the pyramid stored in the file at `path`: a cube file with a `pyramid` group, or a

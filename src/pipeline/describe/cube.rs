@@ -6,6 +6,7 @@ use super::pyramid::{summarise_pyramid, PyramidSummary};
 use super::registration::{summarise_registration, RegistrationSummary};
 use super::{line, serialize_path, ValueRange};
 use crate::container::{CubeMeta, CubeReader};
+use crate::cube::NonFiniteAt;
 use crate::pipeline::{Progress, StageError};
 use crate::store::pyramid as stored_pyramid;
 use crate::store::registration as stored_registration;
@@ -23,6 +24,9 @@ pub struct CubeDescription {
     pub meta: CubeMeta,
     /// Smallest and largest finite value (None when there are none).
     pub value_range: Option<ValueRange>,
+    /// How many values are NaN or infinite and the first of them (None when all are
+    /// finite): the stages refuse such a cube, `info` describes it.
+    pub non_finite: Option<(usize, NonFiniteAt)>,
     /// `(valid, total)` pixels when the cube has a mask.
     pub mask: Option<(usize, usize)>,
     /// The `registration` group, summarised (None without one).
@@ -39,7 +43,7 @@ pub(super) fn describe_cube(
     let reader = CubeReader::open(path)?;
     let meta = reader.meta().clone();
     progress.start("scanning", meta.ny as u64);
-    let value_range = reader.value_range(&|rows| progress.set(rows as u64))?;
+    let scan = reader.value_scan(&|rows| progress.set(rows as u64))?;
     progress.finish();
     let mask = reader
         .read_mask()?
@@ -60,7 +64,8 @@ pub(super) fn describe_cube(
     Ok(CubeDescription {
         file: path.to_path_buf(),
         meta,
-        value_range: value_range.map(ValueRange::from_pair),
+        value_range: scan.range.map(ValueRange::from_pair),
+        non_finite: scan.first_non_finite.map(|at| (scan.non_finite, at)),
         mask,
         registration,
         pyramid,
@@ -90,6 +95,18 @@ impl Serialize for CubeDescription {
             pixels: usize,
         }
         #[derive(Serialize)]
+        struct NonFinite {
+            count: usize,
+            first: First,
+        }
+        #[derive(Serialize)]
+        struct First {
+            x: usize,
+            y: usize,
+            bin: usize,
+            value: &'static str,
+        }
+        #[derive(Serialize)]
         struct Json<'a> {
             #[serde(serialize_with = "serialize_path")]
             file: &'a PathBuf,
@@ -98,6 +115,7 @@ impl Serialize for CubeDescription {
             time_frame: &'static str,
             units: &'a str,
             value_range: Option<ValueRange>,
+            non_finite_values: Option<NonFinite>,
             mask: Option<Mask>,
             size_bytes: usize,
             groups: &'a [String],
@@ -125,6 +143,15 @@ impl Serialize for CubeDescription {
             time_frame: m.frame.as_str(),
             units: &m.units,
             value_range: self.value_range,
+            non_finite_values: self.non_finite.map(|(count, at)| NonFinite {
+                count,
+                first: First {
+                    x: at.x,
+                    y: at.y,
+                    bin: at.bin,
+                    value: at.kind(),
+                },
+            }),
             mask: self.mask.map(|(valid_pixels, pixels)| Mask {
                 valid_pixels,
                 pixels,
@@ -172,6 +199,20 @@ impl fmt::Display for CubeDescription {
         match self.value_range {
             Some(r) => line(f, "values", format!("{} .. {}", r.min, r.max))?,
             None => line(f, "values", "no finite values")?,
+        }
+        if let Some((count, at)) = self.non_finite {
+            line(
+                f,
+                "non-finite",
+                format!(
+                    "{count} values NaN or infinite, first {} at x {}, y {}, bin {} \
+                     (the stages refuse this cube)",
+                    at.kind(),
+                    at.x,
+                    at.y,
+                    at.bin
+                ),
+            )?;
         }
         match self.mask {
             Some((valid, total)) => line(f, "mask", format!("{valid} of {total} pixels valid"))?,
