@@ -8,6 +8,10 @@ use std::process::ExitCode;
 fn main() -> ExitCode {
     cli::reset_sigpipe();
     let args = cli::Cli::parse();
+    // SIGINT and SIGTERM remove the command's temporary files and exit 130 and 143.
+    if let Err(e) = femto::interrupt::install() {
+        eprintln!("femto: warning: SIGINT and SIGTERM will not clean up: {e}");
+    }
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => cli::report(&e),

@@ -5,10 +5,12 @@
 //! its bundled source by the `openh264` crate) and wrapped in an MP4 container by `muxide`.
 //!
 //! Output is atomic (crate::atomic): a single MP4 or GIF appears only when [`VideoWriter::finish`]
-//! succeeds (the compressed stream is held in memory until then), and each frame of a sequence is
-//! written to a temporary file and renamed to `frame_NNNNN.png` / `frame_NNNNN.exr`, numbered
-//! from a first index so that a partial render (`--frames A..B`) writes frames with their global
-//! numbers.
+//! succeeds (the compressed stream is held in memory until then), and a sequence's frames,
+//! `frame_NNNNN.png` / `frame_NNNNN.exr` numbered from a first index so that a partial render
+//! (`--frames A..B`) writes frames with their global numbers, go to a temporary folder beside
+//! the destination that `finish` puts in place, replacing an earlier sequence whole (no stale
+//! frames of a longer one stay). A destination folder that holds anything but frames is
+//! refused when the writer is created, before anything is written.
 //!
 //! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
 //! displayable value):
@@ -109,6 +111,13 @@ pub enum VideoError {
     /// The output folder is missing, or the sequence folder cannot be created.
     #[error("cannot use output folder {path}: {source}")]
     Folder { path: PathBuf, source: io::Error },
+    /// A sequence's folder exists and holds something that is not a frame, which replacing
+    /// the sequence would delete.
+    #[error(
+        "{path} holds {file}, which is not a frame of a sequence: a sequence replaces its \
+         folder whole, so give a new folder or one that holds only frame_NNNNN files"
+    )]
+    NotASequence { path: PathBuf, file: String },
     /// Writing or renaming an output file failed.
     #[error("cannot write {path}: {source}")]
     Io { path: PathBuf, source: io::Error },
@@ -322,7 +331,10 @@ struct GifState {
 }
 
 enum Sink {
-    Sequence { dir: PathBuf },
+    /// Frames go into `tmp`, put in place as the writer's path by `finish`.
+    Sequence {
+        tmp: crate::atomic::TempDir,
+    },
     Mp4(Box<Mp4State>),
     Gif(Box<GifState>),
 }
@@ -367,9 +379,9 @@ fn write_file_atomically(
 impl VideoWriter {
     /// Start a video of `width` x `height` frames at `fps` frames per second.
     ///
-    /// For a sequence, `path` is a folder (created if missing); for MP4 and GIF it is the file,
-    /// whose folder must exist. Nothing is written to `path` until a frame is pushed (sequence)
-    /// or the writer is finished (MP4, GIF).
+    /// For a sequence, `path` is a folder (its parent folders are created if missing; an
+    /// existing one must hold only frames); for MP4 and GIF it is the file, whose folder must
+    /// exist. Nothing is written to `path` until the writer is finished.
     pub fn create(
         path: &Path,
         format: VideoFormat,
@@ -385,12 +397,16 @@ impl VideoWriter {
         }
         let sink = match format {
             VideoFormat::PngSequence | VideoFormat::ExrSequence => {
-                fs::create_dir_all(path).map_err(|source| VideoError::Folder {
+                check_sequence_folder(path)?;
+                let folder = |source| VideoError::Folder {
                     path: path.to_path_buf(),
                     source,
-                })?;
+                };
+                if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+                    fs::create_dir_all(parent).map_err(folder)?;
+                }
                 Sink::Sequence {
-                    dir: path.to_path_buf(),
+                    tmp: crate::atomic::temp_dir_beside(path).map_err(folder)?,
                 }
             }
             VideoFormat::Mp4 => {
@@ -474,8 +490,8 @@ impl VideoWriter {
         }
         let (width, height) = (self.width, self.height);
         match &mut self.sink {
-            Sink::Sequence { dir } => {
-                let dest = dir.join(sequence_file_name(index, self.format));
+            Sink::Sequence { tmp } => {
+                let dest = tmp.path().join(sequence_file_name(index, self.format));
                 match self.format {
                     VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height)?,
                     _ => write_exr(&dest, &frame.linear_rgb, width, height)?,
@@ -529,12 +545,18 @@ impl VideoWriter {
         Ok(())
     }
 
-    /// Complete the output: write the MP4 or GIF file (atomically); nothing to do for a
-    /// sequence, whose frames are already on disk. Returns the number of frames written.
+    /// Complete the output: write the MP4 or GIF file (atomically), or put a sequence's
+    /// folder in place (replacing an earlier one whole). Returns the number of frames written.
     pub fn finish(self) -> Result<usize, VideoError> {
         let path = self.path;
         match self.sink {
-            Sink::Sequence { .. } => Ok(self.pushed),
+            Sink::Sequence { tmp } => {
+                // Checked again: the folder may have changed while the frames were made.
+                check_sequence_folder(&path)?;
+                crate::atomic::replace_dir(tmp, &path)
+                    .map_err(|source| VideoError::Io { path, source })?;
+                Ok(self.pushed)
+            }
             Sink::Mp4(state) => {
                 if state.samples.is_empty() {
                     return Err(VideoError::NoFrames { path });
@@ -570,6 +592,44 @@ impl VideoWriter {
 fn gif_delay(fps: f64) -> Delay {
     let centis = (100.0 / fps).round().clamp(1.0, u16::MAX as f64) as u32;
     Delay::from_numer_denom_ms(centis * 10, 1)
+}
+
+/// Whether `name` is a frame of a sequence in either format (`frame_` digits `.png`/`.exr`).
+fn is_frame_name(name: &str) -> bool {
+    name.strip_prefix("frame_")
+        .and_then(|r| r.strip_suffix(".png").or_else(|| r.strip_suffix(".exr")))
+        .is_some_and(|digits| !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// A sequence's destination must be missing, or a folder that holds frames only (it is
+/// replaced whole).
+fn check_sequence_folder(path: &Path) -> Result<(), VideoError> {
+    let folder = |source| VideoError::Folder {
+        path: path.to_path_buf(),
+        source,
+    };
+    match fs::symlink_metadata(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(folder(e)),
+        Ok(m) if !m.is_dir() => Err(folder(io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            "it exists and is not a folder",
+        ))),
+        Ok(_) => {
+            for entry in fs::read_dir(path).map_err(folder)? {
+                let entry = entry.map_err(folder)?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+                if !(is_file && is_frame_name(&name)) {
+                    return Err(VideoError::NotASequence {
+                        path: path.to_path_buf(),
+                        file: name,
+                    });
+                }
+            }
+            Ok(())
+        }
+    }
 }
 
 fn check_parent(path: &Path) -> Result<(), VideoError> {
@@ -1107,6 +1167,42 @@ mod tests {
     }
 
     #[test]
+    fn a_sequence_appears_on_finish_and_replaces_an_earlier_one_whole() {
+        let (w, h) = (4usize, 2usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("frames");
+        let write = |n: usize, value: u8| {
+            let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, w, h, 24.0)?;
+            for _ in 0..n {
+                writer.push(&srgb_frame(w, h, vec![value; w * h * 3]))?;
+                assert!(!seq.exists() || value != 10, "frames appear only on finish");
+            }
+            writer.finish()
+        };
+        write(5, 10).unwrap();
+        assert_eq!(fs::read_dir(&seq).unwrap().count(), 5);
+        write(2, 200).unwrap();
+        let mut names: Vec<String> = fs::read_dir(&seq)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["frame_00000.png", "frame_00001.png"]);
+        let img = image::open(seq.join("frame_00001.png")).unwrap().to_rgb8();
+        assert!(img.as_raw().iter().all(|&v| v == 200));
+        // Only the sequence folder is left beside it (no temporary folder).
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+        // A folder holding anything else is refused before a frame is made.
+        fs::write(seq.join("notes.txt"), "mine").unwrap();
+        let err = write(1, 50).err().expect("a foreign file");
+        assert!(matches!(err, VideoError::NotASequence { .. }), "{err}");
+        assert!(err.to_string().contains("notes.txt"), "{err}");
+        assert_eq!(fs::read_dir(&seq).unwrap().count(), 3);
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+        assert!(is_frame_name("frame_00042.exr") && !is_frame_name("frame_.png"));
+    }
+
+    #[test]
     fn exr_sequence_round_trips_float_values() {
         let (w, h) = (5usize, 3usize);
         let dir = tempfile::tempdir().unwrap();
@@ -1160,7 +1256,14 @@ mod tests {
         let mut exr = VideoWriter::create(&seq, VideoFormat::ExrSequence, 4, 4, 24.0).unwrap();
         let err = exr.push(&srgb_frame(4, 4, vec![0; 48])).unwrap_err();
         assert!(err.to_string().contains("linear_rgb"), "{err}");
-        assert_eq!(fs::read_dir(&seq).unwrap().count(), 0);
+        // Refused frames write nothing, and the sequence appears only on finish.
+        assert!(!seq.exists());
+        drop((writer, exr));
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no temporary folder"
+        );
         assert!(matches!(
             VideoWriter::create(&seq, VideoFormat::Gif, 4, 4, 0.0),
             Err(VideoError::BadFrameRate(_))
