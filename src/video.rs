@@ -9,8 +9,10 @@
 //! `frame_NNNNN.png` / `frame_NNNNN.exr` numbered from a first index so that a partial render
 //! (`--frames A..B`) writes frames with their global numbers, go to a temporary folder beside
 //! the destination that `finish` puts in place, replacing an earlier sequence whole (no stale
-//! frames of a longer one stay). A destination folder that holds anything but frames is
-//! refused when the writer is created, before anything is written.
+//! frames of a longer one stay; a partial render keeps the earlier frames of its own sequence,
+//! [`VideoWriter::sequence_length`], so split renders into one folder add up). A destination
+//! folder that holds anything but frames is refused when the writer is created, before
+//! anything is written.
 //!
 //! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
 //! displayable value):
@@ -347,6 +349,9 @@ pub struct VideoWriter {
     height: usize,
     fps: f64,
     first_index: usize,
+    /// Frames of the whole sequence, of which this writer may write a part (see
+    /// [`VideoWriter::sequence_length`]).
+    sequence_length: Option<usize>,
     pushed: usize,
     sink: Sink,
 }
@@ -441,6 +446,7 @@ impl VideoWriter {
             height,
             fps,
             first_index: 0,
+            sequence_length: None,
             pushed: 0,
             sink,
         })
@@ -450,6 +456,16 @@ impl VideoWriter {
     /// writes `frame_A` to `frame_{B-1}`). MP4 and GIF files always start at their first frame.
     pub fn first_frame_index(mut self, first_index: usize) -> VideoWriter {
         self.first_index = first_index;
+        self
+    }
+
+    /// The whole sequence has `frames` frames, of which this writer writes a part (a render
+    /// of `--frames A..B`): on `finish`, frames of this format numbered below `frames` and
+    /// outside the written ones are kept from the folder's earlier sequence (split renders
+    /// into one folder add up), and every other file goes. Without it the folder is replaced
+    /// by exactly the written frames.
+    pub fn sequence_length(mut self, frames: usize) -> VideoWriter {
+        self.sequence_length = Some(frames);
         self
     }
 
@@ -553,6 +569,10 @@ impl VideoWriter {
             Sink::Sequence { tmp } => {
                 // Checked again: the folder may have changed while the frames were made.
                 check_sequence_folder(&path)?;
+                if let Some(total) = self.sequence_length {
+                    let written = self.first_index..self.first_index + self.pushed;
+                    keep_earlier_frames(&path, tmp.path(), self.format, total, written)?;
+                }
                 crate::atomic::replace_dir(tmp, &path)
                     .map_err(|source| VideoError::Io { path, source })?;
                 Ok(self.pushed)
@@ -599,6 +619,37 @@ fn is_frame_name(name: &str) -> bool {
     name.strip_prefix("frame_")
         .and_then(|r| r.strip_suffix(".png").or_else(|| r.strip_suffix(".exr")))
         .is_some_and(|digits| !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Link (or copy) into `tmp` the frames of `format` of the folder `dest` that belong to a
+/// sequence of `total` frames and were not `written` now.
+fn keep_earlier_frames(
+    dest: &Path,
+    tmp: &Path,
+    format: VideoFormat,
+    total: usize,
+    written: std::ops::Range<usize>,
+) -> Result<(), VideoError> {
+    let Ok(entries) = fs::read_dir(dest) else {
+        return Ok(());
+    };
+    let suffix = format!(".{}", format.as_str());
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let index = name
+            .strip_prefix("frame_")
+            .and_then(|r| r.strip_suffix(suffix.as_str()))
+            .and_then(|d| d.parse::<usize>().ok());
+        let Some(k) = index else { continue };
+        if k >= total || written.contains(&k) || name != sequence_file_name(k, format) {
+            continue;
+        }
+        let (from, to) = (entry.path(), tmp.join(&name));
+        fs::hard_link(&from, &to)
+            .or_else(|_| fs::copy(&from, &to).map(drop))
+            .map_err(|source| VideoError::Io { path: from, source })?;
+    }
+    Ok(())
 }
 
 /// A sequence's destination must be missing, or a folder that holds frames only (it is
@@ -1194,12 +1245,56 @@ mod tests {
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
         // A folder holding anything else is refused before a frame is made.
         fs::write(seq.join("notes.txt"), "mine").unwrap();
-        let err = write(1, 50).err().expect("a foreign file");
+        let err = write(1, 50).expect_err("a foreign file");
         assert!(matches!(err, VideoError::NotASequence { .. }), "{err}");
         assert!(err.to_string().contains("notes.txt"), "{err}");
         assert_eq!(fs::read_dir(&seq).unwrap().count(), 3);
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
         assert!(is_frame_name("frame_00042.exr") && !is_frame_name("frame_.png"));
+    }
+
+    #[test]
+    fn split_renders_of_one_sequence_add_up_and_drop_stale_frames() {
+        let (w, h) = (2usize, 2usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("frames");
+        let render = |frames: std::ops::Range<usize>, total: usize, value: u8| {
+            let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, w, h, 24.0)
+                .unwrap()
+                .first_frame_index(frames.start)
+                .sequence_length(total);
+            for _ in frames {
+                writer
+                    .push(&srgb_frame(w, h, vec![value; w * h * 3]))
+                    .unwrap();
+            }
+            writer.finish().unwrap();
+        };
+        let values = || -> Vec<(String, u8)> {
+            let mut v: Vec<(String, u8)> = fs::read_dir(&seq)
+                .unwrap()
+                .map(|e| {
+                    let e = e.unwrap();
+                    let img = image::open(e.path()).unwrap().to_rgb8();
+                    (
+                        e.file_name().to_string_lossy().into_owned(),
+                        img.as_raw()[0],
+                    )
+                })
+                .collect();
+            v.sort();
+            v
+        };
+        // An earlier sequence of 6 frames, then one of 4 rendered in two parts.
+        render(0..6, 6, 1);
+        render(0..2, 4, 2);
+        render(2..4, 4, 3);
+        let expected: Vec<(String, u8)> = [(0, 2), (1, 2), (2, 3), (3, 3)]
+            .iter()
+            .map(|&(k, v)| (sequence_file_name(k, VideoFormat::PngSequence), v))
+            .collect();
+        assert_eq!(values(), expected);
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
     #[test]
