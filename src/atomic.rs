@@ -1,8 +1,14 @@
-//! Atomic file output: write into a temporary file in the destination's folder, then rename.
+//! Atomic output: write into a temporary file or folder in the destination's folder, then
+//! rename it into place.
 //!
-//! A failed or interrupted write leaves no partial file behind and keeps any earlier file of
-//! the same name untouched.
+//! A failed or interrupted write leaves no partial output behind and keeps any earlier output
+//! of the same name untouched. Temporary paths are named `.<name>.femto-<pid>-<random>.tmp`
+//! and registered with [`crate::interrupt`] while they exist, so SIGINT and SIGTERM remove
+//! them; one left by a run that was killed outright (SIGKILL, the OOM killer) is recognised by
+//! its name and removed by the next run that writes the same destination, once no process of
+//! that id is alive.
 
+use crate::interrupt::{self, Registration};
 use std::io;
 use std::path::{Path, PathBuf};
 
@@ -21,48 +27,303 @@ where
     Ok(value)
 }
 
-/// A new, empty temporary file in `dest`'s folder, named `.<name>.XXXX.tmp`, deleted when
-/// dropped. The handle is released, so writers that open by path work.
-pub fn temp_beside(dest: &Path) -> io::Result<tempfile::TempPath> {
+/// A temporary file beside an output, removed when dropped unless [`persist`]ed.
+#[derive(Debug)]
+pub struct TempFile {
+    path: PathBuf,
+    registration: Option<Registration>,
+}
+
+impl std::ops::Deref for TempFile {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl AsRef<Path> for TempFile {
+    fn as_ref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if let Some(r) = self.registration.take() {
+            let _ = std::fs::remove_file(&self.path);
+            interrupt::unregister(r);
+        }
+    }
+}
+
+/// A temporary folder beside an output, removed with its contents when dropped unless
+/// [`replace_dir`] put it in place.
+#[derive(Debug)]
+pub struct TempDir {
+    path: PathBuf,
+    registration: Option<Registration>,
+}
+
+impl TempDir {
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if let Some(r) = self.registration.take() {
+            let _ = std::fs::remove_dir_all(&self.path);
+            interrupt::unregister(r);
+        }
+    }
+}
+
+/// The folder of `dest` (`.` for a bare name) and its file name.
+fn folder_and_name(dest: &Path) -> (PathBuf, String) {
     let dir = match dest.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let stem = dest
+    let name = dest
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    Ok(tempfile::Builder::new()
-        .prefix(&format!(".{stem}."))
-        .suffix(".tmp")
-        .tempfile_in(&dir)?
-        .into_temp_path())
+    (dir, name)
+}
+
+/// The prefix of every temporary path of destination `name`: `.<name>.femto-`.
+fn temp_prefix(name: &str) -> String {
+    format!(".{name}.femto-")
+}
+
+/// Whether a process of id `pid` exists (one we may not signal exists too).
+fn alive(pid: i32) -> bool {
+    #[cfg(unix)]
+    {
+        // SAFETY: kill with signal 0 only checks that the process exists.
+        let r = unsafe { libc::kill(pid, 0) };
+        r == 0 || io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// Remove the temporary files and folders of `dest` left by runs that no longer exist
+/// (killed before they could clean up). Returns how many were removed.
+pub fn remove_stale_temps(dest: &Path) -> usize {
+    let (dir, name) = folder_and_name(dest);
+    let prefix = temp_prefix(&name);
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return 0;
+    };
+    let me = std::process::id() as i32;
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .filter(|r| r.ends_with(".tmp"))
+        else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<i32>().ok()) else {
+            continue;
+        };
+        if pid <= 0 || pid == me || alive(pid) {
+            continue;
+        }
+        let path = entry.path();
+        let gone = match entry.file_type() {
+            Ok(t) if t.is_dir() => std::fs::remove_dir_all(&path),
+            _ => std::fs::remove_file(&path),
+        };
+        if gone.is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// Create a new temporary path beside `dest` with `make` (a file or a folder, failing if the
+/// name exists), registered for removal on interrupt.
+fn create_beside(
+    dest: &Path,
+    make: impl Fn(&Path) -> io::Result<()>,
+) -> io::Result<(PathBuf, Registration)> {
+    remove_stale_temps(dest);
+    let (dir, name) = folder_and_name(dest);
+    let prefix = format!("{}{}-", temp_prefix(&name), std::process::id());
+    for _ in 0..64 {
+        let path = dir.join(format!("{prefix}{:08x}.tmp", rand::random::<u32>()));
+        // No signal between creating and registering.
+        let _commit = interrupt::commit();
+        match make(&path) {
+            Ok(()) => {
+                let registration = interrupt::register(&path);
+                return Ok((path, registration));
+            }
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    Err(io::Error::new(
+        io::ErrorKind::AlreadyExists,
+        format!("no free temporary name beside {}", dest.display()),
+    ))
+}
+
+/// A new, empty temporary file in `dest`'s folder (see the module doc for its name), removed
+/// when dropped. No handle is kept, so writers that open by path work.
+pub fn temp_beside(dest: &Path) -> io::Result<TempFile> {
+    let (path, registration) = create_beside(dest, |p| {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(p)
+            .map(drop)
+    })?;
+    Ok(TempFile {
+        path,
+        registration: Some(registration),
+    })
+}
+
+/// A new, empty temporary folder in `dest`'s folder, for outputs that are folders (a frame
+/// sequence, a capture); put in place by [`replace_dir`], removed when dropped.
+pub fn temp_dir_beside(dest: &Path) -> io::Result<TempDir> {
+    let (path, registration) = create_beside(dest, |p| std::fs::create_dir(p))?;
+    Ok(TempDir {
+        path,
+        registration: Some(registration),
+    })
 }
 
 /// Write `bytes` into a temporary file beside `dest` and keep it there, for outputs that
 /// must appear together with others: [`persist`] renames it onto `dest` once everything else
 /// has succeeded; dropping it deletes the temporary file.
-pub fn stage_beside(dest: &Path, bytes: &[u8]) -> io::Result<tempfile::TempPath> {
+pub fn stage_beside(dest: &Path, bytes: &[u8]) -> io::Result<TempFile> {
     let tmp = temp_beside(dest)?;
     std::fs::write(&tmp, bytes)?;
     Ok(tmp)
 }
 
 /// Rename a temporary file ([`temp_beside`], [`stage_beside`]) onto `dest`, as an ordinary
-/// (0644) file: tempfile creates files readable by the owner only.
-pub fn persist(tmp: tempfile::TempPath, dest: &Path) -> io::Result<()> {
+/// (0644) file, inside a [`interrupt::commit`] section.
+pub fn persist(mut tmp: TempFile, dest: &Path) -> io::Result<()> {
+    let _commit = interrupt::commit();
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o644))?;
+        std::fs::set_permissions(&tmp.path, std::fs::Permissions::from_mode(0o644))?;
     }
-    tmp.persist(dest).map_err(|e| e.error)?;
+    std::fs::rename(&tmp.path, dest)?;
+    if let Some(r) = tmp.registration.take() {
+        interrupt::unregister(r);
+    }
     Ok(())
+}
+
+/// Put the finished temporary folder `tmp` in place as `dest`, replacing whatever folder is
+/// there whole (the caller decides whether it may), inside a [`interrupt::commit`] section.
+/// Where the system allows, the two folders are exchanged in one step and the old one is then
+/// removed under its temporary name, so no moment leaves `dest` missing.
+pub fn replace_dir(mut tmp: TempDir, dest: &Path) -> io::Result<()> {
+    let _commit = interrupt::commit();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tmp.path, std::fs::Permissions::from_mode(0o755))?;
+    }
+    let exists = std::fs::symlink_metadata(dest).is_ok_and(|m| m.is_dir());
+    if !exists {
+        std::fs::rename(&tmp.path, dest)?;
+    } else if !exchange(&tmp.path, dest)? {
+        // No exchange on this system: the old folder moves aside under a temporary name
+        // (still inside the commit section), the new one takes its place.
+        let aside = create_beside(dest, |_| Ok(()))?;
+        let (aside, reg) = aside;
+        std::fs::rename(dest, &aside)?;
+        if let Err(e) = std::fs::rename(&tmp.path, dest) {
+            let _ = std::fs::rename(&aside, dest);
+            interrupt::unregister(reg);
+            return Err(e);
+        }
+        // `tmp` is unregistered below; the old folder is removed as `tmp` would have been.
+        let old = TempDir {
+            path: aside,
+            registration: Some(reg),
+        };
+        if let Some(r) = tmp.registration.take() {
+            interrupt::unregister(r);
+        }
+        drop(old);
+        return Ok(());
+    }
+    // After an exchange `tmp.path` holds the old folder: dropping `tmp` removes it.
+    if !exists {
+        if let Some(r) = tmp.registration.take() {
+            interrupt::unregister(r);
+        }
+    }
+    drop(tmp);
+    Ok(())
+}
+
+/// Swap two paths in one step (Linux `renameat2(RENAME_EXCHANGE)`); false where the system
+/// or the file system cannot.
+fn exchange(a: &Path, b: &Path) -> io::Result<bool> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let c = |p: &Path| {
+            CString::new(p.as_os_str().as_bytes())
+                .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "NUL in a path"))
+        };
+        let (ca, cb) = (c(a)?, c(b)?);
+        // SAFETY: two valid NUL-terminated paths, relative to the working directory.
+        let r = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                ca.as_ptr(),
+                libc::AT_FDCWD,
+                cb.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        };
+        if r == 0 {
+            return Ok(true);
+        }
+        let e = io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EINVAL) | Some(libc::ENOSYS) | Some(libc::EOPNOTSUPP) => Ok(false),
+            _ => Err(e),
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = (a, b);
+        Ok(false)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
 
     #[test]
     fn failure_keeps_old_file_and_leaves_no_temp() {
@@ -84,5 +345,93 @@ mod tests {
             let mode = std::fs::metadata(&dest).unwrap().permissions().mode();
             assert_eq!(mode & 0o777, 0o644);
         }
+    }
+
+    #[test]
+    fn temps_are_named_registered_and_unregistered() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("c.h5");
+        let tmp = temp_beside(&dest).unwrap();
+        let name = tmp.file_name().unwrap().to_string_lossy().into_owned();
+        let pid = std::process::id();
+        assert!(name.starts_with(&format!(".c.h5.femto-{pid}-")), "{name}");
+        assert!(name.ends_with(".tmp"), "{name}");
+        assert!(interrupt::registered().contains(&tmp.to_path_buf()));
+        let path = tmp.to_path_buf();
+        drop(tmp);
+        assert!(!path.exists());
+        assert!(!interrupt::registered().contains(&path));
+        let tmp = stage_beside(&dest, b"x").unwrap();
+        let path = tmp.to_path_buf();
+        persist(tmp, &dest).unwrap();
+        assert!(!interrupt::registered().contains(&path));
+        assert_eq!(names(dir.path()), ["c.h5"]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn temps_of_dead_runs_are_removed_by_the_next_run_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("w.h5");
+        // A process that has exited: its id is free (reused only after the id space wraps).
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale_file = dir.path().join(format!(".w.h5.femto-{dead}-0badf00d.tmp"));
+        let stale_dir = dir.path().join(format!(".w.h5.femto-{dead}-0badf00e.tmp"));
+        std::fs::write(&stale_file, "left by a killed run").unwrap();
+        std::fs::create_dir(&stale_dir).unwrap();
+        std::fs::write(stale_dir.join("frame_00000.png"), "x").unwrap();
+        // A live run's temporary (this process's parent is alive), another destination's
+        // stale one and an unrelated hidden file stay.
+        let live = dir.path().join(format!(
+            ".w.h5.femto-{}-00000001.tmp",
+            std::os::unix::process::parent_id()
+        ));
+        let other = dir.path().join(format!(".v.h5.femto-{dead}-00000002.tmp"));
+        let hidden = dir.path().join(".w.h5.notes");
+        for p in [&live, &other, &hidden] {
+            std::fs::write(p, "keep").unwrap();
+        }
+        write_atomically::<_, io::Error, _>(&dest, |p| std::fs::write(p, "new")).unwrap();
+        let mut expected = vec![
+            ".v.h5.femto-".to_string() + &format!("{dead}-00000002.tmp"),
+            live.file_name().unwrap().to_string_lossy().into_owned(),
+            ".w.h5.notes".into(),
+            "w.h5".into(),
+        ];
+        expected.sort();
+        assert_eq!(names(dir.path()), expected);
+    }
+
+    #[test]
+    fn folders_are_replaced_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("frames");
+        std::fs::create_dir(&dest).unwrap();
+        for k in 0..3 {
+            std::fs::write(dest.join(format!("frame_{k}")), "old").unwrap();
+        }
+        let tmp = temp_dir_beside(&dest).unwrap();
+        std::fs::write(tmp.path().join("frame_0"), "new").unwrap();
+        let path = tmp.path().to_path_buf();
+        replace_dir(tmp, &dest).unwrap();
+        assert_eq!(names(&dest), ["frame_0"]);
+        assert_eq!(
+            std::fs::read_to_string(dest.join("frame_0")).unwrap(),
+            "new"
+        );
+        assert_eq!(names(dir.path()), ["frames"]);
+        assert!(!interrupt::registered().contains(&path));
+        // A new destination: a plain rename.
+        let fresh = dir.path().join("fresh");
+        let tmp = temp_dir_beside(&fresh).unwrap();
+        replace_dir(tmp, &fresh).unwrap();
+        assert_eq!(names(dir.path()), ["frames", "fresh"]);
+        // Dropped unfinished: gone.
+        let tmp = temp_dir_beside(&fresh).unwrap();
+        std::fs::write(tmp.path().join("x"), "x").unwrap();
+        drop(tmp);
+        assert_eq!(names(dir.path()), ["frames", "fresh"]);
     }
 }

@@ -509,7 +509,7 @@ fn dataset_elem(ds: &H5Dataset, path: &Path) -> Result<(Option<Elem>, String)> {
 /// it on a temporary path. `path` is the destination named in error messages.
 struct CubeSink {
     cube: H5Dataset,
-    file: H5File,
+    file: QuietFile,
     compression: CubeCompression,
     path: PathBuf,
     nx: usize,
@@ -604,10 +604,12 @@ impl CubeSink {
         }
         let nt = attrs.axis.nt;
         let e = h5(path);
-        let file = H5File::options()
-            .best_effort_locking()
-            .create(tmp)
-            .map_err(&e)?;
+        let file = QuietFile(Some(
+            H5File::options()
+                .best_effort_locking()
+                .create(tmp)
+                .map_err(&e)?,
+        ));
         let cx = chunk_rows(nt * 4, nx);
         let builder = file
             .new_dataset::<f32>()
@@ -814,7 +816,37 @@ impl CubeSink {
         // for other processes, and the operating system writes it to disk in its own time.
         // The fsync of `close` made the caller wait for the disk: 0.5 s or more of wall time
         // for a 825 MB cube on the benchmark machine (tools/bench_ingest_results.md).
-        file.close_no_sync().map_err(h5(&path))
+        file.into_inner().close_no_sync().map_err(h5(&path))
+    }
+}
+
+/// An HDF5 file being written that, dropped unclosed (a write failed: a full disk), is closed
+/// without a word: the library would print a second error line on stderr, and the file is a
+/// temporary one about to be deleted.
+struct QuietFile(Option<H5File>);
+
+impl QuietFile {
+    fn into_inner(mut self) -> H5File {
+        self.0
+            .take()
+            .expect("a QuietFile holds its file until into_inner")
+    }
+}
+
+impl std::ops::Deref for QuietFile {
+    type Target = H5File;
+    fn deref(&self) -> &H5File {
+        self.0
+            .as_ref()
+            .expect("a QuietFile holds its file until into_inner")
+    }
+}
+
+impl Drop for QuietFile {
+    fn drop(&mut self) {
+        if let Some(f) = self.0.take() {
+            let _ = f.close_no_sync();
+        }
     }
 }
 
@@ -887,7 +919,7 @@ pub struct CubeWriter {
     // Field order matters: the HDF5 file is closed before the temporary path is deleted.
     groups: GroupSinks,
     sink: CubeSink,
-    tmp: tempfile::TempPath,
+    tmp: crate::atomic::TempFile,
     dest: PathBuf,
 }
 
@@ -2468,12 +2500,12 @@ impl GroupSinks {
 
 /// A temporary file beside `dest`, for a writer that renames it onto `dest` when done (the
 /// scheme of `atomic::write_atomically`, held open across calls).
-fn temp_beside(dest: &Path) -> Result<tempfile::TempPath> {
+fn temp_beside(dest: &Path) -> Result<crate::atomic::TempFile> {
     crate::atomic::temp_beside(dest).map_err(|e| ContainerError::from(e).at(dest))
 }
 
 /// Rename a finished temporary file onto `dest`.
-fn persist(tmp: tempfile::TempPath, dest: &Path) -> Result<()> {
+fn persist(tmp: crate::atomic::TempFile, dest: &Path) -> Result<()> {
     crate::atomic::persist(tmp, dest).map_err(|source| ContainerError::Io {
         path: dest.to_path_buf(),
         source,
@@ -2488,7 +2520,7 @@ enum UpdateTarget {
         reader: Box<CubeReader>,
     },
     /// A file holding groups only.
-    SideFile { file: H5File },
+    SideFile { file: QuietFile },
 }
 
 /// Adds or replaces extra groups of an existing cube file, or writes a side file that holds
@@ -2502,7 +2534,7 @@ pub struct GroupUpdate {
     // Field order matters: the HDF5 file is closed before the temporary path is deleted.
     groups: GroupSinks,
     target: UpdateTarget,
-    tmp: tempfile::TempPath,
+    tmp: crate::atomic::TempFile,
     dest: PathBuf,
 }
 
@@ -2578,7 +2610,9 @@ impl GroupUpdate {
             .map_err(h5(path))?;
         Ok(GroupUpdate {
             groups: GroupSinks::default(),
-            target: UpdateTarget::SideFile { file },
+            target: UpdateTarget::SideFile {
+                file: QuietFile(Some(file)),
+            },
             tmp,
             dest: path.to_path_buf(),
         })
@@ -2622,6 +2656,12 @@ impl GroupUpdate {
     /// Check that every row was written, copy the untouched groups of the old cube file,
     /// close the file and rename it onto the destination.
     pub fn finish(self) -> Result<()> {
+        self.finish_staged()?.persist()
+    }
+
+    /// [`GroupUpdate::finish`] but the rename: the closed file stays beside the destination
+    /// until [`StagedFile::persist`], for a command that commits several outputs together.
+    pub fn finish_staged(self) -> Result<StagedFile> {
         let GroupUpdate {
             groups,
             target,
@@ -2640,9 +2680,23 @@ impl GroupUpdate {
                 drop(reader);
                 sink.close()?;
             }
-            UpdateTarget::SideFile { file } => file.close().map_err(h5(&dest))?,
+            UpdateTarget::SideFile { file } => file.into_inner().close().map_err(h5(&dest))?,
         }
-        persist(tmp, &dest)
+        Ok(StagedFile { tmp, dest })
+    }
+}
+
+/// A finished file still under its temporary name beside its destination (dropping it
+/// deletes it).
+pub struct StagedFile {
+    tmp: crate::atomic::TempFile,
+    dest: PathBuf,
+}
+
+impl StagedFile {
+    /// Rename the file onto its destination.
+    pub fn persist(self) -> Result<()> {
+        persist(self.tmp, &self.dest)
     }
 }
 

@@ -16,6 +16,7 @@ pub mod demo;
 pub mod formats;
 pub mod geometry;
 pub mod ingest;
+pub mod interrupt;
 pub mod limits;
 pub mod manifest;
 pub mod pipeline;

@@ -10,6 +10,10 @@ fn main() -> ExitCode {
         Ok(args) => args,
         Err(code) => return code,
     };
+    // SIGINT and SIGTERM remove the command's temporary files and exit 130 and 143.
+    if let Err(e) = femto::interrupt::install() {
+        eprintln!("femto: warning: SIGINT and SIGTERM will not clean up: {e}");
+    }
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => cli::report(&e),

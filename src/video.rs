@@ -5,10 +5,14 @@
 //! its bundled source by the `openh264` crate) and wrapped in an MP4 container by `muxide`.
 //!
 //! Output is atomic (crate::atomic): a single MP4 or GIF appears only when [`VideoWriter::finish`]
-//! succeeds (the compressed stream is held in memory until then), and each frame of a sequence is
-//! written to a temporary file and renamed to `frame_NNNNN.png` / `frame_NNNNN.exr`, numbered
-//! from a first index so that a partial render (`--frames A..B`) writes frames with their global
-//! numbers.
+//! succeeds (the compressed stream is held in memory until then), and a sequence's frames,
+//! `frame_NNNNN.png` / `frame_NNNNN.exr` numbered from a first index so that a partial render
+//! (`--frames A..B`) writes frames with their global numbers, go to a temporary folder beside
+//! the destination that `finish` puts in place, replacing an earlier sequence whole (no stale
+//! frames of a longer one stay; a partial render keeps the earlier frames of its own sequence,
+//! [`VideoWriter::sequence_length`], so split renders into one folder add up). A destination
+//! folder that holds anything but frames is refused when the writer is created, before
+//! anything is written.
 //!
 //! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
 //! displayable value):
@@ -109,6 +113,13 @@ pub enum VideoError {
     /// The output folder is missing, or the sequence folder cannot be created.
     #[error("cannot use output folder {path}: {source}")]
     Folder { path: PathBuf, source: io::Error },
+    /// A sequence's folder exists and holds something that is not a frame, which replacing
+    /// the sequence would delete.
+    #[error(
+        "{path} holds {file}, which is not a frame of a sequence: a sequence replaces its \
+         folder whole, so give a new folder or one that holds only frame_NNNNN files"
+    )]
+    NotASequence { path: PathBuf, file: String },
     /// Writing or renaming an output file failed.
     #[error("cannot write {path}: {source}")]
     Io { path: PathBuf, source: io::Error },
@@ -322,7 +333,10 @@ struct GifState {
 }
 
 enum Sink {
-    Sequence { dir: PathBuf },
+    /// Frames go into `tmp`, put in place as the writer's path by `finish`.
+    Sequence {
+        tmp: crate::atomic::TempDir,
+    },
     Mp4(Box<Mp4State>),
     Gif(Box<GifState>),
 }
@@ -335,6 +349,9 @@ pub struct VideoWriter {
     height: usize,
     fps: f64,
     first_index: usize,
+    /// Frames of the whole sequence, of which this writer may write a part (see
+    /// [`VideoWriter::sequence_length`]).
+    sequence_length: Option<usize>,
     pushed: usize,
     sink: Sink,
 }
@@ -367,9 +384,9 @@ fn write_file_atomically(
 impl VideoWriter {
     /// Start a video of `width` x `height` frames at `fps` frames per second.
     ///
-    /// For a sequence, `path` is a folder (created if missing); for MP4 and GIF it is the file,
-    /// whose folder must exist. Nothing is written to `path` until a frame is pushed (sequence)
-    /// or the writer is finished (MP4, GIF).
+    /// For a sequence, `path` is a folder (its parent folders are created if missing; an
+    /// existing one must hold only frames); for MP4 and GIF it is the file, whose folder must
+    /// exist. Nothing is written to `path` until the writer is finished.
     pub fn create(
         path: &Path,
         format: VideoFormat,
@@ -385,12 +402,16 @@ impl VideoWriter {
         }
         let sink = match format {
             VideoFormat::PngSequence | VideoFormat::ExrSequence => {
-                fs::create_dir_all(path).map_err(|source| VideoError::Folder {
+                check_sequence_folder(path)?;
+                let folder = |source| VideoError::Folder {
                     path: path.to_path_buf(),
                     source,
-                })?;
+                };
+                if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+                    fs::create_dir_all(parent).map_err(folder)?;
+                }
                 Sink::Sequence {
-                    dir: path.to_path_buf(),
+                    tmp: crate::atomic::temp_dir_beside(path).map_err(folder)?,
                 }
             }
             VideoFormat::Mp4 => {
@@ -425,6 +446,7 @@ impl VideoWriter {
             height,
             fps,
             first_index: 0,
+            sequence_length: None,
             pushed: 0,
             sink,
         })
@@ -434,6 +456,16 @@ impl VideoWriter {
     /// writes `frame_A` to `frame_{B-1}`). MP4 and GIF files always start at their first frame.
     pub fn first_frame_index(mut self, first_index: usize) -> VideoWriter {
         self.first_index = first_index;
+        self
+    }
+
+    /// The whole sequence has `frames` frames, of which this writer writes a part (a render
+    /// of `--frames A..B`): on `finish`, frames of this format numbered below `frames` and
+    /// outside the written ones are kept from the folder's earlier sequence (split renders
+    /// into one folder add up), and every other file goes. Without it the folder is replaced
+    /// by exactly the written frames.
+    pub fn sequence_length(mut self, frames: usize) -> VideoWriter {
+        self.sequence_length = Some(frames);
         self
     }
 
@@ -474,8 +506,8 @@ impl VideoWriter {
         }
         let (width, height) = (self.width, self.height);
         match &mut self.sink {
-            Sink::Sequence { dir } => {
-                let dest = dir.join(sequence_file_name(index, self.format));
+            Sink::Sequence { tmp } => {
+                let dest = tmp.path().join(sequence_file_name(index, self.format));
                 match self.format {
                     VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height)?,
                     _ => write_exr(&dest, &frame.linear_rgb, width, height)?,
@@ -529,12 +561,22 @@ impl VideoWriter {
         Ok(())
     }
 
-    /// Complete the output: write the MP4 or GIF file (atomically); nothing to do for a
-    /// sequence, whose frames are already on disk. Returns the number of frames written.
+    /// Complete the output: write the MP4 or GIF file (atomically), or put a sequence's
+    /// folder in place (replacing an earlier one whole). Returns the number of frames written.
     pub fn finish(self) -> Result<usize, VideoError> {
         let path = self.path;
         match self.sink {
-            Sink::Sequence { .. } => Ok(self.pushed),
+            Sink::Sequence { tmp } => {
+                // Checked again: the folder may have changed while the frames were made.
+                check_sequence_folder(&path)?;
+                if let Some(total) = self.sequence_length {
+                    let written = self.first_index..self.first_index + self.pushed;
+                    keep_earlier_frames(&path, tmp.path(), self.format, total, written)?;
+                }
+                crate::atomic::replace_dir(tmp, &path)
+                    .map_err(|source| VideoError::Io { path, source })?;
+                Ok(self.pushed)
+            }
             Sink::Mp4(state) => {
                 if state.samples.is_empty() {
                     return Err(VideoError::NoFrames { path });
@@ -570,6 +612,75 @@ impl VideoWriter {
 fn gif_delay(fps: f64) -> Delay {
     let centis = (100.0 / fps).round().clamp(1.0, u16::MAX as f64) as u32;
     Delay::from_numer_denom_ms(centis * 10, 1)
+}
+
+/// Whether `name` is a frame of a sequence in either format (`frame_` digits `.png`/`.exr`).
+fn is_frame_name(name: &str) -> bool {
+    name.strip_prefix("frame_")
+        .and_then(|r| r.strip_suffix(".png").or_else(|| r.strip_suffix(".exr")))
+        .is_some_and(|digits| !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Link (or copy) into `tmp` the frames of `format` of the folder `dest` that belong to a
+/// sequence of `total` frames and were not `written` now.
+fn keep_earlier_frames(
+    dest: &Path,
+    tmp: &Path,
+    format: VideoFormat,
+    total: usize,
+    written: std::ops::Range<usize>,
+) -> Result<(), VideoError> {
+    let Ok(entries) = fs::read_dir(dest) else {
+        return Ok(());
+    };
+    let suffix = format!(".{}", format.as_str());
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let index = name
+            .strip_prefix("frame_")
+            .and_then(|r| r.strip_suffix(suffix.as_str()))
+            .and_then(|d| d.parse::<usize>().ok());
+        let Some(k) = index else { continue };
+        if k >= total || written.contains(&k) || name != sequence_file_name(k, format) {
+            continue;
+        }
+        let (from, to) = (entry.path(), tmp.join(&name));
+        fs::hard_link(&from, &to)
+            .or_else(|_| fs::copy(&from, &to).map(drop))
+            .map_err(|source| VideoError::Io { path: from, source })?;
+    }
+    Ok(())
+}
+
+/// A sequence's destination must be missing, or a folder that holds frames only (it is
+/// replaced whole).
+fn check_sequence_folder(path: &Path) -> Result<(), VideoError> {
+    let folder = |source| VideoError::Folder {
+        path: path.to_path_buf(),
+        source,
+    };
+    match fs::symlink_metadata(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(folder(e)),
+        Ok(m) if !m.is_dir() => Err(folder(io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            "it exists and is not a folder",
+        ))),
+        Ok(_) => {
+            for entry in fs::read_dir(path).map_err(folder)? {
+                let entry = entry.map_err(folder)?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+                if !(is_file && is_frame_name(&name)) {
+                    return Err(VideoError::NotASequence {
+                        path: path.to_path_buf(),
+                        file: name,
+                    });
+                }
+            }
+            Ok(())
+        }
+    }
 }
 
 fn check_parent(path: &Path) -> Result<(), VideoError> {
@@ -1107,6 +1218,86 @@ mod tests {
     }
 
     #[test]
+    fn a_sequence_appears_on_finish_and_replaces_an_earlier_one_whole() {
+        let (w, h) = (4usize, 2usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("frames");
+        let write = |n: usize, value: u8| {
+            let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, w, h, 24.0)?;
+            for _ in 0..n {
+                writer.push(&srgb_frame(w, h, vec![value; w * h * 3]))?;
+                assert!(!seq.exists() || value != 10, "frames appear only on finish");
+            }
+            writer.finish()
+        };
+        write(5, 10).unwrap();
+        assert_eq!(fs::read_dir(&seq).unwrap().count(), 5);
+        write(2, 200).unwrap();
+        let mut names: Vec<String> = fs::read_dir(&seq)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["frame_00000.png", "frame_00001.png"]);
+        let img = image::open(seq.join("frame_00001.png")).unwrap().to_rgb8();
+        assert!(img.as_raw().iter().all(|&v| v == 200));
+        // Only the sequence folder is left beside it (no temporary folder).
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+        // A folder holding anything else is refused before a frame is made.
+        fs::write(seq.join("notes.txt"), "mine").unwrap();
+        let err = write(1, 50).expect_err("a foreign file");
+        assert!(matches!(err, VideoError::NotASequence { .. }), "{err}");
+        assert!(err.to_string().contains("notes.txt"), "{err}");
+        assert_eq!(fs::read_dir(&seq).unwrap().count(), 3);
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+        assert!(is_frame_name("frame_00042.exr") && !is_frame_name("frame_.png"));
+    }
+
+    #[test]
+    fn split_renders_of_one_sequence_add_up_and_drop_stale_frames() {
+        let (w, h) = (2usize, 2usize);
+        let dir = tempfile::tempdir().unwrap();
+        let seq = dir.path().join("frames");
+        let render = |frames: std::ops::Range<usize>, total: usize, value: u8| {
+            let mut writer = VideoWriter::create(&seq, VideoFormat::PngSequence, w, h, 24.0)
+                .unwrap()
+                .first_frame_index(frames.start)
+                .sequence_length(total);
+            for _ in frames {
+                writer
+                    .push(&srgb_frame(w, h, vec![value; w * h * 3]))
+                    .unwrap();
+            }
+            writer.finish().unwrap();
+        };
+        let values = || -> Vec<(String, u8)> {
+            let mut v: Vec<(String, u8)> = fs::read_dir(&seq)
+                .unwrap()
+                .map(|e| {
+                    let e = e.unwrap();
+                    let img = image::open(e.path()).unwrap().to_rgb8();
+                    (
+                        e.file_name().to_string_lossy().into_owned(),
+                        img.as_raw()[0],
+                    )
+                })
+                .collect();
+            v.sort();
+            v
+        };
+        // An earlier sequence of 6 frames, then one of 4 rendered in two parts.
+        render(0..6, 6, 1);
+        render(0..2, 4, 2);
+        render(2..4, 4, 3);
+        let expected: Vec<(String, u8)> = [(0, 2), (1, 2), (2, 3), (3, 3)]
+            .iter()
+            .map(|&(k, v)| (sequence_file_name(k, VideoFormat::PngSequence), v))
+            .collect();
+        assert_eq!(values(), expected);
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
     fn exr_sequence_round_trips_float_values() {
         let (w, h) = (5usize, 3usize);
         let dir = tempfile::tempdir().unwrap();
@@ -1160,7 +1351,14 @@ mod tests {
         let mut exr = VideoWriter::create(&seq, VideoFormat::ExrSequence, 4, 4, 24.0).unwrap();
         let err = exr.push(&srgb_frame(4, 4, vec![0; 48])).unwrap_err();
         assert!(err.to_string().contains("linear_rgb"), "{err}");
-        assert_eq!(fs::read_dir(&seq).unwrap().count(), 0);
+        // Refused frames write nothing, and the sequence appears only on finish.
+        assert!(!seq.exists());
+        drop((writer, exr));
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no temporary folder"
+        );
         assert!(matches!(
             VideoWriter::create(&seq, VideoFormat::Gif, 4, 4, 0.0),
             Err(VideoError::BadFrameRate(_))

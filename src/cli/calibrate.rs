@@ -169,7 +169,17 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.cube));
     let header = format!("# made by: {}\n", super::command_line().replace('\n', " "));
     let mesh_name = args.mesh.display().to_string();
-    write_calibration(&args.cube, &result, points.len(), &mesh_name, &out, &header)?;
+    let mut inputs = vec![args.mesh.as_path(), args.points.as_path()];
+    inputs.extend(args.intrinsics.as_deref());
+    write_calibration(
+        &args.cube,
+        &result,
+        points.len(),
+        &mesh_name,
+        &out,
+        &inputs,
+        &header,
+    )?;
     print!("{}", report(&args, &meta, &bvh, &points, &result, &out));
     for w in &result.warnings {
         eprintln!("femto calibrate: warning: {w}");

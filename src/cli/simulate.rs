@@ -334,7 +334,19 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    // The capture folder replaces --out whole: it may not be or hold an input.
+    let scene_file = Path::new(&args.scene);
+    let inputs: Vec<&Path> = [
+        Some(scene_file).filter(|p| p.is_file()),
+        args.bunny.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    femto::pipeline::refuse_same_file(&args.out, &inputs, "out")?;
     let Plan { scene, opts } = plan(&args)?;
+    femto::simulate::capture::check_destination(&args.out, opts.force)
+        .map_err(|e| anyhow::anyhow!("--out {e} (--force replaces it)"))?;
     let (nx, ny) = (
         scene.camera.intrinsics.width,
         scene.camera.intrinsics.height,

@@ -318,6 +318,7 @@ pub(crate) fn run_chain(
                 in_capture_px.len(),
                 &mesh_path.display().to_string(),
                 &calib_path,
+                &[&mesh_path, &points_path],
                 "# made by: femto demo\n",
             )?;
             // The temporal stage alone: the same fit through the true camera.

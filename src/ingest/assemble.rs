@@ -118,6 +118,65 @@ pub struct DecodeSummary {
     pub values: u64,
 }
 
+/// Every file of the capture of `plan`: the scanlines or the stack, the dark frame, the flat
+/// field, the reference, and for a capture with a manifest the manifest and every file it
+/// names (geometry, calibration, fiducials, truths), read by ingest or not.
+pub fn input_files(plan: &IngestPlan) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = match &plan.source {
+        RowSource::Files(rows) => rows.iter().flatten().cloned().collect(),
+        RowSource::Stack { path, .. } => vec![path.clone()],
+    };
+    if let Some(DarkCorrection::Frame { path, .. }) = &plan.dark {
+        files.push(path.clone());
+    }
+    if let Some(flat) = &plan.flat {
+        files.push(flat.path.clone());
+    }
+    files.push(plan.reference.clone());
+    let input = Path::new(&plan.input);
+    let manifest = if input.is_dir() {
+        input.join("manifest.toml")
+    } else {
+        input.to_path_buf()
+    };
+    if let Ok(m) = crate::manifest::Manifest::load(&manifest) {
+        let dir = manifest.parent().unwrap_or(Path::new("."));
+        let f = &m.files;
+        for name in [
+            &f.geometry,
+            &f.calibration,
+            &f.fiducials,
+            &f.truth_camera,
+            &f.truth_world,
+            &f.truth_direct,
+            &f.flat,
+            &f.dark,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            files.push(dir.join(name));
+        }
+        files.push(manifest);
+    }
+    files
+}
+
+/// Refuse an output that is (or whose folder holds) a file of the capture, before anything
+/// is written.
+fn refuse_output_over_inputs(plan: &IngestPlan, out: &Path) -> Result<(), IngestError> {
+    match input_files(plan)
+        .into_iter()
+        .find(|input| crate::pipeline::output_holds(out, input))
+    {
+        Some(input) => Err(IngestError::OutputIsInput {
+            out: out.to_path_buf(),
+            input,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Rows in flight per worker thread (decoded or being written).
 const ROWS_IN_FLIGHT_PER_THREAD: usize = 2;
 
@@ -135,6 +194,7 @@ pub fn ingest(
     compression: CubeCompression,
     progress: &dyn Fn(Pass, usize),
 ) -> Result<IngestSummary, IngestError> {
+    refuse_output_over_inputs(plan, out)?;
     let (nx, ny) = (plan.nx, plan.ny);
     let mut mask = vec![1u8; ny * nx];
     let mut bytes_read = 0u64;

@@ -236,6 +236,9 @@ pub enum IngestError {
         value: String,
         message: String,
     },
+    /// The output is one of the capture's files (or a folder holding one of them).
+    #[error("--out {} is also an input of this ingest ({}); choose another path", out.display(), input.display())]
+    OutputIsInput { out: PathBuf, input: PathBuf },
     /// The scratch file of a two-pass ingest (beside the output) could not be written or read.
     #[error("{}: scratch file: {source}", dir.display())]
     Scratch {

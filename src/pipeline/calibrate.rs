@@ -390,24 +390,28 @@ fn time_samples(
 /// Write `result` as the calibration TOML `toml_path` (headed by `header`, e.g. the command
 /// line as a comment) and as the `registration` group of the cube at `cube_path`: both or
 /// neither. The TOML is staged beside its destination first, so a folder that does not exist
-/// or a full disk fails before the cube is touched; the cube is rewritten beside itself and
-/// renamed; the TOML is renamed last. `toml_path` may not be the cube.
+/// or a full disk fails before the cube is touched; the cube is rewritten beside itself; the
+/// two are renamed into place together at the end, in one section that a signal does not
+/// split ([`crate::interrupt::commit`]). `toml_path` may be neither the cube nor any of
+/// `other_inputs` (the mesh, the points, the intrinsics).
 pub fn write_calibration(
     cube_path: &Path,
     result: &Calibrated,
     points: usize,
     mesh_name: &str,
     toml_path: &Path,
+    other_inputs: &[&Path],
     header: &str,
 ) -> Result<(), StageError> {
-    super::refuse_same_file(toml_path, &[cube_path], "out")?;
+    let mut inputs = vec![cube_path];
+    inputs.extend_from_slice(other_inputs);
+    super::refuse_same_file(toml_path, &inputs, "out")?;
+    let io = |source| StageError::Io {
+        path: toml_path.display().to_string(),
+        source,
+    };
     let text = format!("{header}{}", result.calibration.to_toml());
-    let staged = crate::atomic::stage_beside(toml_path, text.as_bytes()).map_err(|source| {
-        StageError::Io {
-            path: toml_path.display().to_string(),
-            source,
-        }
-    })?;
+    let staged = crate::atomic::stage_beside(toml_path, text.as_bytes()).map_err(io)?;
     let group = registration::registration_group(
         &result.registration,
         &result.calibration,
@@ -416,9 +420,8 @@ pub fn write_calibration(
     );
     let mut update = GroupUpdate::open(cube_path)?;
     update.write_group(registration::GROUP, &group)?;
-    update.finish()?;
-    crate::atomic::persist(staged, toml_path).map_err(|source| StageError::Io {
-        path: toml_path.display().to_string(),
-        source,
-    })
+    let cube = update.finish_staged()?;
+    let _commit = crate::interrupt::commit();
+    cube.persist()?;
+    crate::atomic::persist(staged, toml_path).map_err(io)
 }

@@ -146,25 +146,88 @@ impl From<crate::calibrate::CalibrateError> for StageError {
     }
 }
 
-/// Refuse an output path (given with `--flag`) that names one of `inputs` (the same file,
-/// through any path).
+/// Refuse an output path (given with `--flag`) that names one of `inputs`: the same file
+/// through any path (symbolic links, `..`, hard links: device and inode are compared where
+/// both exist), or, for an output that is a folder (a frame sequence, a capture), a folder
+/// that holds one of them, which replacing it would delete. Call it before anything is
+/// written.
 pub fn refuse_same_file(
     out: &Path,
     inputs: &[&Path],
     flag: &'static str,
 ) -> Result<(), StageError> {
-    let out_canon = std::fs::canonicalize(out).ok();
-    for input in inputs {
-        let same = match (&out_canon, std::fs::canonicalize(input)) {
-            (Some(a), Ok(b)) => *a == b,
-            _ => out == *input,
-        };
-        if same {
-            return Err(StageError::OutputIsInput {
-                flag,
-                path: out.display().to_string(),
-            });
-        }
+    if inputs.iter().any(|input| output_holds(out, input)) {
+        return Err(StageError::OutputIsInput {
+            flag,
+            path: out.display().to_string(),
+        });
     }
     Ok(())
+}
+
+/// Whether writing `out` would overwrite or delete `input`.
+pub fn output_holds(out: &Path, input: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(a), Ok(b)) = (std::fs::metadata(out), std::fs::metadata(input)) {
+            if (a.dev(), a.ino()) == (b.dev(), b.ino()) {
+                return true;
+            }
+        }
+    }
+    let (Some(out_c), Some(in_c)) = (resolved(out), resolved(input)) else {
+        return out == input;
+    };
+    // The same path, or an input inside the output folder.
+    in_c.starts_with(&out_c)
+}
+
+/// `path` made absolute with every link and `..` resolved; for a path that does not exist
+/// yet, its folder resolved and its name appended.
+fn resolved(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(c) = std::fs::canonicalize(path) {
+        return Some(c);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(parent).ok()?.join(name))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outputs_that_reach_an_input_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let input = d.join("c.h5");
+        std::fs::write(&input, "cube").unwrap();
+        std::fs::create_dir(d.join("sub")).unwrap();
+        let refused = |out: &Path| refuse_same_file(out, &[&input], "out").is_err();
+        assert!(refused(&input));
+        assert!(refused(&d.join("sub/../c.h5")));
+        std::fs::hard_link(&input, d.join("hard.h5")).unwrap();
+        assert!(refused(&d.join("hard.h5")));
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(&input, d.join("link.h5")).unwrap();
+            assert!(refused(&d.join("link.h5")));
+            std::os::unix::fs::symlink(d, d.join("sub/up")).unwrap();
+            assert!(refused(&d.join("sub/up/c.h5")));
+        }
+        // A folder output holding the input, and the folder itself.
+        assert!(refused(d));
+        assert!(refused(&d.join("sub/..")));
+        // Elsewhere: new files, a sibling, a folder that does not hold it.
+        assert!(!refused(&d.join("new.toml")));
+        assert!(!refused(&d.join("sub/c.h5")));
+        assert!(!refused(&d.join("sub")));
+        std::fs::write(d.join("other.h5"), "x").unwrap();
+        assert!(!refused(&d.join("other.h5")));
+    }
 }

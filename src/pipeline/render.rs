@@ -563,7 +563,8 @@ pub fn render_to(
     let coverage = predict_coverage(&scene, &settings, &path, frames.clone())?;
     let mut writer =
         VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
-            .first_frame_index(frames.start);
+            .first_frame_index(frames.start)
+            .sequence_length(spec.frames);
     progress.start("render", frames.len() as u64);
     let started = Instant::now();
     let mut frame = Frame {

@@ -135,7 +135,16 @@ pub fn unwarp_file(
     options: &UnwarpOptions,
     progress: &dyn Progress,
 ) -> Result<Unwarped, StageError> {
-    refuse_same_file(output, &[input], "out")?;
+    let mut inputs = vec![input];
+    if let Distances::Cast {
+        calibration_name,
+        mesh_name,
+        ..
+    } = distances
+    {
+        inputs.extend([Path::new(calibration_name), Path::new(mesh_name)]);
+    }
+    refuse_same_file(output, &inputs, "out")?;
     let reader = CubeReader::open(input)?;
     let meta = reader.meta().clone();
     let (nx, ny) = (meta.nx, meta.ny);

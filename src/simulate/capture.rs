@@ -229,15 +229,9 @@ pub fn simulate_capture(
         _ => PathBuf::from("."),
     };
     std::fs::create_dir_all(&parent).map_err(io_err(&parent))?;
-    let name = out_dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "capture".into());
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempdir_in(&parent)
-        .map_err(io_err(&parent))?;
+    // Registered for removal on SIGINT/SIGTERM; named so that a killed run's is removed by
+    // the next (crate::atomic).
+    let tmp = crate::atomic::temp_dir_beside(out_dir).map_err(io_err(&parent))?;
 
     let bvh = Bvh::new(scene.mesh.clone());
     let trace_opts = TraceOptions {
@@ -359,7 +353,7 @@ pub fn simulate_capture(
                 .map_err(io_err(&d))?;
         }
     }
-    install(tmp, out_dir, &parent, &name, opts.force)?;
+    install(tmp, out_dir, opts.force)?;
 
     Ok(SimulateSummary {
         out_dir: out_dir.to_path_buf(),
@@ -460,8 +454,9 @@ fn render_truths(
     Ok((peaks, stats))
 }
 
-/// Refuse a destination that is a file, or a non-empty folder without `force`.
-fn check_destination(out_dir: &Path, force: bool) -> Result<(), SimulateError> {
+/// Refuse a destination that is a file, or a non-empty folder without `force` (checked again
+/// by [`simulate_capture`]; callers may check first, before they print anything).
+pub fn check_destination(out_dir: &Path, force: bool) -> Result<(), SimulateError> {
     let exists = |message: &str| {
         Err(SimulateError::OutputExists {
             path: out_dir.to_path_buf(),
@@ -486,40 +481,11 @@ fn check_destination(out_dir: &Path, force: bool) -> Result<(), SimulateError> {
     }
 }
 
-/// Rename the finished temporary folder onto `out_dir`, replacing an existing one (empty, or
-/// any with `force`): the old folder is first moved aside, then deleted.
-fn install(
-    tmp: tempfile::TempDir,
-    out_dir: &Path,
-    parent: &Path,
-    name: &str,
-    force: bool,
-) -> Result<(), SimulateError> {
+/// Put the finished temporary folder in place as `out_dir`, replacing an existing one
+/// (empty, or any with `force`) whole ([`crate::atomic::replace_dir`]).
+fn install(tmp: crate::atomic::TempDir, out_dir: &Path, force: bool) -> Result<(), SimulateError> {
     check_destination(out_dir, force)?;
-    let old = if out_dir.exists() {
-        let aside = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".old")
-            .tempdir_in(parent)
-            .map_err(io_err(parent))?
-            .keep();
-        std::fs::rename(out_dir, &aside).map_err(io_err(out_dir))?;
-        Some(aside)
-    } else {
-        None
-    };
-    let built = tmp.keep();
-    if let Err(e) = std::fs::rename(&built, out_dir) {
-        if let Some(aside) = &old {
-            let _ = std::fs::rename(aside, out_dir);
-        }
-        let _ = std::fs::remove_dir_all(&built);
-        return Err(io_err(out_dir)(e));
-    }
-    if let Some(aside) = old {
-        std::fs::remove_dir_all(&aside).map_err(io_err(&aside))?;
-    }
-    Ok(())
+    crate::atomic::replace_dir(tmp, out_dir).map_err(io_err(out_dir))
 }
 
 /// A `[x][t]` row of counts as a streak image `[t][x]` of `counts x scale`.

@@ -1,4 +1,490 @@
-//! Fault cases: outputs (issue 16).
+//! Fault cases: outputs that never destroy (issue 16). An output that is, or reaches, an
+//! input is refused before anything is written; a command that fails (a missing folder, a
+//! full disk) leaves every earlier output as it was and no temporary file; a frame sequence
+//! replaces an earlier one whole; SIGINT and SIGTERM end a run with 130 and 143, the earlier
+//! output intact and no temporary file, and a SIGKILLed run's temporary files are removed by
+//! the next run on the same destination.
 
-#[allow(unused_imports)]
-use super::{case, cli};
+use super::{case, cli, fixture};
+use cli::{femto_env, refused_unchanged, Snapshot};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// `--laser=X,Y,Z` of the fixture's capture.
+fn laser_flag() -> String {
+    let truth =
+        femto::camera::Calibration::load(&fixture().root.join("cap/calibration.toml")).unwrap();
+    let l = truth.laser_m;
+    format!("--laser={},{},{}", l.x, l.y, l.z)
+}
+
+/// `femto calibrate` of the fixture's cube with `--out out`.
+fn calibrate_args(out: &str) -> Vec<String> {
+    [
+        "calibrate",
+        "cube.h5",
+        "--mesh",
+        "cap/scene.glb",
+        "--points",
+        "cap/fiducials.toml",
+        &laser_flag(),
+        "--out",
+        out,
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// `femto render` of the fixture's world cube: a small dolly of `frames` frames.
+fn render_args(frames: usize, format: &str, out: &str) -> Vec<String> {
+    [
+        "render",
+        "--cube",
+        "world.h5",
+        "--calibration",
+        "cube.calibration.toml",
+        "--mesh",
+        "cap/scene.glb",
+        "--dolly",
+        "0.5",
+        "--size",
+        "32x24",
+        "--frame-count",
+        &frames.to_string(),
+        "--format",
+        format,
+        "--out",
+        out,
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// A hard link and a symbolic link to `target` (both in `dir`), named `hard_name` and
+/// `link_name`.
+fn links(dir: &Path, target: &str, hard_name: &str, link_name: &str) {
+    std::fs::hard_link(dir.join(target), dir.join(hard_name)).unwrap();
+    std::os::unix::fs::symlink(dir.join(target), dir.join(link_name)).unwrap();
+}
+
+/// The hidden temporary entries (`.NAME.femto-PID-XXXX.tmp`) in `dir`.
+fn temps(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && n.contains(".femto-") && n.ends_with(".tmp"))
+        .collect()
+}
+
+#[test]
+fn calibrate_out_onto_an_input_is_refused() {
+    let dir = case(&["cube.h5", "cap/scene.glb", "cap/fiducials.toml"]);
+    let d = dir.path();
+    links(d, "cube.h5", "hard.h5", "link.h5");
+    std::fs::create_dir(d.join("sub")).unwrap();
+    for out in [
+        "cube.h5",
+        "hard.h5",
+        "link.h5",
+        "sub/../cube.h5",
+        "cap/scene.glb",
+        "cap/fiducials.toml",
+    ] {
+        refused_unchanged(d, &strs(&calibrate_args(out)), &[], &["--out", out]);
+    }
+}
+
+#[test]
+fn calibrate_into_a_missing_folder_leaves_the_cube_as_it_was() {
+    let dir = case(&["cube.h5", "cap/scene.glb", "cap/fiducials.toml"]);
+    refused_unchanged(
+        dir.path(),
+        &strs(&calibrate_args("nodir/c.toml")),
+        &[],
+        &["nodir/c.toml"],
+    );
+}
+
+#[test]
+fn render_out_onto_an_input_is_refused() {
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let d = dir.path();
+    links(d, "world.h5", "hard.h5", "link.h5");
+    for out in [
+        "world.h5",
+        "hard.h5",
+        "link.h5",
+        "cube.calibration.toml",
+        "cap/scene.glb",
+    ] {
+        refused_unchanged(d, &strs(&render_args(2, "gif", out)), &[], &["--out", out]);
+    }
+    // A frame folder that holds an input: replacing the sequence would delete it.
+    for out in [".", "cap"] {
+        refused_unchanged(d, &strs(&render_args(2, "png", out)), &[], &["--out", out]);
+    }
+}
+
+#[test]
+fn render_into_a_folder_of_other_files_is_refused() {
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let d = dir.path();
+    std::fs::create_dir(d.join("frames")).unwrap();
+    std::fs::write(d.join("frames/notes.txt"), "mine").unwrap();
+    refused_unchanged(
+        d,
+        &strs(&render_args(2, "png", "frames")),
+        &[],
+        &["frames", "notes.txt"],
+    );
+}
+
+#[test]
+fn a_shorter_sequence_replaces_a_longer_one_whole() {
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let d = dir.path();
+    for (format, ext) in [("png", "png"), ("exr", "exr")] {
+        for n in [5, 2] {
+            let run = femto_env(Some(d), &strs(&render_args(n, format, "frames")), &[]);
+            assert_eq!(run.code, Some(0), "{}", run.stderr);
+        }
+        let mut names: Vec<String> = std::fs::read_dir(d.join("frames"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(
+            names,
+            [format!("frame_00000.{ext}"), format!("frame_00001.{ext}")],
+            "{format}: no stale frame of the longer sequence"
+        );
+        assert!(temps(d).is_empty(), "{:?}", temps(d));
+    }
+}
+
+#[test]
+fn ingest_out_onto_a_capture_file_is_refused() {
+    let dir = case(&["cap"]);
+    let d = dir.path();
+    let manifest = femto::manifest::Manifest::load(&d.join("cap/manifest.toml")).unwrap();
+    let scanline = manifest.scanline_path(Path::new("cap"), 0).unwrap();
+    let mut outs: Vec<String> = vec![
+        "cap/manifest.toml".into(),
+        scanline.display().to_string(),
+        "cap/scene.glb".into(),
+        "cap/fiducials.toml".into(),
+        "cap/calibration.toml".into(),
+        "cap".into(),
+        "man.toml".into(),
+    ];
+    let f = &manifest.files;
+    let corrections: Vec<String> = [&f.dark, &f.flat]
+        .into_iter()
+        .flatten()
+        .map(|p| Path::new("cap").join(p).display().to_string())
+        .collect();
+    assert!(
+        !corrections.is_empty(),
+        "the realistic capture has dark and flat frames"
+    );
+    outs.extend(corrections);
+    std::fs::hard_link(d.join("cap/manifest.toml"), d.join("man.toml")).unwrap();
+    for out in &outs {
+        refused_unchanged(d, &["ingest", "cap", "-o", out], &[], &["--out", out]);
+    }
+}
+
+#[test]
+fn simulate_out_onto_a_file_or_a_folder_holding_its_scene_is_refused() {
+    let dir = case(&["cube.h5"]);
+    let d = dir.path();
+    let small = ["simulate", "--size", "16x12", "--spp", "1"];
+    for force in [false, true] {
+        let mut args = small.to_vec();
+        args.extend(["--out", "cube.h5"]);
+        if force {
+            args.push("--force");
+        }
+        refused_unchanged(d, &args, &[], &["--out", "cube.h5"]);
+    }
+    // A scene file inside the folder that --force would replace.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    std::fs::write(d.join("sub/scene.toml"), "# my scene\n").unwrap();
+    let mut args = small.to_vec();
+    args.extend(["--scene", "sub/scene.toml", "--out", "sub", "--force"]);
+    refused_unchanged(d, &args, &[], &["--out", "sub"]);
+}
+
+#[test]
+fn pyramid_side_file_onto_the_cube_is_refused() {
+    let dir = case(&["world.h5"]);
+    let d = dir.path();
+    links(d, "world.h5", "hard.h5", "link.h5");
+    for side in ["world.h5", "hard.h5", "link.h5"] {
+        refused_unchanged(
+            d,
+            &["pyramid", "world.h5", "--side-file", side],
+            &[],
+            &["--side-file", side],
+        );
+    }
+}
+
+#[test]
+fn unwarp_out_onto_the_cube_is_refused() {
+    let dir = case(&["cube.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let d = dir.path();
+    links(d, "cube.h5", "hard.h5", "link.h5");
+    for out in ["cube.h5", "hard.h5", "link.h5"] {
+        refused_unchanged(
+            d,
+            &["unwarp", "cube.h5", "--out", out],
+            &[],
+            &["--out", out],
+        );
+    }
+    // Distances cast through a calibration into a mesh: neither may be the output.
+    for out in ["cube.calibration.toml", "cap/scene.glb"] {
+        let args = [
+            "unwarp",
+            "cube.h5",
+            "--calibration",
+            "cube.calibration.toml",
+            "--mesh",
+            "cap/scene.glb",
+            "--out",
+            out,
+        ];
+        refused_unchanged(d, &args, &[], &["--out", out]);
+    }
+}
+
+/// Run `femto args` in `dir` with files limited to `max_bytes` (RLIMIT_FSIZE; SIGXFSZ
+/// ignored, so a write past it fails with EFBIG as on a full disk). Returns the exit code
+/// and stderr.
+fn femto_with_file_limit(dir: &Path, args: &[&str], max_bytes: u64) -> (Option<i32>, String) {
+    use std::os::unix::process::CommandExt;
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_femto"));
+    cmd.args(args).current_dir(dir);
+    // SAFETY: only async-signal-safe calls (setrlimit, signal) between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            let limit = libc::rlimit {
+                rlim_cur: max_bytes as libc::rlim_t,
+                rlim_max: max_bytes as libc::rlim_t,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            Ok(())
+        });
+    }
+    let out = cmd.output().expect("femto runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_full_disk_keeps_every_earlier_output_and_leaves_no_temp() {
+    let dir = case(&[
+        "cap",
+        "cube.h5",
+        "world.h5",
+        "cube.calibration.toml",
+        "cap/scene.glb",
+    ]);
+    let d = dir.path();
+    // Earlier outputs of each kind: sequences, a video, the cube, its calibration.
+    for (format, out) in [("png", "png"), ("exr", "exr"), ("gif", "clip.gif")] {
+        let run = femto_env(Some(d), &strs(&render_args(3, format, out)), &[]);
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+    }
+    let cases: Vec<Vec<String>> = vec![
+        render_args(2, "png", "png"),
+        render_args(2, "exr", "exr"),
+        render_args(2, "gif", "clip.gif"),
+        ["ingest", "cap", "-o", "cube.h5"]
+            .map(String::from)
+            .to_vec(),
+        calibrate_args("cube.calibration.toml"),
+        ["pyramid", "world.h5"].map(String::from).to_vec(),
+        [
+            "simulate", "--size", "16x12", "--spp", "1", "--out", "cap", "--force",
+        ]
+        .map(String::from)
+        .to_vec(),
+    ];
+    for args in &cases {
+        let before = Snapshot::of(d);
+        let (code, stderr) = femto_with_file_limit(d, &strs(args), 64);
+        let line = stderr.trim_end();
+        assert!(
+            matches!(code, Some(1) | Some(2)),
+            "femto {}: exit {code:?}: {line}",
+            args.join(" ")
+        );
+        // One error line (simulate announces its scene on a line of its own first).
+        let errors: Vec<&str> = line
+            .lines()
+            .filter(|l| !l.starts_with("femto simulate: "))
+            .collect();
+        assert_eq!(errors.len(), 1, "one line: {line}");
+        assert!(errors[0].starts_with("femto: error: "), "{line}");
+        let changes = before.changes(&Snapshot::of(d));
+        assert!(
+            changes.is_empty(),
+            "femto {}: a failed write changed {changes:?}",
+            args.join(" ")
+        );
+    }
+}
+
+/// Start `femto args` in `dir`, wait until a temporary entry of `dest` appears beside it
+/// (the run is under way and has something to clean), let it work 0.5 s more, then send
+/// `signal`; returns the exit code (minus the signal's number for a run the signal killed).
+fn interrupted(dir: &Path, args: &[&str], dest: &str, signal: i32) -> Option<i32> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_femto"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("femto starts");
+    let prefix = format!(".{dest}.femto-{}-", child.id());
+    let started = Instant::now();
+    loop {
+        if temps(dir).iter().any(|n| n.starts_with(&prefix)) {
+            break;
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!(
+                "femto {} ended ({status}) before a temporary file appeared",
+                args.join(" ")
+            );
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no temporary file of {dest} after 120 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Let it write into the temporary for a while.
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: signalling our own child.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+    let sent = Instant::now();
+    let status = child.wait().unwrap();
+    eprintln!(
+        "femto {}: signal {signal}: stopped {:.0} ms after it",
+        args[0],
+        sent.elapsed().as_secs_f64() * 1e3
+    );
+    assert!(
+        sent.elapsed() < Duration::from_secs(5),
+        "femto took {:?} to stop",
+        sent.elapsed()
+    );
+    use std::os::unix::process::ExitStatusExt;
+    status.code().or(status.signal().map(|s| -s))
+}
+
+/// A long capture simulation onto the earlier capture `cap` (replaced with --force).
+const LONG_SIMULATE: [&str; 9] = [
+    "simulate",
+    "--size",
+    "64x48",
+    "--spp",
+    "100000",
+    "--out",
+    "cap",
+    "--force",
+    "--realistic",
+];
+
+#[test]
+fn sigterm_and_sigint_keep_the_earlier_output_and_remove_every_temp() {
+    let dir = case(&["cap", "world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let d = dir.path();
+    let before = Snapshot::of(d);
+    let code = interrupted(d, &LONG_SIMULATE, "cap", libc::SIGTERM);
+    assert_eq!(code, Some(143));
+    assert_eq!(before.changes(&Snapshot::of(d)), Vec::<String>::new());
+    // A long render into a sequence folder that holds an earlier sequence.
+    let run = femto_env(Some(d), &strs(&render_args(2, "png", "frames")), &[]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let before = Snapshot::of(d);
+    let mut long = render_args(3000, "png", "frames");
+    let size = long.iter().position(|a| a == "32x24").unwrap();
+    long[size] = "128x96".into();
+    let code = interrupted(d, &strs(&long), "frames", libc::SIGINT);
+    assert_eq!(code, Some(130));
+    assert_eq!(before.changes(&Snapshot::of(d)), Vec::<String>::new());
+}
+
+#[test]
+fn sigterm_during_an_in_place_pyramid_keeps_the_cube() {
+    use femto::container::{CubeCompression, CubeWriter, Provenance};
+    use femto::cube::{TimeAxis, TimeFrame};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A world-time cube of 256 x 256 pixels x 512 bins (128 MiB of values, a few MB on disk:
+    // constant values compress well): its pyramid takes seconds to write.
+    let (nx, ny, nt) = (256, 256, 512);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 2.0,
+        nt,
+    };
+    let mut writer = CubeWriter::create_with(
+        &d.join("big.h5"),
+        nx,
+        ny,
+        axis,
+        TimeFrame::World,
+        "radiance",
+        &Provenance::new("tests/faults/outputs.rs"),
+        CubeCompression::Deflate(1),
+    )
+    .unwrap();
+    let rows = vec![1.0f32; 16 * nx * nt];
+    for y0 in (0..ny).step_by(16) {
+        writer.write_rows(y0, &rows).unwrap();
+    }
+    writer.finish().unwrap();
+    let before = Snapshot::of(d);
+    let code = interrupted(d, &["pyramid", "big.h5"], "big.h5", libc::SIGTERM);
+    assert_eq!(code, Some(143));
+    assert_eq!(before.changes(&Snapshot::of(d)), Vec::<String>::new());
+}
+
+#[test]
+fn a_killed_run_leaves_a_temp_that_the_next_run_removes() {
+    let dir = case(&["cap"]);
+    let d = dir.path();
+    let code = interrupted(d, &LONG_SIMULATE, "cap", libc::SIGKILL);
+    assert_eq!(code, Some(-libc::SIGKILL));
+    let left = temps(d);
+    assert!(!left.is_empty(), "SIGKILL cannot clean up");
+    let run = femto_env(
+        Some(d),
+        &[
+            "simulate", "--size", "16x12", "--spp", "1", "--out", "cap", "--force",
+        ],
+        &[],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        temps(d).is_empty(),
+        "left after the next run: {:?}",
+        temps(d)
+    );
+    assert!(d.join("cap/manifest.toml").is_file());
+}
