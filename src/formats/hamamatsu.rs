@@ -717,13 +717,15 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         .map(|v| parse_number::<f64>(path, "Streak camera", "MCP Gain", v, "a finite number"))
         .transpose()?
         .map(|g| {
-            g.is_finite().then_some(g).ok_or_else(|| FormatError::BadValue {
-                path: path.to_path_buf(),
-                section: "Streak camera".into(),
-                key: "MCP Gain".into(),
-                value: g.to_string(),
-                expected: "a finite number".into(),
-            })
+            g.is_finite()
+                .then_some(g)
+                .ok_or_else(|| FormatError::BadValue {
+                    path: path.to_path_buf(),
+                    section: "Streak camera".into(),
+                    key: "MCP Gain".into(),
+                    value: g.to_string(),
+                    expected: "a finite number".into(),
+                })
         })
         .transpose()?;
     let n_exposures = acquisition

@@ -265,14 +265,14 @@ fn check_obj_indices(path: &Path) -> Result<(), LoadError> {
         }
         for word in words {
             for index in word.split('/').filter(|c| !c.is_empty()) {
-                let ok = index.parse::<i64>().is_ok_and(|i| i.unsigned_abs() <= limit as u64);
+                let ok = index
+                    .parse::<i64>()
+                    .is_ok_and(|i| i.unsigned_abs() <= limit as u64);
                 if !ok && index.parse::<f64>().is_ok() {
                     return Err(LoadError::BadReference {
                         path: path.to_path_buf(),
                         part: format!("line {}", line_no + 1),
-                        what: format!(
-                            "index {index} is beyond the file's {limit} lines"
-                        ),
+                        what: format!("index {index} is beyond the file's {limit} lines"),
                     });
                 }
             }

@@ -219,12 +219,9 @@ pub fn run(target: &Target, cases: u64) -> Report {
     let file = dir.join(format!("case.{}", target.ext));
     *CASE_FILE.lock().unwrap() = Some(file.clone());
     // One generator per target, so that adding a target does not change another's cases.
-    let name_hash = target
-        .name
-        .bytes()
-        .fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
-            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
-        });
+    let name_hash = target.name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
     let mut rng = rand_pcg::Pcg64::seed_from_u64(fuzz_seed() ^ name_hash);
     let mut report = Report {
         executions: 0,
@@ -246,7 +243,10 @@ pub fn run(target: &Target, cases: u64) -> Report {
         PEAK_REQUEST_BYTES.store(0, Ordering::SeqCst);
         *LAST_PANIC.lock().unwrap() = None;
         let t0 = Instant::now();
-        CASE_STARTED_MS.store(epoch().elapsed().as_millis().max(1) as u64, Ordering::SeqCst);
+        CASE_STARTED_MS.store(
+            epoch().elapsed().as_millis().max(1) as u64,
+            Ordering::SeqCst,
+        );
         let outcome = catch_unwind(AssertUnwindSafe(|| (target.read)(&file)));
         CASE_STARTED_MS.store(0, Ordering::SeqCst);
         let took = t0.elapsed();

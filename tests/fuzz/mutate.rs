@@ -30,15 +30,7 @@ const INTERESTING_I32: [i32; 12] = [
 ];
 
 /// 8-byte integers (lengths and offsets of 64-bit formats such as HDF5).
-const INTERESTING_I64: [i64; 7] = [
-    0,
-    -1,
-    i64::MAX,
-    i64::MIN,
-    0x7FFF_FFFF,
-    0xFFFF_FFFF,
-    1 << 40,
-];
+const INTERESTING_I64: [i64; 7] = [0, -1, i64::MAX, i64::MIN, 0x7FFF_FFFF, 0xFFFF_FFFF, 1 << 40];
 
 const INTERESTING_F32: [f32; 8] = [
     f32::NAN,
@@ -247,7 +239,10 @@ fn tokens(data: &[u8]) -> Tokens {
                 let start = i;
                 i += 1;
                 while i < data.len()
-                    && matches!(data[i], b'0'..=b'9' | b'.' | b'e' | b'E' | b'_' | b'-' | b'+')
+                    && matches!(
+                        data[i],
+                        b'0'..=b'9' | b'.' | b'e' | b'E' | b'_' | b'-' | b'+'
+                    )
                 {
                     i += 1;
                 }

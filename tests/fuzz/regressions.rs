@@ -16,12 +16,21 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
 fn img_negative_image_count_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let seed = scanlines("img", 1).remove(0);
-    assert_eq!(&seed[14..18], &0i32.to_le_bytes(), "the writer stores 0 images");
+    assert_eq!(
+        &seed[14..18],
+        &0i32.to_le_bytes(),
+        "the writer stores 0 images"
+    );
     let mut bytes = seed.clone();
     bytes[14..18].copy_from_slice(&i32::MIN.to_le_bytes());
     let p = write(dir.path(), "neg.img", &bytes);
-    let e = femto::formats::read_streak(&p, false).unwrap_err().to_string();
-    assert!(e.contains("number of images") && e.contains("-2147483648"), "{e}");
+    let e = femto::formats::read_streak(&p, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("number of images") && e.contains("-2147483648"),
+        "{e}"
+    );
     assert!(e.contains("neg.img"), "{e}");
     // 1 (one image) still reads, like 0.
     bytes[14..18].copy_from_slice(&1i32.to_le_bytes());
@@ -35,13 +44,21 @@ fn img_infinite_time_table_value_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let mut bytes = scanlines("img", 1).remove(0);
     let good = femto::formats::read_streak(&write(dir.path(), "good.img", &bytes), false).unwrap();
-    assert!(good.time_axis_ps.is_some(), "the writer stores a time table");
+    assert!(
+        good.time_axis_ps.is_some(),
+        "the writer stores a time table"
+    );
     // The writer puts the float32 table last: its last entry is the last row's time.
     let n = bytes.len();
     bytes[n - 4..].copy_from_slice(&f32::INFINITY.to_le_bytes());
     let p = write(dir.path(), "inf.img", &bytes);
-    let e = femto::formats::read_streak(&p, false).unwrap_err().to_string();
-    assert!(e.contains("ScalingYScalingFile") && e.contains("inf"), "{e}");
+    let e = femto::formats::read_streak(&p, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("ScalingYScalingFile") && e.contains("inf"),
+        "{e}"
+    );
 }
 
 fn glb_with_length(declared: u32) -> Vec<u8> {
@@ -64,12 +81,20 @@ fn glb_header_length_is_checked_before_allocating() {
             e.contains(&format!("declares {declared} bytes")) && e.contains("big.glb"),
             "{e}"
         );
-        assert!(peak <= alloc_bound(bytes.len()), "{peak} bytes for {declared}");
+        assert!(
+            peak <= alloc_bound(bytes.len()),
+            "{peak} bytes for {declared}"
+        );
     }
     // The true length reads.
     let good = file("cap/scene.glb");
     let p = write(dir.path(), "good.glb", &good);
-    assert!(femto::geometry::load::load_mesh(&p).unwrap().triangle_count() > 0);
+    assert!(
+        femto::geometry::load::load_mesh(&p)
+            .unwrap()
+            .triangle_count()
+            > 0
+    );
 }
 
 fn gltf_with_uri(uri: &str) -> Vec<u8> {
@@ -85,16 +110,28 @@ fn gltf_with_uri(uri: &str) -> Vec<u8> {
 fn gltf_buffer_uris_that_cannot_be_read_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "bad.gltf", &gltf_with_uri("mesh%FF.bin"));
-    let e = femto::geometry::load::load_mesh(&p).unwrap_err().to_string();
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("not UTF-8") && e.contains("bad.gltf"), "{e}");
     let p = write(dir.path(), "dev.gltf", &gltf_with_uri("file:///dev/zero"));
-    let e = femto::geometry::load::load_mesh(&p).unwrap_err().to_string();
-    assert!(e.contains("not a regular file") && e.contains("dev.gltf"), "{e}");
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("not a regular file") && e.contains("dev.gltf"),
+        "{e}"
+    );
     // The data URI the seed carries reads.
     let p = write(
         dir.path(),
         "good.gltf",
         &super::seeds::gltf_from_glb(&file("cap/scene.glb")),
     );
-    assert!(femto::geometry::load::load_mesh(&p).unwrap().triangle_count() > 0);
+    assert!(
+        femto::geometry::load::load_mesh(&p)
+            .unwrap()
+            .triangle_count()
+            > 0
+    );
 }

@@ -17,7 +17,12 @@ fn s<E: std::fmt::Display>(e: E) -> String {
 fn read_streak(path: &Path) -> Result<(), String> {
     let a = femto::formats::read_streak(path, false).map_err(s)?;
     let b = femto::formats::read_streak(path, true).map_err(s)?;
-    assert_eq!(a.data.len(), a.nx * a.nt, "data length of {}", path.display());
+    assert_eq!(
+        a.data.len(),
+        a.nx * a.nt,
+        "data length of {}",
+        path.display()
+    );
     assert_eq!(b.data.len(), b.nx * b.nt, "transposed data length");
     Ok(())
 }
@@ -36,7 +41,7 @@ fn img() {
             text: false,
             read: read_streak,
         },
-        600,
+        300,
     );
 }
 
@@ -50,7 +55,7 @@ fn png() {
             text: false,
             read: read_streak,
         },
-        400,
+        200,
     );
 }
 
@@ -64,7 +69,7 @@ fn exr() {
             text: false,
             read: read_streak,
         },
-        400,
+        300,
     );
 }
 
@@ -78,7 +83,7 @@ fn tiff() {
             text: false,
             read: read_streak,
         },
-        400,
+        200,
     );
 }
 
@@ -92,7 +97,7 @@ fn hdr() {
             text: false,
             read: read_streak,
         },
-        300,
+        150,
     );
 }
 
@@ -124,7 +129,7 @@ fn glb() {
             text: false,
             read: read_mesh,
         },
-        800,
+        400,
     );
 }
 
@@ -138,7 +143,7 @@ fn gltf() {
             text: true,
             read: read_mesh,
         },
-        600,
+        300,
     );
 }
 
@@ -152,7 +157,7 @@ fn obj() {
             text: true,
             read: read_mesh,
         },
-        800,
+        300,
     );
 }
 
@@ -183,7 +188,7 @@ fn cube() {
             text: false,
             read: read_cube_file,
         },
-        300,
+        150,
     );
 }
 
@@ -203,7 +208,7 @@ fn pyramid() {
             text: false,
             read: read_pyramid,
         },
-        300,
+        100,
     );
 }
 
@@ -225,7 +230,7 @@ fn manifest() {
             text: true,
             read: read_manifest,
         },
-        800,
+        300,
     );
 }
 
@@ -250,7 +255,7 @@ fn scene() {
             text: true,
             read: read_scene,
         },
-        500,
+        200,
     );
 }
 
@@ -277,7 +282,7 @@ fn camera_path() {
             text: true,
             read: read_path,
         },
-        800,
+        400,
     );
 }
 
@@ -294,14 +299,11 @@ fn calibration() {
         Target {
             name: "calibration",
             ext: "toml",
-            seeds: vec![
-                file("cap/calibration.toml"),
-                file("cube.calibration.toml"),
-            ],
+            seeds: vec![file("cap/calibration.toml"), file("cube.calibration.toml")],
             text: true,
             read: read_calibration,
         },
-        800,
+        300,
     );
 }
 
@@ -323,7 +325,7 @@ fn points_toml() {
             text: true,
             read: read_points,
         },
-        600,
+        100,
     );
 }
 
@@ -337,6 +339,6 @@ fn points_csv() {
             text: true,
             read: read_points,
         },
-        600,
+        300,
     );
 }
