@@ -7,7 +7,9 @@
 # the share refused; failing inputs are kept under target/<profile>/../tmp/fuzz/<target>/.
 # The CI run is the plain `cargo test --test fuzz` (a few hundred cases per target).
 #
-# Usage: tools/fuzz.sh [CASES=100000] [SEED=16] [FILTER (a target name, e.g. img)]
+# Usage: [PROFILE=dev] [SKIP=target] tools/fuzz.sh [CASES=100000] [SEED=16] [FILTER (a target
+# name, e.g. img)]. A hang ends the whole run (exit 3, the case file named); SKIP leaves a
+# target with a known, unfixed hang out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CASES=${1:-100000}
@@ -22,10 +24,10 @@ echo "fuzz: $CASES cases per target, seed $SEED, $PROFILE profile, $(date -u +%Y
 start=$(date +%s)
 set +e
 FEMTO_FUZZ_CASES=$CASES FEMTO_FUZZ_SEED=$SEED cargo test "${flag[@]}" --test fuzz -- \
-    --test-threads=1 --nocapture --skip regressions --skip mutations --skip base64 $FILTER \
-    2>&1 | tee "$log" | grep -E '^fuzz |^test .*FAILED|panicked|refused;|hang'
+    --test-threads=1 --nocapture --skip regressions --skip mutations --skip base64 ${SKIP:+--skip $SKIP} $FILTER \
+    2>&1 | tee "$log" | grep --line-buffered -oE 'fuzz [a-z_]+ .*|^test .*FAILED|panicked.*|refused;.*|hang.*'
 status=${PIPESTATUS[0]}
 set -e
 echo "fuzz: $(( $(date +%s) - start )) s in all, exit $status"
-awk '/^fuzz [a-z_]+ +[0-9]+ executions/ {n += $3; f += $6} END {printf "fuzz: %d executions, %d failures\n", n, f}' "$log"
+grep -oE 'fuzz [a-z_]+ +[0-9]+ executions.*' "$log" | awk '{n += $3; f += $6} END {printf "fuzz: %d executions, %d failures\n", n, f}'
 exit "$status"
