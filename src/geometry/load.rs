@@ -211,6 +211,21 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
                 for accessor in prim.attributes().map(|(_, a)| a).chain(prim.indices()) {
                     check_accessor_span(path, &part, &accessor)?;
                 }
+                if let Some(ix) = prim.indices() {
+                    // The glTF crate reaches `unreachable!()` for any other index type.
+                    use gltf::accessor::DataType;
+                    if !matches!(ix.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
+                        return Err(LoadError::BadReference {
+                            path: path.to_path_buf(),
+                            part: part.clone(),
+                            what: format!(
+                                "indices accessor {} has component type {:?} (u8, u16 or u32)",
+                                ix.index(),
+                                ix.data_type()
+                            ),
+                        });
+                    }
+                }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let positions: Vec<Point3<f32>> = reader
                     .read_positions()
@@ -300,8 +315,9 @@ fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<(),
     Ok(())
 }
 
-/// Refuse an accessor of no elements or whose span `offset + stride * (count - 1) + size`
-/// overflows or leaves its buffer view: the glTF crate computes that span unchecked.
+/// Refuse an accessor of no elements, whose buffer view leaves its buffer, or whose span
+/// `offset + stride * (count - 1) + size` overflows or leaves its buffer view: the glTF
+/// crate computes these unchecked.
 fn check_accessor_span(
     path: &Path,
     part: &str,
@@ -318,6 +334,17 @@ fn check_accessor_span(
     let Some(view) = accessor.view() else {
         return Ok(()); // sparse-only accessors: no span to compute
     };
+    // The crate also adds the view's offset and length unchecked.
+    let view_end = (view.offset() as u64).checked_add(view.length() as u64);
+    if view_end.is_none_or(|end| end > view.buffer().length() as u64) {
+        return Err(bad(format!(
+            "buffer view {} ({} bytes from byte {}) leaves its {}-byte buffer",
+            view.index(),
+            view.length(),
+            view.offset(),
+            view.buffer().length()
+        )));
+    }
     let size = accessor.size() as u64;
     let stride = view.stride().map_or(size, |s| s as u64);
     let end = (accessor.count() as u64 - 1)

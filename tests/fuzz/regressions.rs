@@ -135,3 +135,66 @@ fn gltf_buffer_uris_that_cannot_be_read_are_refused() {
             > 0
     );
 }
+
+fn gltf_edited(edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let seed = super::seeds::gltf_from_glb(&file("cap/scene.glb"));
+    let mut doc: serde_json::Value = serde_json::from_slice(&seed).unwrap();
+    edit(&mut doc);
+    serde_json::to_vec(&doc).unwrap()
+}
+
+/// Accessor and buffer-view spans the glTF crate computes unchecked (overflow panics in the
+/// `gltf` target's first 1,000 cases), an index accessor of floats (`unreachable!()` in the
+/// crate), and a `POSITION` index past the accessor list (index out of bounds in
+/// `gltf-json`'s validation): each is refused with one line.
+#[test]
+fn gltf_accessors_are_checked_before_the_crate_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, Box<dyn Fn(&mut serde_json::Value)>); 5] = [
+        (
+            "leaves its",
+            Box::new(|d| d["bufferViews"][0]["byteLength"] = u64::MAX.into()),
+        ),
+        (
+            "do not fit",
+            Box::new(|d| d["accessors"][0]["count"] = (1u64 << 62).into()),
+        ),
+        (
+            "count is 0",
+            Box::new(|d| d["accessors"][0]["count"] = 0.into()),
+        ),
+        (
+            "component type",
+            Box::new(|d| d["accessors"][1]["componentType"] = 5126.into()),
+        ),
+        (
+            "does not exist",
+            Box::new(|d| d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 999.into()),
+        ),
+    ];
+    for (want, edit) in cases {
+        let p = write(dir.path(), "bad.gltf", &gltf_edited(edit));
+        let e = femto::geometry::load::load_mesh(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(want) && e.contains("bad.gltf") && !e.contains('\n'),
+            "{want}: {e}"
+        );
+    }
+}
+
+/// A face's texture index of -2^63 overflowed in `tobj` (the `obj` target's case 97).
+#[test]
+fn obj_face_index_beyond_the_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = super::seeds::OBJ.replace("f 5/1/1", "f 5/-9223372036854775808/1");
+    let p = write(dir.path(), "bad.obj", text.as_bytes());
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("-9223372036854775808") && e.contains("bad.obj"),
+        "{e}"
+    );
+}
