@@ -150,7 +150,8 @@ fn gltf_edited(edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
 #[test]
 fn gltf_accessors_are_checked_before_the_crate_reads_them() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: [(&str, Box<dyn Fn(&mut serde_json::Value)>); 5] = [
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: [(&str, Edit); 5] = [
         (
             "leaves its",
             Box::new(|d| d["bufferViews"][0]["byteLength"] = u64::MAX.into()),
