@@ -333,6 +333,15 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<ImgHeader, FormatError> {
         channel_number: le_i16(bytes, 20),
         timestamp: f64::from_le_bytes(bytes[22..30].try_into().expect("8 bytes")),
     };
+    if header.num_images < 0 {
+        return Err(FormatError::BadValue {
+            path: path.to_path_buf(),
+            section: "header".into(),
+            key: "number of images".into(),
+            value: header.num_images.to_string(),
+            expected: "0 or 1 (a single image)".into(),
+        });
+    }
     if header.num_images > 1 {
         return Err(FormatError::Unsupported {
             path: path.to_path_buf(),
@@ -458,10 +467,17 @@ fn parse_axis_scaling(
                 });
             }
             let start = byte_offset as usize;
-            let values = bytes[start..start + 4 * count]
+            let values: Vec<f64> = bytes[start..start + 4 * count]
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)
                 .collect();
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Err(bad(
+                    "ScalingFile",
+                    raw,
+                    &format!("a table of finite numbers (value {i} is {})", values[i]),
+                ));
+            }
             Ok(AxisScaling::Table {
                 unit,
                 byte_offset,
@@ -523,7 +539,7 @@ fn parse_time_value(
         section: section.into(),
         key: key.into(),
         value: value.into(),
-        expected: "a number and a time unit, e.g. \"20 us\"".into(),
+        expected: "a finite number and a time unit, e.g. \"20 us\"".into(),
     };
     let mut parts = value.split_whitespace();
     let (Some(number), Some(unit), None) = (parts.next(), parts.next(), parts.next()) else {
@@ -535,7 +551,11 @@ fn parse_time_value(
         what: format!("[{section}] {key}"),
         unit: unit.to_string(),
     })?;
-    Ok(number * per)
+    let ps = number * per;
+    if !ps.is_finite() {
+        return Err(bad());
+    }
+    Ok(ps)
 }
 
 fn parse_number<T: std::str::FromStr>(
@@ -694,7 +714,19 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         .transpose()?;
     let mcp_gain = streak
         .and_then(|s| s.get("MCP Gain"))
-        .map(|v| parse_number::<f64>(path, "Streak camera", "MCP Gain", v, "a number"))
+        .map(|v| parse_number::<f64>(path, "Streak camera", "MCP Gain", v, "a finite number"))
+        .transpose()?
+        .map(|g| {
+            g.is_finite()
+                .then_some(g)
+                .ok_or_else(|| FormatError::BadValue {
+                    path: path.to_path_buf(),
+                    section: "Streak camera".into(),
+                    key: "MCP Gain".into(),
+                    value: g.to_string(),
+                    expected: "a finite number".into(),
+                })
+        })
         .transpose()?;
     let n_exposures = acquisition
         .and_then(|s| s.get("NrExposure"))
@@ -944,6 +976,17 @@ mod tests {
             .unwrap_err()
             .1
             .contains("duplicate"));
+    }
+
+    #[test]
+    fn time_values_must_be_finite_in_ps() {
+        let p = Path::new("x.img");
+        let t = |v: &str| parse_time_value(p, "Streak camera", "Time Range", v);
+        assert_eq!(t("20 us").unwrap(), 2e7);
+        for v in ["inf ps", "nan ns", "1e300 s", "-inf fs"] {
+            let e = t(v).unwrap_err().to_string();
+            assert!(e.contains("finite") && e.contains("Time Range"), "{v}: {e}");
+        }
     }
 
     #[test]

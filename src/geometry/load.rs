@@ -34,6 +34,32 @@ pub enum LoadError {
     /// The glTF reader failed (missing file, invalid JSON or GLB, missing or short buffer).
     #[error("{path}: cannot read glTF: {source}")]
     Gltf { path: PathBuf, source: gltf::Error },
+    /// A binary glTF whose header declares another length than the file has (glTF 2.0
+    /// §4.4.2: `length` is the total length of the file), checked before anything is
+    /// allocated by that length.
+    #[error("{path}: GLB header declares {declared} bytes, but the file has {actual}")]
+    GlbLength {
+        path: PathBuf,
+        declared: u32,
+        actual: u64,
+    },
+    /// A glTF buffer URI that names something other than a regular file (a folder, a
+    /// device, whose reading would not end) or whose percent-encoding is not UTF-8.
+    #[error("{path}: glTF buffer {buffer}: uri {uri:?} {reason}")]
+    BadBufferUri {
+        path: PathBuf,
+        buffer: usize,
+        uri: String,
+        reason: String,
+    },
+    /// An index that the glTF or OBJ reader would use before checking it (an accessor of a
+    /// primitive, a face's vertex, texture or normal index far beyond the file).
+    #[error("{path}: {part}: {what}")]
+    BadReference {
+        path: PathBuf,
+        part: String,
+        what: String,
+    },
     /// The glTF document has no scene to take meshes from.
     #[error("{path}: glTF document has no scene")]
     NoScene { path: PathBuf },
@@ -109,6 +135,7 @@ fn load_obj(path: &Path) -> Result<TriangleMesh, LoadError> {
         ignore_lines: true,
     };
     // Materials only matter through their ids; a missing .mtl file is not an error here.
+    check_obj_indices(path)?;
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|source| LoadError::Obj {
         path: path.to_path_buf(),
         source,
@@ -134,9 +161,15 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
         path: path.to_path_buf(),
         source,
     };
+    let bytes = std::fs::read(path).map_err(|e| gltf_err(gltf::Error::Io(e)))?;
+    check_glb_length(path, &bytes)?;
     // Buffers only: decoding textures would be wasted work and fails on missing image files.
-    let gltf::Gltf { document, blob } = gltf::Gltf::open(path).map_err(gltf_err)?;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(gltf_err)?;
+    check_primitive_accessors(path, document.as_json())?;
+    let document = gltf::Document::from_json(document.into_json()).map_err(gltf_err)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
+    check_buffer_files(path, &document, base)?;
     let buffers = gltf::import_buffers(&document, Some(base), blob).map_err(gltf_err)?;
     let scene = document
         .default_scene()
@@ -175,6 +208,24 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
                         mode: prim.mode(),
                     });
                 }
+                for accessor in prim.attributes().map(|(_, a)| a).chain(prim.indices()) {
+                    check_accessor_span(path, &part, &accessor)?;
+                }
+                if let Some(ix) = prim.indices() {
+                    // The glTF crate reaches `unreachable!()` for any other index type.
+                    use gltf::accessor::DataType;
+                    if !matches!(ix.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
+                        return Err(LoadError::BadReference {
+                            path: path.to_path_buf(),
+                            part: part.clone(),
+                            what: format!(
+                                "indices accessor {} has component type {:?} (u8, u16 or u32)",
+                                ix.index(),
+                                ix.data_type()
+                            ),
+                        });
+                    }
+                }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let positions: Vec<Point3<f32>> = reader
                     .read_positions()
@@ -211,6 +262,186 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
         }
     }
     Ok(mesh)
+}
+
+/// Refuse a face whose vertex, texture or normal index lies beyond the number of lines of
+/// the file (no statement can refer further): `tobj` multiplies such an index before
+/// comparing it with its arrays, which overflows (`f 1/-9223372036854775808/1`). A file that
+/// is not UTF-8 is left to `tobj` to refuse.
+fn check_obj_indices(path: &Path) -> Result<(), LoadError> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Ok(());
+    };
+    let limit = text.lines().count() as i64;
+    for (line_no, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if !matches!(words.next(), Some("f" | "l" | "p")) {
+            continue;
+        }
+        for word in words {
+            for index in word.split('/').filter(|c| !c.is_empty()) {
+                let ok = index
+                    .parse::<i64>()
+                    .is_ok_and(|i| i.unsigned_abs() <= limit as u64);
+                if !ok && index.parse::<f64>().is_ok() {
+                    return Err(LoadError::BadReference {
+                        path: path.to_path_buf(),
+                        part: format!("line {}", line_no + 1),
+                        what: format!("index {index} is beyond the file's {limit} lines"),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuse a primitive attribute that names an accessor the document does not have: the
+/// glTF crate's validation indexes the accessor list with the `POSITION` index unchecked.
+fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
+    let count = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let indices = prim.attributes.values().chain(prim.indices.iter());
+            if let Some(bad) = indices.map(|i| i.value()).find(|&i| i >= count) {
+                return Err(LoadError::BadReference {
+                    path: path.to_path_buf(),
+                    part: format!("mesh {m}, primitive {p}"),
+                    what: format!("accessor {bad} does not exist (the file has {count})"),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuse an accessor of no elements, whose buffer view leaves its buffer, or whose span
+/// `offset + stride * (count - 1) + size` overflows or leaves its buffer view: the glTF
+/// crate computes these unchecked.
+fn check_accessor_span(
+    path: &Path,
+    part: &str,
+    accessor: &gltf::Accessor,
+) -> Result<(), LoadError> {
+    let bad = |what: String| LoadError::BadReference {
+        path: path.to_path_buf(),
+        part: part.to_string(),
+        what: format!("accessor {}: {what}", accessor.index()),
+    };
+    if accessor.count() == 0 {
+        return Err(bad("count is 0".into()));
+    }
+    let Some(view) = accessor.view() else {
+        return Ok(()); // sparse-only accessors: no span to compute
+    };
+    // The crate also adds the view's offset and length unchecked.
+    let view_end = (view.offset() as u64).checked_add(view.length() as u64);
+    if view_end.is_none_or(|end| end > view.buffer().length() as u64) {
+        return Err(bad(format!(
+            "buffer view {} ({} bytes from byte {}) leaves its {}-byte buffer",
+            view.index(),
+            view.length(),
+            view.offset(),
+            view.buffer().length()
+        )));
+    }
+    let size = accessor.size() as u64;
+    let stride = view.stride().map_or(size, |s| s as u64);
+    let end = (accessor.count() as u64 - 1)
+        .checked_mul(stride)
+        .and_then(|v| v.checked_add(accessor.offset() as u64))
+        .and_then(|v| v.checked_add(size));
+    match end {
+        Some(end) if end <= view.length() as u64 => Ok(()),
+        _ => Err(bad(format!(
+            "{} elements of {size} bytes every {stride} from byte {} do not fit its {}-byte view",
+            accessor.count(),
+            accessor.offset(),
+            view.length()
+        ))),
+    }
+}
+
+/// Refuse a binary glTF (`glTF` magic) whose header length is not the file's length.
+///
+/// `gltf::Gltf::open` allocates the header's length before reading (4 GB for a 2 kB file
+/// that claims 0xFFFFFFF0 bytes) and underflows on a length below the 12-byte header; the
+/// slice reader that [`load_gltf`] uses instead trusts the length too, so it is checked
+/// here first.
+fn check_glb_length(path: &Path, bytes: &[u8]) -> Result<(), LoadError> {
+    if bytes.len() < 12 || &bytes[0..4] != b"glTF" {
+        return Ok(()); // JSON glTF, or too short for gltf's own "not glTF" error
+    }
+    let declared = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if declared as u64 != bytes.len() as u64 {
+        return Err(LoadError::GlbLength {
+            path: path.to_path_buf(),
+            declared,
+            actual: bytes.len() as u64,
+        });
+    }
+    Ok(())
+}
+
+/// Refuse buffer URIs that the glTF importer would follow into something other than a
+/// regular file, or whose percent-decoding is not UTF-8 (the importer unwraps it and
+/// panics). Mirrors `gltf::import`'s schemes: `data:` is inline, `file:` and `file://` name
+/// a path as is, other schemes are refused by the importer, a relative reference is
+/// percent-decoded and joined to the document's folder.
+fn check_buffer_files(
+    path: &Path,
+    document: &gltf::Document,
+    base: &Path,
+) -> Result<(), LoadError> {
+    for buffer in document.buffers() {
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else {
+            continue;
+        };
+        let bad = |reason: &str| LoadError::BadBufferUri {
+            path: path.to_path_buf(),
+            buffer: buffer.index(),
+            uri: uri.to_string(),
+            reason: reason.to_string(),
+        };
+        let target = if uri.contains(':') {
+            match uri
+                .strip_prefix("file://")
+                .or_else(|| uri.strip_prefix("file:"))
+            {
+                Some(rest) => PathBuf::from(rest),
+                None => continue,
+            }
+        } else {
+            let decoded = percent_decode(uri).ok_or_else(|| bad("is not UTF-8 once decoded"))?;
+            base.join(decoded)
+        };
+        // A missing file is reported by the importer itself.
+        if target.exists() && !target.is_file() {
+            return Err(bad("is not a regular file"));
+        }
+    }
+    Ok(())
+}
+
+/// `%XX` escapes decoded (other bytes kept), or `None` when the result is not UTF-8.
+fn percent_decode(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (b[i], b.get(i + 1).copied(), b.get(i + 2).copied()) {
+            (b'%', Some(h), Some(l)) if hex(h).is_some() && hex(l).is_some() => {
+                out.push((hex(h)? * 16 + hex(l)?) as u8);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 /// A mesh piece from positions and a flat index list, after checking that the indices form

@@ -1,0 +1,201 @@
+//! The fuzzers' findings in the readers, each kept as a hand-made reproducer: the input that
+//! broke the reader, and what the reader must do with it now.
+
+use super::seeds::{file, scanlines};
+use super::{alloc_bound, with_peak};
+use std::path::Path;
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// HPD-TA `num_images` of -2^31 was accepted as a single image (issue 16).
+#[test]
+fn img_negative_image_count_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let seed = scanlines("img", 1).remove(0);
+    assert_eq!(
+        &seed[14..18],
+        &0i32.to_le_bytes(),
+        "the writer stores 0 images"
+    );
+    let mut bytes = seed.clone();
+    bytes[14..18].copy_from_slice(&i32::MIN.to_le_bytes());
+    let p = write(dir.path(), "neg.img", &bytes);
+    let e = femto::formats::read_streak(&p, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("number of images") && e.contains("-2147483648"),
+        "{e}"
+    );
+    assert!(e.contains("neg.img"), "{e}");
+    // 1 (one image) still reads, like 0.
+    bytes[14..18].copy_from_slice(&1i32.to_le_bytes());
+    let p = write(dir.path(), "one.img", &bytes);
+    femto::formats::read_streak(&p, false).unwrap();
+}
+
+/// An infinite value in an HPD-TA time table gave a time axis ending at +inf.
+#[test]
+fn img_infinite_time_table_value_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = scanlines("img", 1).remove(0);
+    let good = femto::formats::read_streak(&write(dir.path(), "good.img", &bytes), false).unwrap();
+    assert!(
+        good.time_axis_ps.is_some(),
+        "the writer stores a time table"
+    );
+    // The writer puts the float32 table last: its last entry is the last row's time.
+    let n = bytes.len();
+    bytes[n - 4..].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    let p = write(dir.path(), "inf.img", &bytes);
+    let e = femto::formats::read_streak(&p, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("ScalingYScalingFile") && e.contains("inf"),
+        "{e}"
+    );
+}
+
+fn glb_with_length(declared: u32) -> Vec<u8> {
+    let mut bytes = file("cap/scene.glb");
+    bytes[8..12].copy_from_slice(&declared.to_le_bytes());
+    bytes
+}
+
+/// A 2 kB glb whose header claims 0xFFFFFFF0 bytes made the loader allocate 4 GB (issue 16);
+/// a length below the 12-byte header underflowed in the glTF crate.
+#[test]
+fn glb_header_length_is_checked_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    for declared in [0xFFFF_FFF0, 4, 0] {
+        let bytes = glb_with_length(declared);
+        let p = write(dir.path(), "big.glb", &bytes);
+        let (result, peak) = with_peak(|| femto::geometry::load::load_mesh(&p));
+        let e = result.unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("declares {declared} bytes")) && e.contains("big.glb"),
+            "{e}"
+        );
+        assert!(
+            peak <= alloc_bound(bytes.len()),
+            "{peak} bytes for {declared}"
+        );
+    }
+    // The true length reads.
+    let good = file("cap/scene.glb");
+    let p = write(dir.path(), "good.glb", &good);
+    assert!(
+        femto::geometry::load::load_mesh(&p)
+            .unwrap()
+            .triangle_count()
+            > 0
+    );
+}
+
+fn gltf_with_uri(uri: &str) -> Vec<u8> {
+    let text = String::from_utf8(super::seeds::gltf_from_glb(&file("cap/scene.glb"))).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["buffers"][0]["uri"] = serde_json::Value::String(uri.into());
+    serde_json::to_vec(&doc).unwrap()
+}
+
+/// A buffer URI whose percent-decoding is not UTF-8 panicked in the glTF importer
+/// (`urlencoding::decode(uri).unwrap()`); one naming a device read without end.
+#[test]
+fn gltf_buffer_uris_that_cannot_be_read_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "bad.gltf", &gltf_with_uri("mesh%FF.bin"));
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not UTF-8") && e.contains("bad.gltf"), "{e}");
+    let p = write(dir.path(), "dev.gltf", &gltf_with_uri("file:///dev/zero"));
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("not a regular file") && e.contains("dev.gltf"),
+        "{e}"
+    );
+    // The data URI the seed carries reads.
+    let p = write(
+        dir.path(),
+        "good.gltf",
+        &super::seeds::gltf_from_glb(&file("cap/scene.glb")),
+    );
+    assert!(
+        femto::geometry::load::load_mesh(&p)
+            .unwrap()
+            .triangle_count()
+            > 0
+    );
+}
+
+fn gltf_edited(edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let seed = super::seeds::gltf_from_glb(&file("cap/scene.glb"));
+    let mut doc: serde_json::Value = serde_json::from_slice(&seed).unwrap();
+    edit(&mut doc);
+    serde_json::to_vec(&doc).unwrap()
+}
+
+/// Accessor and buffer-view spans the glTF crate computes unchecked (overflow panics in the
+/// `gltf` target's first 1,000 cases), an index accessor of floats (`unreachable!()` in the
+/// crate), and a `POSITION` index past the accessor list (index out of bounds in
+/// `gltf-json`'s validation): each is refused with one line.
+#[test]
+fn gltf_accessors_are_checked_before_the_crate_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: [(&str, Edit); 5] = [
+        (
+            "leaves its",
+            Box::new(|d| d["bufferViews"][0]["byteLength"] = u64::MAX.into()),
+        ),
+        (
+            "do not fit",
+            Box::new(|d| d["accessors"][0]["count"] = (1u64 << 62).into()),
+        ),
+        (
+            "count is 0",
+            Box::new(|d| d["accessors"][0]["count"] = 0.into()),
+        ),
+        (
+            "component type",
+            Box::new(|d| d["accessors"][1]["componentType"] = 5126.into()),
+        ),
+        (
+            "does not exist",
+            Box::new(|d| d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 999.into()),
+        ),
+    ];
+    for (want, edit) in cases {
+        let p = write(dir.path(), "bad.gltf", &gltf_edited(edit));
+        let e = femto::geometry::load::load_mesh(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(want) && e.contains("bad.gltf") && !e.contains('\n'),
+            "{want}: {e}"
+        );
+    }
+}
+
+/// A face's texture index of -2^63 overflowed in `tobj` (the `obj` target's case 97).
+#[test]
+fn obj_face_index_beyond_the_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = super::seeds::OBJ.replace("f 5/1/1", "f 5/-9223372036854775808/1");
+    let p = write(dir.path(), "bad.obj", text.as_bytes());
+    let e = femto::geometry::load::load_mesh(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("-9223372036854775808") && e.contains("bad.obj"),
+        "{e}"
+    );
+}
