@@ -65,6 +65,7 @@ use crate::camera::{one_line_toml_error, Calibration, Intrinsics, Pose};
 use crate::cube::TimeAxis;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::{primitives, Ray, TriangleMesh};
+use crate::limits::short_number;
 use nalgebra::{Matrix4, Point3, Rotation3, Unit, Vector3};
 use serde::Deserialize;
 use std::ops::Range;
@@ -455,7 +456,12 @@ impl Resolver<'_> {
             Err(self.bad(
                 &v.span(),
                 key,
-                format!("must lie in [{lo:e}, {hi:e}]{unit}, got {x:e}"),
+                format!(
+                    "must lie in [{}, {}]{unit}, got {}",
+                    short_number(lo),
+                    short_number(hi),
+                    short_number(x)
+                ),
             ))
         }
     }
@@ -617,7 +623,10 @@ impl Resolver<'_> {
             return Err(self.bad(
                 &e.energy.span(),
                 "laser.energy",
-                format!("must lie in (0, {MAX_ENERGY:e}], got {energy:e}"),
+                format!(
+                    "must lie in (0, {MAX_ENERGY:e}], got {}",
+                    short_number(energy)
+                ),
             ));
         }
         Ok(Laser {
@@ -1439,7 +1448,7 @@ albedo = 0.3
                 "pulse_width_fs = 100.0",
                 "pulse_width_fs = 4294967296",
                 "laser.pulse_width_fs",
-                "[0e0, 1e6] fs",
+                "[0, 1000000] fs",
             ),
             (
                 "pulse_width_fs = 100.0",
@@ -1451,14 +1460,14 @@ albedo = 0.3
                 "wavelength_nm = 795.0",
                 "wavelength_nm = inf",
                 "laser.wavelength_nm",
-                "[1e0, 1e6] nm",
+                "[1, 1000000] nm",
             ),
             ("energy = 1.0", "energy = 1e300", "laser.energy", "1e12"),
             (
                 "dt_ps = 4.0",
                 "dt_ps = 1e-300",
                 "camera.dt_ps",
-                "[1e-3, 1e6] ps",
+                "[0.001, 1000000] ps",
             ),
             (
                 "nt = 32",

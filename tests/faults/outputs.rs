@@ -376,8 +376,9 @@ fn interrupted(dir: &Path, args: &[&str], dest: &str, signal: i32) -> Option<i32
         );
         std::thread::sleep(Duration::from_millis(20));
     }
-    // Let it write into the temporary for a while.
-    std::thread::sleep(Duration::from_millis(500));
+    // Let it write into the temporary for a moment (not long: on a fast machine a stage
+    // may finish within a second).
+    std::thread::sleep(Duration::from_millis(100));
     // SAFETY: signalling our own child.
     assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
     let sent = Instant::now();
@@ -435,9 +436,9 @@ fn sigterm_during_an_in_place_pyramid_keeps_the_cube() {
     use femto::cube::{TimeAxis, TimeFrame};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // A world-time cube of 256 x 256 pixels x 512 bins (128 MiB of values, a few MB on disk:
+    // A world-time cube of 512 x 512 pixels x 512 bins (512 MiB of values, a few MB on disk:
     // constant values compress well): its pyramid takes seconds to write.
-    let (nx, ny, nt) = (256, 256, 512);
+    let (nx, ny, nt) = (512, 512, 512);
     let axis = TimeAxis {
         t0_ps: 0.0,
         dt_ps: 2.0,
