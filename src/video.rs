@@ -507,11 +507,13 @@ impl VideoWriter {
         let (width, height) = (self.width, self.height);
         match &mut self.sink {
             Sink::Sequence { tmp } => {
-                let dest = tmp.path().join(sequence_file_name(index, self.format));
+                let name = sequence_file_name(index, self.format);
+                let dest = tmp.path().join(&name);
                 match self.format {
-                    VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height)?,
-                    _ => write_exr(&dest, &frame.linear_rgb, width, height)?,
+                    VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height),
+                    _ => write_exr(&dest, &frame.linear_rgb, width, height),
                 }
+                .map_err(|e| e.at(self.path.join(&name)))?;
             }
             Sink::Mp4(state) => {
                 let state = &mut **state;
@@ -705,6 +707,19 @@ fn rgba_image(srgb8: &[u8], width: usize, height: usize) -> RgbaImage {
     }
     RgbaImage::from_raw(width as u32, height as u32, rgba)
         .expect("buffer length is width * height * 4 by construction")
+}
+
+impl VideoError {
+    /// The same error naming `path`: a frame written into the sequence's temporary folder is
+    /// reported by the name it will have in the destination, where the user looks for it.
+    fn at(self, path: PathBuf) -> VideoError {
+        match self {
+            VideoError::Io { source, .. } => VideoError::Io { path, source },
+            VideoError::Image { source, .. } => VideoError::Image { path, source },
+            VideoError::Exr { source, .. } => VideoError::Exr { path, source },
+            other => other,
+        }
+    }
 }
 
 fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {

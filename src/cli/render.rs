@@ -198,10 +198,14 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
     Ok((camera, options))
 }
 
+/// The most worker threads `--threads` may ask for: far beyond any machine's cores, and few
+/// enough that their stacks cannot exhaust memory.
+const MAX_THREADS: usize = 1024;
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(n) = args.threads {
-        if n == 0 {
-            bail!("--threads 0: need at least one thread");
+        if n == 0 || n > MAX_THREADS {
+            bail!("--threads {n}: must lie in [1, {MAX_THREADS}] (each thread holds its own stack and frame tiles)");
         }
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)

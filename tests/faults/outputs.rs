@@ -338,6 +338,8 @@ fn a_full_disk_keeps_every_earlier_output_and_leaves_no_temp() {
             .collect();
         assert_eq!(errors.len(), 1, "one line: {line}");
         assert!(errors[0].starts_with("femto: error: "), "{line}");
+        // A file is named where the user will look for it, not by a temporary name.
+        assert!(!errors[0].contains(".femto-"), "{line}");
         let changes = before.changes(&Snapshot::of(d));
         assert!(
             changes.is_empty(),

@@ -429,3 +429,29 @@ fn pyramid_slabs_beyond_the_memory_are_refused_before_writing() {
     );
     assert!(err.contains("pyramid"), "{err}");
 }
+
+#[test]
+fn render_threads_beyond_any_machine_are_refused() {
+    // A million threads would each reserve a stack before the first frame.
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    for threads in ["0", "1000000"] {
+        refused_fast(
+            dir.path(),
+            &[
+                "render",
+                "--cube",
+                "world.h5",
+                "--calibration",
+                "cube.calibration.toml",
+                "--mesh",
+                "cap/scene.glb",
+                "--capture-view",
+                "--threads",
+                threads,
+                "--out",
+                "r.gif",
+            ],
+            &["--threads", threads, "1024"],
+        );
+    }
+}
