@@ -80,6 +80,13 @@ const SLAB_TARGET_BYTES: usize = 32 << 20;
 /// attribute where one is involved.
 #[derive(Debug, thiserror::Error)]
 pub enum ContainerError {
+    /// A dataset larger than the memory this machine has available ([`crate::limits`]).
+    #[error("{}: {source}", path.display())]
+    Limit {
+        path: PathBuf,
+        #[source]
+        source: crate::limits::LimitError,
+    },
     /// The file or its folder could not be opened, created, read or renamed (a missing file
     /// or folder, no permission, a full disk).
     #[error("{}: {source}", path.display())]
@@ -2719,6 +2726,17 @@ pub fn read_image_stack(path: &Path, dataset: &str) -> Result<(Vec<usize>, Vec<f
         });
     }
     let (elem, found) = dataset_elem(&ds, path)?;
+    // The raw values and their f32 copy are held together: at most 8 + 4 bytes a value.
+    let values_count = shape.iter().map(|&n| n as f64).product::<f64>();
+    crate::limits::check_memory(
+        12.0 * values_count,
+        format!("the image stack /{name} of {shape:?} values"),
+        "split the stack into several datasets, or ingest its images as files",
+    )
+    .map_err(|source| ContainerError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let e = h5(path);
     let values: Vec<f32> = match elem {
         Some(Elem::U8) => convert(ds.read_raw::<u8>().map_err(e)?, f32::from),

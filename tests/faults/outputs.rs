@@ -491,3 +491,30 @@ fn a_killed_run_leaves_a_temp_that_the_next_run_removes() {
     );
     assert!(d.join("cap/manifest.toml").is_file());
 }
+
+#[test]
+fn sigterm_during_an_ingest_keeps_the_earlier_cube() {
+    // A capture of 512 x 384 pixels (384 PNG16 scanlines): its ingest writes the cube for a
+    // while after the temporary file appears.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = femto_env(
+        Some(d),
+        &[
+            "simulate", "--size", "512x384", "--spp", "1", "--out", "cap",
+        ],
+        &[],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    std::fs::write(d.join("cube.h5"), b"an earlier cube").unwrap();
+    let before = Snapshot::of(d);
+    let started = Instant::now();
+    let code = interrupted(
+        d,
+        &["ingest", "cap", "-o", "cube.h5"],
+        "cube.h5",
+        libc::SIGTERM,
+    );
+    assert_eq!(code, Some(143), "after {:?}", started.elapsed());
+    assert_eq!(before.changes(&Snapshot::of(d)), Vec::<String>::new());
+}

@@ -455,3 +455,35 @@ fn render_threads_beyond_any_machine_are_refused() {
         );
     }
 }
+
+#[test]
+fn an_hdf5_stack_beyond_the_memory_is_refused_before_reading() {
+    // Ingest read a whole HDF5 stack before checking what it would hold; a 1 MB limit makes
+    // the fixture's cube (32 x 24 pixels x some hundred bins) such a stack.
+    let dir = case(&["cube.h5"]);
+    let before = cli::Snapshot::of(dir.path());
+    let run = cli::femto_env(
+        Some(dir.path()),
+        &[
+            "ingest",
+            "cube.h5",
+            "--dataset",
+            "cube",
+            "--transpose",
+            "-o",
+            "stack.h5",
+            "--dt-ps",
+            "2",
+            "--t0-ps",
+            "0",
+        ],
+        &[("FEMTO_MEMORY_LIMIT_BYTES", "1000000")],
+    );
+    let err = run.stderr.trim_end();
+    assert_eq!(run.code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    for name in ["cube.h5", "/cube", "split the stack"] {
+        assert!(err.contains(name), "names {name}: {err}");
+    }
+    assert!(before.changes(&cli::Snapshot::of(dir.path())).is_empty());
+}
