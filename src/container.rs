@@ -1361,7 +1361,7 @@ impl CubeReader {
             path: path.to_path_buf(),
             object: object.into(),
             attr: "time_frame".into(),
-            reason: format!("'{frame_s}' is neither \"camera\" nor \"world\""),
+            reason: format!("{frame_s:?} is neither \"camera\" nor \"world\""),
         })?;
         let units = required_str_attr(&cube, path, object, "units")?;
         let femto_version = read_str_attr(&cube, path, object, "femto_version")?;

@@ -165,3 +165,26 @@ pub fn refused_unchanged(
     );
     err
 }
+
+/// The stages after a simulated capture `cap`, each with defaults, writing into `root`:
+/// `cube.h5` (ingest), `cube.calibration.toml` (calibrate against the capture's mesh, fiducials
+/// and true laser position), `world.h5` (unwarp) with its pyramid group. The fixtures of the
+/// fault corpus and the fuzzers' seeds.
+pub fn chain_after_capture(root: &Path, cap: &Path) {
+    let cube = root.join("cube.h5");
+    femto_ok(&["ingest", arg(cap), "-o", arg(&cube)]);
+    let truth = femto::camera::Calibration::load(&cap.join("calibration.toml")).unwrap();
+    let l = truth.laser_m;
+    femto_ok(&[
+        "calibrate",
+        arg(&cube),
+        "--mesh",
+        arg(&cap.join("scene.glb")),
+        "--points",
+        arg(&cap.join("fiducials.toml")),
+        &format!("--laser={},{},{}", l.x, l.y, l.z),
+    ]);
+    let world = root.join("world.h5");
+    femto_ok(&["unwarp", arg(&cube), "--out", arg(&world)]);
+    femto_ok(&["pyramid", arg(&world)]);
+}

@@ -46,22 +46,7 @@ pub fn fixture() -> &'static Fixture {
             "--out",
             arg(&cap),
         ]);
-        let cube = root.join("cube.h5");
-        femto_ok(&["ingest", arg(&cap), "-o", arg(&cube)]);
-        let truth = femto::camera::Calibration::load(&cap.join("calibration.toml")).unwrap();
-        let l = truth.laser_m;
-        femto_ok(&[
-            "calibrate",
-            arg(&cube),
-            "--mesh",
-            arg(&cap.join("scene.glb")),
-            "--points",
-            arg(&cap.join("fiducials.toml")),
-            &format!("--laser={},{},{}", l.x, l.y, l.z),
-        ]);
-        let world = root.join("world.h5");
-        femto_ok(&["unwarp", arg(&cube), "--out", arg(&world)]);
-        femto_ok(&["pyramid", arg(&world)]);
+        cli::chain_after_capture(&root, &cap);
         Fixture { _dir: dir, root }
     })
 }

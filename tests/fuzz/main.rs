@@ -19,6 +19,8 @@
 //! The targets run one at a time (a lock), so that the allocation peak belongs to the case
 //! that made it even when a reader decodes on rayon's threads.
 
+#[path = "../common/cli.rs"]
+mod cli;
 mod mutate;
 mod regressions;
 mod seeds;

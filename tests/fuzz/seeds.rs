@@ -5,7 +5,6 @@
 //! and HDR scanlines) and the examples under `examples/paths` and `examples/points`.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
 
 pub struct Seeds {
@@ -13,22 +12,7 @@ pub struct Seeds {
     pub root: PathBuf,
 }
 
-fn femto(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_femto"))
-        .args(args)
-        .output()
-        .expect("femto runs");
-    assert!(
-        out.status.success(),
-        "femto {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn arg(p: &Path) -> &str {
-    p.to_str().expect("a UTF-8 path")
-}
+use super::cli::{arg, femto_ok as femto};
 
 /// The seed folder, built on first use.
 pub fn seeds() -> &'static Seeds {
@@ -53,22 +37,7 @@ pub fn seeds() -> &'static Seeds {
             "--out",
             arg(&cap),
         ]);
-        let cube = root.join("cube.h5");
-        femto(&["ingest", arg(&cap), "-o", arg(&cube)]);
-        let truth = femto::camera::Calibration::load(&cap.join("calibration.toml")).unwrap();
-        let l = truth.laser_m;
-        femto(&[
-            "calibrate",
-            arg(&cube),
-            "--mesh",
-            arg(&cap.join("scene.glb")),
-            "--points",
-            arg(&cap.join("fiducials.toml")),
-            &format!("--laser={},{},{}", l.x, l.y, l.z),
-        ]);
-        let world = root.join("world.h5");
-        femto(&["unwarp", arg(&cube), "--out", arg(&world)]);
-        femto(&["pyramid", arg(&world)]);
+        super::cli::chain_after_capture(&root, &cap);
         Seeds { _dir: dir, root }
     })
 }
