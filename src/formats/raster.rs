@@ -280,12 +280,41 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     })
 }
 
+/// The most bytes of samples an EXR scanline may declare: 64 MB, plus 16 bytes for each byte
+/// of the file (a streak image of 1344 x 1024 floats is 5.5 MB). The `exr` crate allocates
+/// the declared data window before it reads a chunk, so a damaged header of a 6 kB file
+/// asked for 4 GB.
+fn check_exr_size(path: &Path, file_bytes: u64) -> Result<(), FormatError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| decode_err(path, e))?;
+    let declared_bytes: f64 = meta
+        .headers
+        .iter()
+        .map(|h| h.layer_size.0 as f64 * h.layer_size.1 as f64 * h.channels.list.len() as f64 * 4.0)
+        .sum();
+    if declared_bytes > 64e6 + 16.0 * file_bytes as f64 {
+        let (w, h) = meta
+            .headers
+            .first()
+            .map_or((0, 0), |h| (h.layer_size.0, h.layer_size.1));
+        return Err(FormatError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!(
+                "a data window of {w} x {h} pixels ({} of samples) in a file of {file_bytes} \
+                 bytes (a damaged header, or an image far larger than a streak image)",
+                crate::limits::human_bytes(declared_bytes)
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Read the single layer of an OpenEXR file: channel `Y`, else the mean of `R, G, B`, else
 /// its only non-alpha channel. Half, single and u32 samples are accepted.
 pub fn read_exr(path: &Path) -> Result<RasterPixels, FormatError> {
     use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
     // Check existence first so that a missing file is an I/O error, not a decode error.
-    std::fs::metadata(path).map_err(io_err(path))?;
+    let file_bytes = std::fs::metadata(path).map_err(io_err(path))?.len();
+    check_exr_size(path, file_bytes)?;
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()

@@ -199,3 +199,34 @@ fn obj_face_index_beyond_the_file_is_refused() {
         "{e}"
     );
 }
+
+/// A simulated EXR scanline with its `dataWindow` widened to `x_max` (the attribute is
+/// `name\0box2i\0`, a 4-byte size of 16, then xMin, yMin, xMax, yMax as i32).
+fn exr_with_x_max(x_max: i32) -> Vec<u8> {
+    let mut bytes = scanlines("exr", 1).remove(0);
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a dataWindow attribute")
+        + key.len()
+        + 4
+        + 8;
+    bytes[at..at + 4].copy_from_slice(&x_max.to_le_bytes());
+    bytes
+}
+
+#[test]
+fn exr_data_window_is_checked_before_allocating() {
+    // Seed 18, case 20673 of the `exr` target asked 4.3 GB for a 6.5 kB file.
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = exr_with_x_max(16_777_193);
+    let p = write(dir.path(), "wide.exr", &bytes);
+    let (result, peak) = with_peak(|| femto::formats::read_streak(&p, false));
+    let e = result.unwrap_err().to_string();
+    assert!(e.contains("wide.exr") && e.contains("data window"), "{e}");
+    assert!(peak <= alloc_bound(bytes.len()), "{peak} bytes");
+    // The seed itself reads.
+    let good = write(dir.path(), "good.exr", &scanlines("exr", 1).remove(0));
+    assert!(femto::formats::read_streak(&good, false).is_ok());
+}
