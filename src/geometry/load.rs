@@ -211,21 +211,7 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
                 for accessor in prim.attributes().map(|(_, a)| a).chain(prim.indices()) {
                     check_accessor_span(path, &part, &accessor)?;
                 }
-                if let Some(ix) = prim.indices() {
-                    // The glTF crate reaches `unreachable!()` for any other index type.
-                    use gltf::accessor::DataType;
-                    if !matches!(ix.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
-                        return Err(LoadError::BadReference {
-                            path: path.to_path_buf(),
-                            part: part.clone(),
-                            what: format!(
-                                "indices accessor {} has component type {:?} (u8, u16 or u32)",
-                                ix.index(),
-                                ix.data_type()
-                            ),
-                        });
-                    }
-                }
+                check_accessor_types(path, &part, &prim)?;
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let positions: Vec<Point3<f32>> = reader
                     .read_positions()
@@ -264,32 +250,59 @@ fn load_gltf(path: &Path) -> Result<TriangleMesh, LoadError> {
     Ok(mesh)
 }
 
-/// Refuse a face whose vertex, texture or normal index lies beyond the number of lines of
-/// the file (no statement can refer further): `tobj` multiplies such an index before
-/// comparing it with its arrays, which overflows (`f 1/-9223372036854775808/1`). A file that
-/// is not UTF-8 is left to `tobj` to refuse.
+/// Refuse a face whose vertex, texture or normal index `tobj` would turn into a huge
+/// `usize` and multiply unchecked (overflow): an index of 0 (OBJ counts from 1), a positive
+/// index beyond the number of lines of the file (no statement can refer further,
+/// `f 1/9223372036854775807/1`), or a negative (relative) index reaching before the first
+/// position, texture coordinate or normal declared so far (`f 7/-3` after one `vt`). The
+/// file is read lossily: `tobj` reads it line by line and meets a face line before it meets
+/// a later line that is not UTF-8.
 fn check_obj_indices(path: &Path) -> Result<(), LoadError> {
-    let Ok(text) = std::fs::read_to_string(path) else {
-        return Ok(());
+    let Ok(bytes) = std::fs::read(path) else {
+        return Ok(()); // `tobj` reports the read error with its own words
     };
-    let limit = text.lines().count() as i64;
+    let text = String::from_utf8_lossy(&bytes);
+    let limit = text.lines().count() as u64;
+    // Positions, texture coordinates and normals declared so far, in a face's `v/vt/vn` order.
+    let mut declared = [0u64; 3];
+    const KINDS: [&str; 3] = ["positions", "texture coordinates", "normals"];
     for (line_no, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        if !matches!(words.next(), Some("f" | "l" | "p")) {
-            continue;
+        match words.next() {
+            Some("f" | "l" | "p") => {}
+            Some(kind) => {
+                if let Some(k) = ["v", "vt", "vn"].iter().position(|&d| d == kind) {
+                    declared[k] += 1;
+                }
+                continue;
+            }
+            None => continue,
         }
         for word in words {
-            for index in word.split('/').filter(|c| !c.is_empty()) {
-                let ok = index
-                    .parse::<i64>()
-                    .is_ok_and(|i| i.unsigned_abs() <= limit as u64);
-                if !ok && index.parse::<f64>().is_ok() {
-                    return Err(LoadError::BadReference {
-                        path: path.to_path_buf(),
-                        part: format!("line {}", line_no + 1),
-                        what: format!("index {index} is beyond the file's {limit} lines"),
-                    });
+            for (kind, index) in word.split('/').enumerate().take(3) {
+                if index.is_empty() {
+                    continue;
                 }
+                let why = match index.parse::<i64>() {
+                    Ok(0) => "OBJ counts from 1".to_string(),
+                    Ok(i) if i > 0 && i as u64 > limit => {
+                        format!("it is beyond the file's {limit} lines")
+                    }
+                    Ok(i) if i < 0 && i.unsigned_abs() > declared[kind] => format!(
+                        "it reaches before the first of the {} {} declared so far",
+                        declared[kind], KINDS[kind]
+                    ),
+                    Ok(_) => continue,
+                    Err(_) if index.parse::<f64>().is_ok() => {
+                        "it is not a 64-bit whole number".to_string()
+                    }
+                    Err(_) => continue, // not a number: `tobj` refuses the face
+                };
+                return Err(LoadError::BadReference {
+                    path: path.to_path_buf(),
+                    part: format!("line {}", line_no + 1),
+                    what: format!("index {index}: {why}"),
+                });
             }
         }
     }
@@ -331,35 +344,100 @@ fn check_accessor_span(
     if accessor.count() == 0 {
         return Err(bad("count is 0".into()));
     }
-    let Some(view) = accessor.view() else {
-        return Ok(()); // sparse-only accessors: no span to compute
-    };
-    // The crate also adds the view's offset and length unchecked.
+    let size = accessor.size() as u64;
+    if let Some(view) = accessor.view() {
+        check_span(&view, accessor.offset(), accessor.count(), size).map_err(&bad)?;
+    }
+    if let Some(sparse) = accessor.sparse() {
+        let count = sparse.count();
+        if count == 0 {
+            return Err(bad("sparse count is 0".into()));
+        }
+        let indices = sparse.indices();
+        let index_size = indices.index_type().size() as u64;
+        check_span(&indices.view(), indices.offset(), count, index_size)
+            .map_err(|e| bad(format!("sparse indices: {e}")))?;
+        let values = sparse.values();
+        check_span(&values.view(), values.offset(), count, size)
+            .map_err(|e| bad(format!("sparse values: {e}")))?;
+    }
+    Ok(())
+}
+
+/// Check that `count` elements of `size` bytes from byte `offset` of `view` fit the view,
+/// and the view its buffer: `offset + stride * (count - 1) + size`, which the glTF crate
+/// computes unchecked (as it adds the view's offset and length), must not overflow or leave
+/// the view, and a stride below the element size (which the crate asserts in debug builds)
+/// is refused. `count` is at least 1.
+fn check_span(
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    size: u64,
+) -> Result<(), String> {
     let view_end = (view.offset() as u64).checked_add(view.length() as u64);
     if view_end.is_none_or(|end| end > view.buffer().length() as u64) {
-        return Err(bad(format!(
+        return Err(format!(
             "buffer view {} ({} bytes from byte {}) leaves its {}-byte buffer",
             view.index(),
             view.length(),
             view.offset(),
             view.buffer().length()
-        )));
+        ));
     }
-    let size = accessor.size() as u64;
     let stride = view.stride().map_or(size, |s| s as u64);
-    let end = (accessor.count() as u64 - 1)
+    if stride < size {
+        return Err(format!(
+            "buffer view {} has a stride of {stride} bytes, less than its {size}-byte elements",
+            view.index()
+        ));
+    }
+    let end = (count as u64 - 1)
         .checked_mul(stride)
-        .and_then(|v| v.checked_add(accessor.offset() as u64))
+        .and_then(|v| v.checked_add(offset as u64))
         .and_then(|v| v.checked_add(size));
     match end {
         Some(end) if end <= view.length() as u64 => Ok(()),
-        _ => Err(bad(format!(
-            "{} elements of {size} bytes every {stride} from byte {} do not fit its {}-byte view",
-            accessor.count(),
-            accessor.offset(),
+        _ => Err(format!(
+            "{count} elements of {size} bytes every {stride} from byte {offset} do not fit its {}-byte view",
             view.length()
-        ))),
+        )),
     }
+}
+
+/// Refuse a `POSITION` accessor that is not `VEC3` of f32 and an `indices` accessor that is
+/// not `SCALAR` of u8, u16 or u32, as glTF 2.0 requires: the glTF crate reads them as
+/// `[f32; 3]` and integers whatever the accessor says (it asserts the element size only in
+/// debug builds, and reaches `unreachable!()` for a float index type).
+fn check_accessor_types(path: &Path, part: &str, prim: &gltf::Primitive) -> Result<(), LoadError> {
+    use gltf::accessor::{DataType, Dimensions};
+    let bad = |what: String| LoadError::BadReference {
+        path: path.to_path_buf(),
+        part: part.to_string(),
+        what,
+    };
+    if let Some(pos) = prim.get(&gltf::Semantic::Positions) {
+        if (pos.dimensions(), pos.data_type()) != (Dimensions::Vec3, DataType::F32) {
+            return Err(bad(format!(
+                "POSITION accessor {} holds {:?} of {:?} (VEC3 of f32)",
+                pos.index(),
+                pos.dimensions(),
+                pos.data_type()
+            )));
+        }
+    }
+    if let Some(ix) = prim.indices() {
+        let int = matches!(ix.data_type(), DataType::U8 | DataType::U16 | DataType::U32);
+        if ix.dimensions() != Dimensions::Scalar || !int {
+            return Err(bad(format!(
+                "indices accessor {} holds {:?} of {:?} (SCALAR of u8, u16 or u32)",
+                ix.index(),
+                ix.dimensions(),
+                ix.data_type()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Refuse a binary glTF (`glTF` magic) whose header length is not the file's length.

@@ -144,14 +144,16 @@ fn gltf_edited(edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
 }
 
 /// Accessor and buffer-view spans the glTF crate computes unchecked (overflow panics in the
-/// `gltf` target's first 1,000 cases), an index accessor of floats (`unreachable!()` in the
-/// crate), and a `POSITION` index past the accessor list (index out of bounds in
-/// `gltf-json`'s validation): each is refused with one line.
+/// `gltf` target's first 1,000 cases), sparse spans likewise, an index accessor of floats
+/// (`unreachable!()` in the crate), a `POSITION` accessor that is not `VEC3` of f32 or a
+/// stride below the element size (assertions in the crate, seed 18), and a `POSITION` index
+/// past the accessor list (index out of bounds in `gltf-json`'s validation): each is refused
+/// with one line.
 #[test]
 fn gltf_accessors_are_checked_before_the_crate_reads_them() {
     let dir = tempfile::tempdir().unwrap();
     type Edit = Box<dyn Fn(&mut serde_json::Value)>;
-    let cases: [(&str, Edit); 5] = [
+    let cases: [(&str, Edit); 10] = [
         (
             "leaves its",
             Box::new(|d| d["bufferViews"][0]["byteLength"] = u64::MAX.into()),
@@ -165,8 +167,38 @@ fn gltf_accessors_are_checked_before_the_crate_reads_them() {
             Box::new(|d| d["accessors"][0]["count"] = 0.into()),
         ),
         (
-            "component type",
+            "(SCALAR of u8, u16 or u32)",
             Box::new(|d| d["accessors"][1]["componentType"] = 5126.into()),
+        ),
+        (
+            "(SCALAR of u8, u16 or u32)",
+            Box::new(|d| {
+                d["accessors"][1]["type"] = "VEC2".into();
+                d["accessors"][1]["componentType"] = 5121.into();
+            }),
+        ),
+        // The `gltf` target's case 8508 of seed 18 (an assertion in the crate: 12 != 8).
+        (
+            "POSITION accessor 0 holds Vec2 of F32 (VEC3 of f32)",
+            Box::new(|d| d["accessors"][0]["type"] = "VEC2".into()),
+        ),
+        (
+            "POSITION accessor 0 holds Vec3 of U16 (VEC3 of f32)",
+            Box::new(|d| d["accessors"][0]["componentType"] = 5123.into()),
+        ),
+        (
+            "a stride of 4 bytes, less than its 12-byte elements",
+            Box::new(|d| d["bufferViews"][0]["byteStride"] = 4.into()),
+        ),
+        (
+            "sparse indices: 4611686018427387904 elements",
+            Box::new(|d| {
+                d["accessors"][0]["sparse"] = serde_json::json!({
+                    "count": 1u64 << 62,
+                    "indices": {"bufferView": 1, "componentType": 5125},
+                    "values": {"bufferView": 0}
+                })
+            }),
         ),
         (
             "does not exist",
@@ -185,19 +217,36 @@ fn gltf_accessors_are_checked_before_the_crate_reads_them() {
     }
 }
 
-/// A face's texture index of -2^63 overflowed in `tobj` (the `obj` target's case 97).
+/// Face indices that `tobj` turns into a huge `usize` and multiplies unchecked (overflow in
+/// the dev profile): a texture index of -2^63 (the `obj` target's case 97 of seed 16), a
+/// relative index reaching before the first texture coordinate or normal (cases 2915 and
+/// 17585 of seed 18), index 0, and a huge index on a line before one that is not UTF-8
+/// (case 34469 of seed 18, which the check had left to `tobj`).
 #[test]
-fn obj_face_index_beyond_the_file_is_refused() {
+fn obj_face_indices_that_overflow_in_tobj_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let text = super::seeds::OBJ.replace("f 5/1/1", "f 5/-9223372036854775808/1");
-    let p = write(dir.path(), "bad.obj", text.as_bytes());
-    let e = femto::geometry::load::load_mesh(&p)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("-9223372036854775808") && e.contains("bad.obj"),
-        "{e}"
-    );
+    let huge = "f 5/1/9223372036854775807 6/1/1 7/1/1\nv -1\u{0}\u{0}";
+    let cases: [(&str, String, &str); 5] = [
+        ("f 5/1/1", "f 5/-9223372036854775808/1".into(), "line 17: index -9223372036854775808: it reaches before the first of the 1 texture coordinates"),
+        ("f 5/1/1", "f 5/1/-3".into(), "line 17: index -3: it reaches before the first of the 1 normals declared so far"),
+        ("f 5/1/1", "f 5/-2/1".into(), "index -2: it reaches before"),
+        ("f 5/1/1", "f 5/0/1".into(), "index 0: OBJ counts from 1"),
+        ("f 5/1/1 6/1/1 7/1/1 8/1/1", huge.into(), "index 9223372036854775807: it is beyond the file's"),
+    ];
+    for (from, to, want) in cases {
+        let mut bytes = super::seeds::OBJ.replacen(from, &to, 1).into_bytes();
+        if to.contains('\u{0}') {
+            bytes.extend_from_slice(b"\xff\xfe 0 0\n"); // a later line that is not UTF-8
+        }
+        let p = write(dir.path(), "bad.obj", &bytes);
+        let e = femto::geometry::load::load_mesh(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want) && e.contains("bad.obj"), "{want}: {e}");
+    }
+    // A relative index within what is declared still reads (the seed ends with `f -1 -2 -3`).
+    let p = write(dir.path(), "good.obj", super::seeds::OBJ.as_bytes());
+    femto::geometry::load::load_mesh(&p).unwrap();
 }
 
 /// A simulated EXR scanline with its `dataWindow` widened to `x_max` (the attribute is
