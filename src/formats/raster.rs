@@ -168,7 +168,10 @@ pub fn read_png_grey16_into(
 pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     use tiff::decoder::{Decoder, DecodingResult as R};
     use tiff::ColorType;
-    let file = std::fs::File::open(path).map_err(io_err(path))?;
+    let mut file = std::fs::File::open(path).map_err(io_err(path))?;
+    let file_bytes = file.metadata().map_err(io_err(path))?.len();
+    check_tiff_directory(path, &mut file, file_bytes)?;
+    std::io::Seek::rewind(&mut file).map_err(io_err(path))?;
     let mut decoder = Decoder::new(BufReader::new(file)).map_err(|e| decode_err(path, e))?;
     let (w, h) = decoder.dimensions().map_err(|e| decode_err(path, e))?;
     let (width, height) = (w as usize, h as usize);
@@ -185,10 +188,32 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
             })
         }
     };
+    let bits: u8 = match colour {
+        ColorType::Gray(b) | ColorType::GrayA(b) | ColorType::RGB(b) | ColorType::RGBA(b) => b,
+        _ => 8,
+    };
+    let declared_bytes = width as f64 * height as f64 * channels as f64 * bits as f64 / 8.0;
+    let image = format!("an image of {width} x {height} pixels");
+    check_declared_bytes(path, &image, declared_bytes, file_bytes)?;
+    // A strip or tile holds at most the file's bytes: the crate allocates what the header
+    // claims before reading (266 MB for a 3 kB file).
+    let mut limits = tiff::decoder::Limits::default();
+    limits.intermediate_buffer_size = file_bytes as usize;
+    limits.decoding_buffer_size = (64e6 + 16.0 * file_bytes as f64) as usize;
+    let mut decoder = decoder.with_limits(limits);
     let mut result = R::U8(Vec::new());
     decoder
         .read_image_to_buffer(&mut result)
-        .map_err(|e| decode_err(path, e))?;
+        .map_err(|e| match e {
+            tiff::TiffError::LimitsExceeded => FormatError::Unsupported {
+                path: path.to_path_buf(),
+                what: format!(
+                    "a strip or tile that claims more bytes than the file's {file_bytes} \
+                     (a damaged header)"
+                ),
+            },
+            e => decode_err(path, e),
+        })?;
     if decoder.more_images() {
         return Err(FormatError::Unsupported {
             path: path.to_path_buf(),
@@ -280,10 +305,101 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     })
 }
 
-/// The most bytes of samples an EXR scanline may declare: 64 MB, plus 16 bytes for each byte
-/// of the file (a streak image of 1344 x 1024 floats is 5.5 MB). The `exr` crate allocates
-/// the declared data window before it reads a chunk, so a damaged header of a 6 kB file
-/// asked for 4 GB.
+/// The most bytes of samples an image file may declare: 64 MB, plus 16 bytes for each byte
+/// of the file (a streak image of 1344 x 1024 floats is 5.5 MB). The `exr` and `tiff` crates
+/// allocate the declared image before they read a chunk, so a damaged header of a 6 kB EXR
+/// asked for 4 GB, and one of a 3 kB TIFF for 266 MB. `image` names what was declared
+/// (`a data window of 16777194 x 64 pixels`).
+fn check_declared_bytes(
+    path: &Path,
+    image: &str,
+    declared_bytes: f64,
+    file_bytes: u64,
+) -> Result<(), FormatError> {
+    if declared_bytes > 64e6 + 16.0 * file_bytes as f64 {
+        return Err(FormatError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!(
+                "{image} ({} of samples) in a file of {file_bytes} bytes (a damaged header, \
+                 or an image far larger than a streak image)",
+                crate::limits::human_bytes(declared_bytes)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Refuse a TIFF whose first image directory has an entry claiming more values than the
+/// file holds: the `tiff` crate allocates a 32-byte value for each one the entry claims
+/// before it reads them (266 MB for a 3 kB file whose `SamplesPerPixel` claims 8,323,073
+/// shorts). Entries of unknown type are left to the crate; a directory that cannot be read
+/// here is left to the crate to refuse with its own words.
+fn check_tiff_directory(
+    path: &Path,
+    file: &mut std::fs::File,
+    file_bytes: u64,
+) -> Result<(), FormatError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut read_at = |at: u64, n: usize| -> Option<Vec<u8>> {
+        let mut buf = vec![0; n];
+        file.seek(SeekFrom::Start(at)).ok()?;
+        file.read_exact(&mut buf).ok()?;
+        Some(buf)
+    };
+    let Some(header) = read_at(0, 16) else {
+        return Ok(());
+    };
+    let little = match &header[..2] {
+        b"II" => true,
+        b"MM" => false,
+        _ => return Ok(()),
+    };
+    let uint = |b: &[u8]| {
+        let mut v = 0u64;
+        for i in 0..b.len() {
+            let byte = if little { b[b.len() - 1 - i] } else { b[i] };
+            v = v << 8 | byte as u64;
+        }
+        v
+    };
+    // Classic TIFF: 2-byte entry count, 12-byte entries with 4-byte counts and 4 inline
+    // bytes; BigTIFF: 8-byte entry count, 20-byte entries with 8-byte counts and 8 inline.
+    let (directory_at, count_bytes, entry_bytes, field_bytes) = match uint(&header[2..4]) {
+        42 => (uint(&header[4..8]), 2, 12, 4),
+        43 => (uint(&header[8..16]), 8, 20, 8),
+        _ => return Ok(()),
+    };
+    let Some(n) = read_at(directory_at, count_bytes).map(|b| uint(&b)) else {
+        return Ok(());
+    };
+    let n = n.min(file_bytes / entry_bytes as u64) as usize;
+    let Some(entries) = read_at(directory_at + count_bytes as u64, n * entry_bytes) else {
+        return Ok(());
+    };
+    for entry in entries.chunks_exact(entry_bytes) {
+        let value_bytes = match uint(&entry[2..4]) {
+            1 | 2 | 6 | 7 => 1,
+            3 | 8 => 2,
+            4 | 9 | 11 | 13 => 4,
+            5 | 10 | 12 | 16 | 17 | 18 => 8,
+            _ => continue,
+        };
+        let count = uint(&entry[4..4 + field_bytes]);
+        if count.saturating_mul(value_bytes) > file_bytes {
+            return Err(FormatError::Unsupported {
+                path: path.to_path_buf(),
+                what: format!(
+                    "TIFF tag {} claims {count} values in a file of {file_bytes} bytes \
+                     (a damaged header)",
+                    uint(&entry[..2])
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// [`check_declared_bytes`] for the data windows of an EXR file's headers.
 fn check_exr_size(path: &Path, file_bytes: u64) -> Result<(), FormatError> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| decode_err(path, e))?;
     let declared_bytes: f64 = meta
@@ -291,21 +407,12 @@ fn check_exr_size(path: &Path, file_bytes: u64) -> Result<(), FormatError> {
         .iter()
         .map(|h| h.layer_size.0 as f64 * h.layer_size.1 as f64 * h.channels.list.len() as f64 * 4.0)
         .sum();
-    if declared_bytes > 64e6 + 16.0 * file_bytes as f64 {
-        let (w, h) = meta
-            .headers
-            .first()
-            .map_or((0, 0), |h| (h.layer_size.0, h.layer_size.1));
-        return Err(FormatError::Unsupported {
-            path: path.to_path_buf(),
-            what: format!(
-                "a data window of {w} x {h} pixels ({} of samples) in a file of {file_bytes} \
-                 bytes (a damaged header, or an image far larger than a streak image)",
-                crate::limits::human_bytes(declared_bytes)
-            ),
-        });
-    }
-    Ok(())
+    let (w, h) = meta
+        .headers
+        .first()
+        .map_or((0, 0), |h| (h.layer_size.0, h.layer_size.1));
+    let image = format!("a data window of {w} x {h} pixels");
+    check_declared_bytes(path, &image, declared_bytes, file_bytes)
 }
 
 /// Read the single layer of an OpenEXR file: channel `Y`, else the mean of `R, G, B`, else

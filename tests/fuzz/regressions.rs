@@ -279,3 +279,75 @@ fn exr_data_window_is_checked_before_allocating() {
     let good = write(dir.path(), "good.exr", &scanlines("exr", 1).remove(0));
     assert!(femto::formats::read_streak(&good, false).is_ok());
 }
+
+/// The first (16-bit) TIFF seed with the entry of `tag` in its first directory rewritten:
+/// `count` values, and `inline` as its (first) inline value.
+fn tiff_with_entry(tag: u16, count: u32, inline: u32) -> Vec<u8> {
+    tiff_with_entry_of(super::seeds::tiffs().remove(0), tag, count, inline)
+}
+
+/// [`tiff_with_entry`] on the TIFF `bytes`.
+fn tiff_with_entry_of(mut bytes: Vec<u8>, tag: u16, count: u32, inline: u32) -> Vec<u8> {
+    assert_eq!(
+        &bytes[..4],
+        b"II*\0",
+        "the seed is a little-endian classic TIFF"
+    );
+    let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    let dir = u32_at(&bytes, 4) as usize;
+    let n = u16::from_le_bytes([bytes[dir], bytes[dir + 1]]) as usize;
+    let at = (0..n)
+        .map(|i| dir + 2 + 12 * i)
+        .find(|&at| u16::from_le_bytes([bytes[at], bytes[at + 1]]) == tag)
+        .expect("the seed has the tag");
+    bytes[at + 4..at + 8].copy_from_slice(&count.to_le_bytes());
+    let value_bytes = match u16::from_le_bytes([bytes[at + 2], bytes[at + 3]]) {
+        3 => 2,
+        _ => 4,
+    };
+    bytes[at + 8..at + 12].fill(0);
+    bytes[at + 8..at + 8 + value_bytes].copy_from_slice(&inline.to_le_bytes()[..value_bytes]);
+    bytes
+}
+
+/// A 3 kB TIFF whose `SamplesPerPixel` claimed 8,323,073 shorts made the `tiff` crate
+/// allocate 266 MB, and one whose strip claimed 100 MB made it allocate that (the `tiff`
+/// target's cases 45, 14166, 16977, 36074, 36730 and 38172 of seed 18); an image of
+/// 100000 x 100000 pixels in a small file is refused before it is decoded.
+#[test]
+fn tiff_sizes_are_checked_before_the_crate_allocates_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let seed = super::seeds::tiffs().remove(0);
+    let cases = [
+        (
+            tiff_with_entry(277, 8_323_073, 1),
+            "TIFF tag 277 claims 8323073 values",
+        ),
+        (
+            tiff_with_entry(279, 1, 100_000_000),
+            "a strip or tile that claims more bytes",
+        ),
+        (
+            // One strip of 60000 rows, so that the directory is consistent.
+            [(257, 60_000), (278, 60_000)]
+                .into_iter()
+                .fold(tiff_with_entry(256, 1, 60_000), |b, (tag, v)| {
+                    tiff_with_entry_of(b, tag, 1, v)
+                }),
+            "an image of 60000 x 60000 pixels",
+        ),
+    ];
+    for (bytes, want) in cases {
+        let p = write(dir.path(), "bad.tif", &bytes);
+        let (result, peak) = with_peak(|| femto::formats::read_streak(&p, false));
+        let e = result.unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("bad.tif"), "{want}: {e}");
+        assert!(
+            peak <= alloc_bound(bytes.len()),
+            "{want}: asked for {peak} bytes"
+        );
+    }
+    // The unedited seed still reads.
+    let p = write(dir.path(), "good.tif", &seed);
+    femto::formats::read_streak(&p, false).unwrap();
+}
