@@ -8,7 +8,9 @@ use femto::cube::{Cube, TimeAxis, TimeFrame};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use std::path::Path;
-use std::process::Command;
+#[path = "common/cli.rs"]
+mod cli;
+use cli::FemtoCmd;
 
 const AXIS: TimeAxis = TimeAxis {
     t0_ps: -12.5,
@@ -609,13 +611,6 @@ fn image_stacks_of_any_numeric_type_become_f32() {
     assert!(err.to_string().contains("absent"));
 }
 
-fn femto(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_femto"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn info_describes_a_cube_as_json() {
     let dir = tempfile::tempdir().unwrap();
@@ -624,7 +619,9 @@ fn info_describes_a_cube_as_json() {
     container::write_cube(&path, &test_cube(nx, ny, true), &provenance()).unwrap();
     container::write_groups(&path, &[("registration", registration(nx, ny, 1.0))]).unwrap();
 
-    let out = femto(&["info", path.to_str().unwrap(), "--json"]);
+    let out = FemtoCmd::new()
+        .args(&["info", path.to_str().unwrap(), "--json"])
+        .output();
     assert!(
         out.status.success(),
         "{}",
@@ -663,7 +660,9 @@ fn info_describes_a_cube_as_json() {
     assert_eq!(j["femto_version"], env!("CARGO_PKG_VERSION"));
     assert_eq!(j["notes"]["ingest.dark_frame"], "dark.png");
 
-    let out = femto(&["info", path.to_str().unwrap()]);
+    let out = FemtoCmd::new()
+        .args(&["info", path.to_str().unwrap()])
+        .output();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
@@ -682,7 +681,9 @@ fn info_rejects_other_files_in_one_line() {
         (&txt, "not a femto cube (HDF5) file"),
         (&missing, "No such file"),
     ] {
-        let out = femto(&["info", p.to_str().unwrap()]);
+        let out = FemtoCmd::new()
+            .args(&["info", p.to_str().unwrap()])
+            .output();
         assert_eq!(out.status.code(), Some(2));
         let err = String::from_utf8(out.stderr).unwrap();
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");

@@ -19,7 +19,9 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, Poisson};
 use rand_pcg::Pcg64;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+#[path = "common/cli.rs"]
+mod cli;
+use cli::FemtoCmd;
 
 const NX: usize = 32;
 const NY: usize = 24;
@@ -275,13 +277,6 @@ fn manifest_for(ny: usize, fmt: Fmt, flaws: &Flaws) -> Manifest {
 // ---------------------------------------------------------------------------------------------
 // Running femto and comparing.
 
-fn femto(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_femto"))
-        .args(args)
-        .output()
-        .expect("run femto")
-}
-
 /// `femto ingest ARGS`, required to succeed. These tests check one correction at a time, so
 /// jitter removal (on by default) is off unless the test asks for it with `--jitter`.
 fn ingest_ok(args: &[&str]) -> String {
@@ -290,7 +285,7 @@ fn ingest_ok(args: &[&str]) -> String {
     if !args.contains(&"--jitter") {
         all.push("--no-jitter");
     }
-    let out = femto(&all);
+    let out = FemtoCmd::new().args(&all).output();
     assert!(
         out.status.success(),
         "femto {all:?} failed: {}",
@@ -433,10 +428,14 @@ fn glob_printf_and_manifest_inputs_agree() {
         .fold(0.0f64, |m, (a, b)| m.max((*a as f64 - *b as f64).abs()));
     assert!(worst_abs <= 0.5 * VPC + 1e-4, "{worst_abs}");
     // Without a manifest a missing time axis is refused, and a contradicting one too.
-    let out = femto(&["ingest", &glob, "-o", s(&b)]);
+    let out = FemtoCmd::new()
+        .args(&["ingest", &glob, "-o", s(&b)])
+        .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps"));
-    let out = femto(&["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"]);
+    let out = FemtoCmd::new()
+        .args(&["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"])
+        .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps 2.5: contradicts manifest"));
 }
@@ -1231,7 +1230,7 @@ fn assert_refused(dir: &Path, args: &[&str], names: &str) {
     let before = list(dir);
     let mut all = vec!["ingest"];
     all.extend_from_slice(args);
-    let out = femto(&all);
+    let out = FemtoCmd::new().args(&all).output();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{all:?}: {stderr}");
     assert!(

@@ -20,7 +20,8 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+#[path = "common/cli.rs"]
+mod cli;
 
 const C_M_PER_PS: f64 = 2.997_924_58e-4;
 
@@ -377,35 +378,8 @@ fn write_known_intrinsics(path: &Path, cal: &Calibration) {
     .unwrap();
 }
 
-fn femto(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_femto"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-/// Run femto and require success; returns stdout.
-fn femto_ok(args: &[&str]) -> String {
-    let out = femto(args);
-    assert!(
-        out.status.success(),
-        "femto {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-/// Run femto and require exit code 2 with one line on stderr; returns that line.
-fn femto_bad_input(args: &[&str]) -> String {
-    let out = femto(args);
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert_eq!(out.status.code(), Some(2), "femto {args:?}: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    err
-}
-
 fn info_json(path: &Path) -> Value {
-    let text = femto_ok(&["info", s(path), "--json"]);
+    let text = cli::femto_ok(&["info", s(path), "--json"]).stdout;
     assert_eq!(text.trim().lines().count(), 1, "one JSON line: {text}");
     serde_json::from_str(&text).unwrap()
 }
@@ -495,7 +469,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
     write_known_intrinsics(&known, cal);
 
     // --- calibrate: pose from the fiducials, t0 from the cube.
-    let report = femto_ok(&[
+    let report = cli::femto_ok(&[
         "calibrate",
         s(&cam),
         "--mesh",
@@ -504,7 +478,8 @@ fn calibrate_unwarp_pyramid_info_chain() {
         s(&pts),
         "--intrinsics",
         s(&known),
-    ]);
+    ])
+    .stdout;
     println!(
         "{}",
         report.lines().rev().take(8).collect::<Vec<_>>().join("\n")
@@ -557,7 +532,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
 
     // --- unwarp with the fitted registration: world pulses at t0 + eta |laser - p| / c.
     let world = fx.path("world.h5");
-    femto_ok(&["unwarp", s(&cam), "--out", s(&world)]);
+    cli::femto_ok(&["unwarp", s(&cam), "--out", s(&world)]).stdout;
     let wc = container::read_cube(&world).unwrap();
     assert_eq!(wc.frame, TimeFrame::World);
     let wmask = wc.mask.clone().unwrap();
@@ -609,7 +584,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
     let true_toml = fx.path("true.toml");
     std::fs::write(&true_toml, cal.to_toml()).unwrap();
     let world_true = fx.path("world_true.h5");
-    femto_ok(&[
+    cli::femto_ok(&[
         "unwarp",
         s(&cam),
         "--out",
@@ -618,7 +593,8 @@ fn calibrate_unwarp_pyramid_info_chain() {
         s(&true_toml),
         "--mesh",
         s(&glb),
-    ]);
+    ])
+    .stdout;
     let wt = container::read_cube(&world_true).unwrap();
     let expected = pulse_cube(&fx.points, wt.axis, TimeFrame::World, |p| {
         world_arrival_ps(cal, p)
@@ -648,14 +624,15 @@ fn calibrate_unwarp_pyramid_info_chain() {
 
     // --- round trip camera -> world -> camera: within f (1 - f) dt^3 max|s''| <= dt^3 / 4.
     let back = fx.path("back.h5");
-    femto_ok(&[
+    cli::femto_ok(&[
         "unwarp",
         s(&world_true),
         "--to",
         "camera",
         "--out",
         s(&back),
-    ]);
+    ])
+    .stdout;
     let bc = container::read_cube(&back).unwrap();
     assert_eq!(bc.frame, TimeFrame::Camera);
     let off = ((fx.cube.axis.t0_ps - bc.axis.t0_ps) / DT_PS).round() as i64;
@@ -688,9 +665,9 @@ fn calibrate_unwarp_pyramid_info_chain() {
     assert!(!info_json(&world_true)["registration"]["calibration"].is_null());
 
     // --- pyramid in the cube (3 levels) and in a side file (all levels).
-    femto_ok(&["pyramid", s(&world_true), "--levels", "3"]);
+    cli::femto_ok(&["pyramid", s(&world_true), "--levels", "3"]).stdout;
     let side = fx.path("side.h5");
-    femto_ok(&["pyramid", s(&world_true), "--side-file", s(&side)]);
+    cli::femto_ok(&["pyramid", s(&world_true), "--side-file", s(&side)]).stdout;
     let nt = wt.axis.nt;
     let top = (nt as f64).log2().ceil() as usize;
     let stored = femto::store::pyramid::read_pyramid(&world_true).unwrap();
@@ -744,20 +721,20 @@ fn calibrate_unwarp_pyramid_info_chain() {
             "fine_shape": [H, W, nt + 1],
         })
     );
-    let text = femto_ok(&["info", s(&world_true)]);
+    let text = cli::femto_ok(&["info", s(&world_true)]).stdout;
     assert!(
         text.contains("pyramid") && text.contains("registration"),
         "{text}"
     );
 
     // --- refusals.
-    let e = femto_bad_input(&["pyramid", s(&world_true), "--levels", "40"]);
+    let e = cli::femto_refused(&["pyramid", s(&world_true), "--levels", "40"]);
     assert!(e.contains("--levels 40") && e.contains("at most"), "{e}");
-    let e = femto_bad_input(&["unwarp", s(&world), "--out", s(&fx.path("x.h5"))]);
+    let e = cli::femto_refused(&["unwarp", s(&world), "--out", s(&fx.path("x.h5"))]);
     assert!(e.contains("already in world time"), "{e}");
     let bare = fx.path("bare.h5");
     container::write_cube(&bare, &fx.cube, &Provenance::new("test")).unwrap();
-    let e = femto_bad_input(&["unwarp", s(&bare), "--out", s(&fx.path("x.h5"))]);
+    let e = cli::femto_refused(&["unwarp", s(&bare), "--out", s(&fx.path("x.h5"))]);
     assert!(e.contains("no /registration group"), "{e}");
     assert!(!fx.path("x.h5").exists());
 }
@@ -843,7 +820,7 @@ fn calibrate_with_unknown_intrinsics_flags_the_outlier() {
     let l = cal.laser_m;
     let laser = format!("{},{},{}", l.x, l.y, l.z);
     let out_toml = fx.path("fitted.toml");
-    let report = femto_ok(&[
+    let report = cli::femto_ok(&[
         "calibrate",
         s(&cam),
         "--mesh",
@@ -856,7 +833,8 @@ fn calibrate_with_unknown_intrinsics_flags_the_outlier() {
         &ETA.to_string(),
         "--out",
         s(&out_toml),
-    ]);
+    ])
+    .stdout;
     // The mis-picked marker is flagged; so are the few Gaussian-noise points beyond the
     // threshold of 3 median errors (about 0.2 % of them, src/calibrate/refine.rs).
     let flagged: Vec<&str> = report.lines().filter(|l| l.contains("OUTLIER")).collect();
@@ -898,7 +876,7 @@ fn calibrate_with_unknown_intrinsics_flags_the_outlier() {
 
     // Constraints are kept: square pixels and a centred principal point.
     let constrained = fx.path("constrained.toml");
-    femto_ok(&[
+    cli::femto_ok(&[
         "calibrate",
         s(&cam),
         "--mesh",
@@ -911,7 +889,8 @@ fn calibrate_with_unknown_intrinsics_flags_the_outlier() {
         "--centred-principal-point",
         "--out",
         s(&constrained),
-    ]);
+    ])
+    .stdout;
     let c = Calibration::load(&constrained).unwrap();
     assert_eq!(c.intrinsics.fx, c.intrinsics.fy);
     assert_eq!(
@@ -978,14 +957,14 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
         } else {
             args.extend(["--laser", laser]);
         }
-        let e = femto_bad_input(&args);
+        let e = cli::femto_refused(&args);
         assert!(e.contains(message), "{name}: {e}");
         assert!(e.contains(s(&p)), "{name}: the message names the file: {e}");
     }
     // No laser spot at all.
     let p = dir.path().join("good.toml");
     write_points(&p, &all);
-    let e = femto_bad_input(&["calibrate", s(&cam), "--mesh", s(&glb), "--points", s(&p)]);
+    let e = cli::femto_refused(&["calibrate", s(&cam), "--mesh", s(&glb), "--points", s(&p)]);
     assert!(e.contains("--laser"), "{e}");
     // A world-time cube.
     let world = dir.path().join("world.h5");
@@ -995,7 +974,7 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
         &Provenance::new("test"),
     )
     .unwrap();
-    let e = femto_bad_input(&[
+    let e = cli::femto_refused(&[
         "calibrate",
         s(&world),
         "--mesh",
@@ -1049,7 +1028,7 @@ fn info_describes_meshes() {
         assert_eq!(m["triangles"], tris);
         assert!((m["area_m2"].as_f64().unwrap() - area).abs() < 1e-5, "{m}");
     }
-    let text = femto_ok(&["info", s(&glb)]);
+    let text = cli::femto_ok(&["info", s(&glb)]).stdout;
     assert!(
         text.contains("14 (") && text.contains("triangle mesh"),
         "{text}"
@@ -1098,7 +1077,7 @@ fn info_describes_streak_images() {
     assert_eq!(j["img"]["width"], nx);
     assert_eq!(j["img"]["height"], nt);
     assert_eq!(j["img"]["mode"], "Operate");
-    let text = femto_ok(&["info", s(&img_path)]);
+    let text = cli::femto_ok(&["info", s(&img_path)]).stdout;
     assert!(
         text.contains("20 x 12") && text.contains("HPD-TA"),
         "{text}"
@@ -1119,7 +1098,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
     // and the tracer's light vertices, which give nearly every path some late two-bounce
     // light, only 36 pixels were left; 614 with 128).
     let (nx, ny) = (48usize, 36usize);
-    femto_ok(&[
+    cli::femto_ok(&[
         "simulate",
         "--out",
         s(&cap),
@@ -1133,7 +1112,8 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         "16",
         "--bounces",
         "2",
-    ]);
+    ])
+    .stdout;
     let truth_cal = Calibration::load(&cap.join("calibration.toml")).unwrap();
     let camera = cap.join("truth_camera.h5");
     let l = truth_cal.laser_m;
@@ -1154,7 +1134,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
     );
     let fiducials = tmp.path().join("fiducials.toml");
     femto::calibrate::save_points_toml(&fiducials, &unique).unwrap();
-    femto_ok(&[
+    cli::femto_ok(&[
         "calibrate",
         s(&camera),
         "--mesh",
@@ -1165,7 +1145,8 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         &format!("{},{},{}", l.x, l.y, l.z),
         "--eta",
         &truth_cal.eta.to_string(),
-    ]);
+    ])
+    .stdout;
     let fitted = Calibration::load(&cap.join("truth_camera.calibration.toml")).unwrap();
     let dt_ps = container::read_meta(&camera).unwrap().axis.dt_ps;
     let dpos_mm = 1e3 * (fitted.pose.position_m - truth_cal.pose.position_m).norm();
@@ -1188,7 +1169,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
     // Unwarp onto the truth's world axis and compare pixel by pixel.
     let truth_world = container::read_cube(&cap.join("truth_world.h5")).unwrap();
     let world = tmp.path().join("world.h5");
-    femto_ok(&[
+    cli::femto_ok(&[
         "unwarp",
         s(&camera),
         "--out",
@@ -1199,7 +1180,8 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         &truth_world.axis.nt.to_string(),
         "--dt-ps",
         &truth_world.axis.dt_ps.to_string(),
-    ]);
+    ])
+    .stdout;
     let got = container::read_cube(&world).unwrap();
     assert_eq!(got.axis, truth_world.axis);
     let cam_cube = container::read_cube(&camera).unwrap();

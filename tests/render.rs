@@ -5,6 +5,9 @@
 mod common;
 
 use common::*;
+#[path = "common/cli.rs"]
+mod cli;
+use cli::FemtoCmd;
 use femto::camera::{Calibration, Pose};
 use femto::camera_path::{
     CameraPath, Clock, FrameSpec, FrameState, Interpolation, Keyframe, Motion, Orientation,
@@ -743,7 +746,6 @@ fn effects_parse_and_print() {
 // The command line, run as a user would in a temporary folder.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The cube scene on disk: mesh (OBJ), calibration (TOML) and a single-bounce world-time
 /// cube (HDF5) of 32 x 24 pixels.
@@ -784,7 +786,7 @@ fn femto_render(
     extra: &[&str],
 ) -> std::process::Output {
     let (cube, cal, mesh) = inputs;
-    Command::new(env!("CARGO_BIN_EXE_femto"))
+    FemtoCmd::new()
         .current_dir(dir)
         .arg("render")
         .arg("--cube")
@@ -795,7 +797,6 @@ fn femto_render(
         .arg(mesh)
         .args(extra)
         .output()
-        .unwrap()
 }
 
 fn assert_ok(out: &std::process::Output) {
@@ -1022,7 +1023,7 @@ fn cli_errors_name_the_flag_and_leave_no_output() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("passes through"));
     // Files: a camera-time cube, a missing mesh.
     let run = |cube: &Path, mesh: &Path| {
-        Command::new(env!("CARGO_BIN_EXE_femto"))
+        FemtoCmd::new()
             .current_dir(dir)
             .args(["render", "--capture-view", "--out", "o11"])
             .arg("--cube")
@@ -1032,7 +1033,6 @@ fn cli_errors_name_the_flag_and_leave_no_output() {
             .arg("--mesh")
             .arg(mesh)
             .output()
-            .unwrap()
     };
     let out = run(&camera_path, mesh);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -1234,12 +1234,11 @@ fn read_exr_frames(dir: &Path, n: usize) -> Vec<Vec<[f32; 3]>> {
 }
 
 fn femto_pyramid(dir: &Path, args: &[&std::ffi::OsStr]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_femto"))
+    let out = FemtoCmd::new()
         .current_dir(dir)
         .arg("pyramid")
         .args(args)
-        .output()
-        .unwrap();
+        .output();
     assert_ok(&out);
 }
 

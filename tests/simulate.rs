@@ -16,7 +16,10 @@ use femto::resample::shift_into;
 use femto::units::C_M_PER_PS;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+#[path = "common/cli.rs"]
+mod cli;
+use cli::FemtoCmd;
 
 /// Small captures: 24 x 16 pixels, 64 bins of 16 ps (the cube scene's 1 ns window), 4 spp.
 const SMALL: [&str; 10] = [
@@ -33,12 +36,11 @@ const SMALL: [&str; 10] = [
 ];
 
 fn femto(dir: &Path, args: &[&str], threads: Option<usize>) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_femto"));
-    cmd.current_dir(dir).args(args);
-    if let Some(n) = threads {
-        cmd.env("RAYON_NUM_THREADS", n.to_string());
+    let cmd = FemtoCmd::new().current_dir(dir).args(args);
+    match threads {
+        Some(n) => cmd.env("RAYON_NUM_THREADS", n.to_string()).output(),
+        None => cmd.output(),
     }
-    cmd.output().expect("femto runs")
 }
 
 /// Run `femto simulate --out NAME SMALL... EXTRA...` in `dir`, expecting success.

@@ -4,6 +4,7 @@
 //! (not from `common/mod.rs`, which examples and benches include too).
 #![allow(dead_code)]
 
+use std::ffi::OsStr;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -14,6 +15,93 @@ pub struct Run {
     pub code: Option<i32>,
 }
 
+/// One `femto` command line, built up and then run: the only place in the tests that starts
+/// the binary, so that every end-to-end test runs it the same way (its own working folder
+/// or the test's, extra environment, arguments that are paths or strings).
+pub struct FemtoCmd {
+    cmd: Command,
+    shown: Vec<String>,
+}
+
+impl FemtoCmd {
+    /// `femto` with no arguments yet, run in the test's working directory.
+    pub fn new() -> FemtoCmd {
+        FemtoCmd {
+            cmd: Command::new(env!("CARGO_BIN_EXE_femto")),
+            shown: Vec::new(),
+        }
+    }
+
+    pub fn arg(mut self, a: impl AsRef<OsStr>) -> FemtoCmd {
+        self.shown.push(a.as_ref().to_string_lossy().into_owned());
+        self.cmd.arg(a);
+        self
+    }
+
+    pub fn args<S: AsRef<OsStr>>(self, args: impl IntoIterator<Item = S>) -> FemtoCmd {
+        args.into_iter().fold(self, FemtoCmd::arg)
+    }
+
+    /// Run in `dir` instead of the test's working directory.
+    pub fn current_dir(mut self, dir: &Path) -> FemtoCmd {
+        self.cmd.current_dir(dir);
+        self
+    }
+
+    pub fn env(mut self, key: &str, value: impl AsRef<OsStr>) -> FemtoCmd {
+        self.cmd.env(key, value);
+        self
+    }
+
+    /// The command line as a user would type it, for failure messages.
+    pub fn shown(&self) -> String {
+        format!("femto {}", self.shown.join(" "))
+    }
+
+    /// The configured command, for a test that must start it itself (to signal it, to
+    /// watch its memory, to limit its file sizes).
+    pub fn command(self) -> Command {
+        self.cmd
+    }
+
+    /// Run to the end, whatever the exit code.
+    pub fn output(mut self) -> Output {
+        self.cmd.output().expect("femto runs")
+    }
+
+    /// Run to the end, whatever the exit code, with the output as text.
+    pub fn run(self) -> Run {
+        let Output {
+            status,
+            stdout,
+            stderr,
+        } = self.output();
+        Run {
+            stdout: String::from_utf8_lossy(&stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&stderr).into_owned(),
+            code: status.code(),
+        }
+    }
+
+    /// Run and require exit code 0; returns what it printed.
+    pub fn ok(self) -> Run {
+        let shown = self.shown();
+        let run = self.run();
+        assert_eq!(run.code, Some(0), "{shown}: {}{}", run.stdout, run.stderr);
+        run
+    }
+
+    /// Run and require the bad-input exit code 2 with a one-line error; returns the line.
+    pub fn refused(self) -> String {
+        let shown = self.shown();
+        let run = self.run();
+        assert_eq!(run.code, Some(2), "{shown}: {}", run.stderr);
+        let err = run.stderr.trim_end().to_string();
+        assert_eq!(err.lines().count(), 1, "{shown}: one line: {err}");
+        err
+    }
+}
+
 /// Run `femto args...` in `dir` (None: the test's working directory).
 pub fn femto_in(dir: Option<&Path>, args: &[&str]) -> Run {
     femto_env(dir, args, &[])
@@ -22,51 +110,24 @@ pub fn femto_in(dir: Option<&Path>, args: &[&str]) -> Run {
 /// Run `femto args...` in `dir` with extra environment variables (`FEMTO_MEMORY_LIMIT_BYTES`
 /// to make memory refusals independent of the machine).
 pub fn femto_env(dir: Option<&Path>, args: &[&str], env: &[(&str, &str)]) -> Run {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_femto"));
-    cmd.args(args);
-    cmd.envs(env.iter().copied());
+    let mut cmd = FemtoCmd::new().args(args);
+    for (k, v) in env {
+        cmd = cmd.env(k, v);
+    }
     if let Some(d) = dir {
-        cmd.current_dir(d);
+        cmd = cmd.current_dir(d);
     }
-    let Output {
-        status,
-        stdout,
-        stderr,
-    } = cmd.output().expect("femto runs");
-    Run {
-        stdout: String::from_utf8_lossy(&stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&stderr).into_owned(),
-        code: status.code(),
-    }
+    cmd.run()
 }
 
 /// Run `femto args...` and require success; returns what it printed.
 pub fn femto_ok(args: &[&str]) -> Run {
-    let run = femto_in(None, args);
-    assert_eq!(
-        run.code,
-        Some(0),
-        "femto {}: {}{}",
-        args.join(" "),
-        run.stdout,
-        run.stderr
-    );
-    run
+    FemtoCmd::new().args(args).ok()
 }
 
 /// Run `femto args...` and require bad-input exit code 2 with a one-line error; returns it.
 pub fn femto_refused(args: &[&str]) -> String {
-    let run = femto_in(None, args);
-    assert_eq!(
-        run.code,
-        Some(2),
-        "femto {}: {}",
-        args.join(" "),
-        run.stderr
-    );
-    let err = run.stderr.trim_end().to_string();
-    assert_eq!(err.lines().count(), 1, "one line: {err}");
-    err
+    FemtoCmd::new().args(args).refused()
 }
 
 /// A path as a command-line argument.

@@ -3,7 +3,7 @@
 //! (one line, like every other error), and messages that must name the file or flag at
 //! fault. Each bad input is written by hand here from a copy of the fixture's files.
 
-use super::{case, cli, fixture};
+use super::{calibrate_args, case, cli, fixture, laser_flag, render_args};
 use cli::refused_unchanged;
 use femto::container::{CubeReader, CubeWriter, DataBuf, GroupData, Provenance};
 use std::path::Path;
@@ -39,6 +39,18 @@ fn to_png8(path: &Path) {
 /// naming the file, its depth and the capture's; so is the converse, an 8-bit first
 /// scanline followed by 16-bit ones (read through ingest's 16-bit fast path). Before,
 /// both were ingested with exit 0, the 8-bit rows 256 times too dim.
+
+/// Render flags for a small two-frame dolly into `out.gif`.
+const SMALL_DOLLY: [&str; 8] = [
+    "--dolly",
+    "0.5",
+    "--frame-count",
+    "2",
+    "--size",
+    "16x12",
+    "--out",
+    "out.gif",
+];
 #[test]
 fn a_scanline_of_another_bit_depth_is_refused() {
     for which in [2usize, 0] {
@@ -137,23 +149,7 @@ fn nan_in_a_cube_is_refused_by_unwarp_and_calibrate() {
         &[],
         &[&at],
     );
-    let truth = femto::camera::Calibration::load(&dir.path().join("cap/calibration.toml"))
-        .expect("the true calibration");
-    let l = truth.laser_m;
-    refused_unchanged(
-        dir.path(),
-        &[
-            "calibrate",
-            "cube.h5",
-            "--mesh",
-            "cap/scene.glb",
-            "--points",
-            "cap/fiducials.toml",
-            &format!("--laser={},{},{}", l.x, l.y, l.z),
-        ],
-        &[],
-        &[&at],
-    );
+    refused_unchanged(dir.path(), &calibrate_args(&[&laser_flag()]), &[], &[&at]);
 }
 
 /// Infinity in the world-time cube: `pyramid` (in place and to a side file) and `render`
@@ -181,23 +177,7 @@ fn inf_in_a_cube_is_refused_by_pyramid_and_render() {
     );
     refused_unchanged(
         dir.path(),
-        &[
-            "render",
-            "--cube",
-            "world.h5",
-            "--calibration",
-            "cube.calibration.toml",
-            "--mesh",
-            "cap/scene.glb",
-            "--dolly",
-            "0.5",
-            "--frame-count",
-            "2",
-            "--size",
-            "16x12",
-            "--out",
-            "out.gif",
-        ],
+        &render_args("cube.calibration.toml", &SMALL_DOLLY),
         &[],
         &[&at],
     );
@@ -226,23 +206,7 @@ fn nan_in_a_stored_pyramid_is_refused_by_render() {
     });
     refused_unchanged(
         dir.path(),
-        &[
-            "render",
-            "--cube",
-            "world.h5",
-            "--calibration",
-            "cube.calibration.toml",
-            "--mesh",
-            "cap/scene.glb",
-            "--dolly",
-            "0.5",
-            "--frame-count",
-            "2",
-            "--size",
-            "16x12",
-            "--out",
-            "out.gif",
-        ],
+        &render_args("cube.calibration.toml", &SMALL_DOLLY),
         &[],
         &["world.h5: pyramid/level_1 has NaN at x 2, y 5, bin 4"],
     );
@@ -376,23 +340,7 @@ fn render_names_the_calibration_of_another_size() {
     std::fs::write(&cal, edited).unwrap();
     refused_unchanged(
         dir.path(),
-        &[
-            "render",
-            "--cube",
-            "world.h5",
-            "--calibration",
-            "cube.calibration.toml",
-            "--mesh",
-            "cap/scene.glb",
-            "--dolly",
-            "0.5",
-            "--frame-count",
-            "2",
-            "--size",
-            "16x12",
-            "--out",
-            "out.gif",
-        ],
+        &render_args("cube.calibration.toml", &SMALL_DOLLY),
         &[],
         &[
             "--calibration cube.calibration.toml: intrinsics are for 40 x 24 pixels, but \

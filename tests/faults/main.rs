@@ -51,6 +51,45 @@ pub fn fixture() -> &'static Fixture {
     })
 }
 
+/// `femto render` of the fixture's world cube (`world.h5`) with the calibration file
+/// `calibration` and the fixture's mesh, then `extra`.
+pub fn render_args<'a>(calibration: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "render",
+        "--cube",
+        "world.h5",
+        "--calibration",
+        calibration,
+        "--mesh",
+        "cap/scene.glb",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// `femto calibrate` of the fixture's cube (`cube.h5`) against its mesh and fiducials, then
+/// `extra`.
+pub fn calibrate_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "calibrate",
+        "cube.h5",
+        "--mesh",
+        "cap/scene.glb",
+        "--points",
+        "cap/fiducials.toml",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// `--laser=X,Y,Z` with the simulated capture's true laser position.
+pub fn laser_flag() -> String {
+    let truth =
+        femto::camera::Calibration::load(&fixture().root.join("cap/calibration.toml")).unwrap();
+    let l = truth.laser_m;
+    format!("--laser={},{},{}", l.x, l.y, l.z)
+}
+
 /// A fresh folder holding copies of the fixture's `names` (files or folders, relative to the
 /// fixture's root, e.g. `"world.h5"`, `"cap"`, `"cap/scene.glb"`), in the same relative places.
 pub fn case(names: &[&str]) -> tempfile::TempDir {

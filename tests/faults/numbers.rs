@@ -6,28 +6,14 @@
 //! 2^64 - 1 frames and a scene pulse of 4294967296 fs hung, and a scene `eta = 1e19` aborted
 //! with "capacity overflow".
 
-use super::{case, cli};
+use super::{calibrate_args, case, cli};
 use std::path::Path;
 
-/// The render inputs of the fixture, with `extra` flags (`--path p.toml`, `--dolly 0.5`).
+/// `femto render` of the fixture with the calibration file `calibration`: three 16 x 12
+/// frames into `out.gif`, then `extra`.
 fn render_args<'a>(calibration: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
-    let mut args = vec![
-        "render",
-        "--cube",
-        "world.h5",
-        "--calibration",
-        calibration,
-        "--mesh",
-        "cap/scene.glb",
-        "--size",
-        "16x12",
-        "--frame-count",
-        "3",
-        "--out",
-        "out.gif",
-    ];
-    args.extend_from_slice(extra);
-    args
+    let small = ["--size", "16x12", "--frame-count", "3", "--out", "out.gif"];
+    super::render_args(calibration, &[&small[..], extra].concat())
 }
 
 /// A keyframe path over the fixture's scene (the capture camera's neighbourhood), using every
@@ -400,18 +386,7 @@ fn calibrate_intrinsics_refuses_what_render_refuses() {
     ];
     for (text, key) in &edits {
         std::fs::write(dir.path().join("k.toml"), text).unwrap();
-        let calibrate = [
-            "calibrate",
-            "cube.h5",
-            "--mesh",
-            "cap/scene.glb",
-            "--points",
-            "cap/fiducials.toml",
-            "--intrinsics",
-            "k.toml",
-            "--out",
-            "out.toml",
-        ];
+        let calibrate = calibrate_args(&["--intrinsics", "k.toml", "--out", "out.toml"]);
         cli::refused_unchanged(dir.path(), &calibrate, &[], &["k.toml", *key]);
         // render refuses the same file for the same key.
         let args = render_args("k.toml", &["--capture-view"]);
@@ -437,18 +412,7 @@ fn non_finite_float_flags_are_refused_naming_the_flag() {
         a
     };
     let calibrate = |extra: &[&'static str]| -> Vec<&'static str> {
-        let mut a = vec![
-            "calibrate",
-            "cube.h5",
-            "--mesh",
-            "cap/scene.glb",
-            "--points",
-            "cap/fiducials.toml",
-            "--out",
-            "out.toml",
-        ];
-        a.extend_from_slice(extra);
-        a
+        calibrate_args(&[&["--out", "out.toml"][..], extra].concat())
     };
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (render(&["--dolly", "inf"]), "--dolly"),

@@ -5,60 +5,40 @@
 //! output intact and no temporary file, and a SIGKILLed run's temporary files are removed by
 //! the next run on the same destination.
 
-use super::{case, cli, fixture};
-use cli::{femto_env, refused_unchanged, Snapshot};
+use super::{case, cli, laser_flag};
+use cli::{femto_env, refused_unchanged, FemtoCmd, Snapshot};
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
-
-/// `--laser=X,Y,Z` of the fixture's capture.
-fn laser_flag() -> String {
-    let truth =
-        femto::camera::Calibration::load(&fixture().root.join("cap/calibration.toml")).unwrap();
-    let l = truth.laser_m;
-    format!("--laser={},{},{}", l.x, l.y, l.z)
-}
 
 /// `femto calibrate` of the fixture's cube with `--out out`.
 fn calibrate_args(out: &str) -> Vec<String> {
-    [
-        "calibrate",
-        "cube.h5",
-        "--mesh",
-        "cap/scene.glb",
-        "--points",
-        "cap/fiducials.toml",
-        &laser_flag(),
-        "--out",
-        out,
-    ]
-    .map(String::from)
-    .to_vec()
+    let laser = laser_flag();
+    super::calibrate_args(&[&laser, "--out", out])
+        .into_iter()
+        .map(String::from)
+        .collect()
 }
 
 /// `femto render` of the fixture's world cube: a small dolly of `frames` frames.
 fn render_args(frames: usize, format: &str, out: &str) -> Vec<String> {
-    [
-        "render",
-        "--cube",
-        "world.h5",
-        "--calibration",
-        "cube.calibration.toml",
-        "--mesh",
-        "cap/scene.glb",
+    let frames = frames.to_string();
+    let extra = [
         "--dolly",
         "0.5",
         "--size",
         "32x24",
         "--frame-count",
-        &frames.to_string(),
+        &frames,
         "--format",
         format,
         "--out",
         out,
-    ]
-    .map(String::from)
-    .to_vec()
+    ];
+    super::render_args("cube.calibration.toml", &extra)
+        .into_iter()
+        .map(String::from)
+        .collect()
 }
 
 fn strs(v: &[String]) -> Vec<&str> {
@@ -269,8 +249,7 @@ fn unwarp_out_onto_the_cube_is_refused() {
 /// and stderr.
 fn femto_with_file_limit(dir: &Path, args: &[&str], max_bytes: u64) -> (Option<i32>, String) {
     use std::os::unix::process::CommandExt;
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_femto"));
-    cmd.args(args).current_dir(dir);
+    let mut cmd = FemtoCmd::new().args(args).current_dir(dir).command();
     // SAFETY: only async-signal-safe calls (setrlimit, signal) between fork and exec.
     unsafe {
         cmd.pre_exec(move || {
@@ -353,9 +332,10 @@ fn a_full_disk_keeps_every_earlier_output_and_leaves_no_temp() {
 /// (the run is under way and has something to clean), let it work 0.5 s more, then send
 /// `signal`; returns the exit code (minus the signal's number for a run the signal killed).
 fn interrupted(dir: &Path, args: &[&str], dest: &str, signal: i32) -> Option<i32> {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_femto"))
+    let mut child = FemtoCmd::new()
         .args(args)
         .current_dir(dir)
+        .command()
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()

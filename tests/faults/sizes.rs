@@ -6,7 +6,8 @@
 //! The runs set `FEMTO_MEMORY_LIMIT_BYTES` to 2 GB so the refusals do not depend on this
 //! machine's memory.
 
-use super::{case, cli};
+use super::{case, cli, render_args};
+use cli::FemtoCmd;
 use femto::container::{CubeReader, CubeWriter, DataBuf, Provenance};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -299,22 +300,18 @@ fn render_size_inside_its_cap_but_beyond_the_memory_is_refused() {
     let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
     let err = refused_fast(
         dir.path(),
-        &[
-            "render",
-            "--cube",
-            "world.h5",
-            "--calibration",
+        &render_args(
             "cube.calibration.toml",
-            "--mesh",
-            "cap/scene.glb",
-            "--capture-view",
-            "--size",
-            "16384x16384",
-            "--frame-count",
-            "2",
-            "--out",
-            "r.gif",
-        ],
+            &[
+                "--capture-view",
+                "--size",
+                "16384x16384",
+                "--frame-count",
+                "2",
+                "--out",
+                "r.gif",
+            ],
+        ),
         &["--size", "16384x16384"],
     );
     assert!(err.contains("GB"), "{err}");
@@ -325,10 +322,11 @@ fn render_size_inside_its_cap_but_beyond_the_memory_is_refused() {
 /// exits; the high-water mark only grows, so the last reading is the peak but for the last
 /// millisecond, when the stage's buffers are already freed).
 fn peak_memory_bytes(dir: &Path, args: &[&str]) -> (Option<i32>, u64) {
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_femto"))
+    let mut child = FemtoCmd::new()
         .args(args)
         .env(LIMIT.0, LIMIT.1)
         .current_dir(dir)
+        .command()
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -391,22 +389,18 @@ fn render_memory_estimate_is_within_a_factor_two_of_the_peak() {
     let est = femto::pipeline::render::memory_estimate(meta.nx, meta.ny, meta.axis.nt, w, h);
     let (code, peak) = peak_memory_bytes(
         dir.path(),
-        &[
-            "render",
-            "--cube",
-            "world.h5",
-            "--calibration",
+        &render_args(
             "cube.calibration.toml",
-            "--mesh",
-            "cap/scene.glb",
-            "--capture-view",
-            "--size",
-            &format!("{w}x{h}"),
-            "--frame-count",
-            "1",
-            "--out",
-            "r.gif",
-        ],
+            &[
+                "--capture-view",
+                "--size",
+                &format!("{w}x{h}"),
+                "--frame-count",
+                "1",
+                "--out",
+                "r.gif",
+            ],
+        ),
     );
     assert_eq!(code, Some(0));
     eprintln!("render: estimate {est:.3e} B, peak {peak} B");
@@ -437,20 +431,10 @@ fn render_threads_beyond_any_machine_are_refused() {
     for threads in ["0", "1000000"] {
         refused_fast(
             dir.path(),
-            &[
-                "render",
-                "--cube",
-                "world.h5",
-                "--calibration",
+            &render_args(
                 "cube.calibration.toml",
-                "--mesh",
-                "cap/scene.glb",
-                "--capture-view",
-                "--threads",
-                threads,
-                "--out",
-                "r.gif",
-            ],
+                &["--capture-view", "--threads", threads, "--out", "r.gif"],
+            ),
             &["--threads", threads, "1024"],
         );
     }
