@@ -620,7 +620,7 @@ fn info_describes_a_cube_as_json() {
     container::write_groups(&path, &[("registration", registration(nx, ny, 1.0))]).unwrap();
 
     let out = FemtoCmd::new()
-        .args(&["info", path.to_str().unwrap(), "--json"])
+        .args(["info", path.to_str().unwrap(), "--json"])
         .output();
     assert!(
         out.status.success(),
@@ -661,7 +661,7 @@ fn info_describes_a_cube_as_json() {
     assert_eq!(j["notes"]["ingest.dark_frame"], "dark.png");
 
     let out = FemtoCmd::new()
-        .args(&["info", path.to_str().unwrap()])
+        .args(["info", path.to_str().unwrap()])
         .output();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
@@ -681,9 +681,7 @@ fn info_rejects_other_files_in_one_line() {
         (&txt, "not a femto cube (HDF5) file"),
         (&missing, "No such file"),
     ] {
-        let out = FemtoCmd::new()
-            .args(&["info", p.to_str().unwrap()])
-            .output();
+        let out = FemtoCmd::new().args(["info", p.to_str().unwrap()]).output();
         assert_eq!(out.status.code(), Some(2));
         let err = String::from_utf8(out.stderr).unwrap();
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");

@@ -429,12 +429,12 @@ fn glob_printf_and_manifest_inputs_agree() {
     assert!(worst_abs <= 0.5 * VPC + 1e-4, "{worst_abs}");
     // Without a manifest a missing time axis is refused, and a contradicting one too.
     let out = FemtoCmd::new()
-        .args(&["ingest", &glob, "-o", s(&b)])
+        .args(["ingest", &glob, "-o", s(&b)])
         .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps"));
     let out = FemtoCmd::new()
-        .args(&["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"])
+        .args(["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"])
         .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps 2.5: contradicts manifest"));

@@ -532,7 +532,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
 
     // --- unwarp with the fitted registration: world pulses at t0 + eta |laser - p| / c.
     let world = fx.path("world.h5");
-    cli::femto_ok(&["unwarp", s(&cam), "--out", s(&world)]).stdout;
+    cli::femto_ok(&["unwarp", s(&cam), "--out", s(&world)]);
     let wc = container::read_cube(&world).unwrap();
     assert_eq!(wc.frame, TimeFrame::World);
     let wmask = wc.mask.clone().unwrap();
@@ -593,8 +593,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
         s(&true_toml),
         "--mesh",
         s(&glb),
-    ])
-    .stdout;
+    ]);
     let wt = container::read_cube(&world_true).unwrap();
     let expected = pulse_cube(&fx.points, wt.axis, TimeFrame::World, |p| {
         world_arrival_ps(cal, p)
@@ -631,8 +630,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
         "camera",
         "--out",
         s(&back),
-    ])
-    .stdout;
+    ]);
     let bc = container::read_cube(&back).unwrap();
     assert_eq!(bc.frame, TimeFrame::Camera);
     let off = ((fx.cube.axis.t0_ps - bc.axis.t0_ps) / DT_PS).round() as i64;
@@ -665,9 +663,9 @@ fn calibrate_unwarp_pyramid_info_chain() {
     assert!(!info_json(&world_true)["registration"]["calibration"].is_null());
 
     // --- pyramid in the cube (3 levels) and in a side file (all levels).
-    cli::femto_ok(&["pyramid", s(&world_true), "--levels", "3"]).stdout;
+    cli::femto_ok(&["pyramid", s(&world_true), "--levels", "3"]);
     let side = fx.path("side.h5");
-    cli::femto_ok(&["pyramid", s(&world_true), "--side-file", s(&side)]).stdout;
+    cli::femto_ok(&["pyramid", s(&world_true), "--side-file", s(&side)]);
     let nt = wt.axis.nt;
     let top = (nt as f64).log2().ceil() as usize;
     let stored = femto::store::pyramid::read_pyramid(&world_true).unwrap();
@@ -889,8 +887,7 @@ fn calibrate_with_unknown_intrinsics_flags_the_outlier() {
         "--centred-principal-point",
         "--out",
         s(&constrained),
-    ])
-    .stdout;
+    ]);
     let c = Calibration::load(&constrained).unwrap();
     assert_eq!(c.intrinsics.fx, c.intrinsics.fy);
     assert_eq!(
@@ -1112,8 +1109,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         "16",
         "--bounces",
         "2",
-    ])
-    .stdout;
+    ]);
     let truth_cal = Calibration::load(&cap.join("calibration.toml")).unwrap();
     let camera = cap.join("truth_camera.h5");
     let l = truth_cal.laser_m;
@@ -1145,8 +1141,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         &format!("{},{},{}", l.x, l.y, l.z),
         "--eta",
         &truth_cal.eta.to_string(),
-    ])
-    .stdout;
+    ]);
     let fitted = Calibration::load(&cap.join("truth_camera.calibration.toml")).unwrap();
     let dt_ps = container::read_meta(&camera).unwrap().axis.dt_ps;
     let dpos_mm = 1e3 * (fitted.pose.position_m - truth_cal.pose.position_m).norm();
@@ -1180,8 +1175,7 @@ fn simulated_capture_calibrates_and_unwarps_to_the_world_time_truth() {
         &truth_world.axis.nt.to_string(),
         "--dt-ps",
         &truth_world.axis.dt_ps.to_string(),
-    ])
-    .stdout;
+    ]);
     let got = container::read_cube(&world).unwrap();
     assert_eq!(got.axis, truth_world.axis);
     let cam_cube = container::read_cube(&camera).unwrap();

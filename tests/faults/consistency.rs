@@ -35,11 +35,6 @@ fn to_png8(path: &Path) {
     assert_eq!(back.color(), image::ColorType::L8);
 }
 
-/// An 8-bit PNG among the 16-bit scanlines (read through the general reader) is refused,
-/// naming the file, its depth and the capture's; so is the converse, an 8-bit first
-/// scanline followed by 16-bit ones (read through ingest's 16-bit fast path). Before,
-/// both were ingested with exit 0, the 8-bit rows 256 times too dim.
-
 /// Render flags for a small two-frame dolly into `out.gif`.
 const SMALL_DOLLY: [&str; 8] = [
     "--dolly",
@@ -51,6 +46,11 @@ const SMALL_DOLLY: [&str; 8] = [
     "--out",
     "out.gif",
 ];
+
+/// An 8-bit PNG among the 16-bit scanlines (read through the general reader) is refused,
+/// naming the file, its depth and the capture's; so is the converse, an 8-bit first
+/// scanline followed by 16-bit ones (read through ingest's 16-bit fast path). Before,
+/// both were ingested with exit 0, the 8-bit rows 256 times too dim.
 #[test]
 fn a_scanline_of_another_bit_depth_is_refused() {
     for which in [2usize, 0] {
