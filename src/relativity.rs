@@ -311,47 +311,18 @@ pub fn sensor_velocity(
     omega.cross(&Vector3::new(offset.x, offset.y, 0.0))
 }
 
+/// The tests' Lorentz oracle, written independently of this module.
+#[cfg(test)]
+#[path = "../tests/common/lorentz.rs"]
+mod lorentz_oracle;
+
 #[cfg(test)]
 mod tests {
+    use super::lorentz_oracle::{lorentz_world_to_moving, photon_camera_to_world};
     use super::*;
-    use nalgebra::{Matrix4, Vector4};
+    use nalgebra::Vector4;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
-
-    /// General Lorentz boost matrix (contravariant components, c = 1) from the world frame to a
-    /// frame moving with velocity `v` in the world: x'^mu = L^mu_nu x^nu.
-    fn lorentz_world_to_moving(v: &Vector3<f64>) -> Matrix4<f64> {
-        let b2 = v.norm_squared();
-        let g = 1.0 / (1.0 - b2).sqrt();
-        let mut m = Matrix4::identity();
-        m[(0, 0)] = g;
-        for i in 0..3 {
-            m[(0, i + 1)] = -g * v[i];
-            m[(i + 1, 0)] = -g * v[i];
-            for j in 0..3 {
-                let k = if b2 > 0.0 {
-                    (g - 1.0) * v[i] * v[j] / b2
-                } else {
-                    0.0
-                };
-                m[(i + 1, j + 1)] = if i == j { 1.0 + k } else { k };
-            }
-        }
-        m
-    }
-
-    /// World direction (towards the source) and D = lambda'/lambda = nu_world / nu_cam of a
-    /// photon seen along camera ray `d_cam` by a camera moving with `v`, by boosting its
-    /// 4-momentum k' = (1, -d_cam) from the camera frame into the world frame.
-    fn boosted_photon(v: &Vector3<f64>, d_cam: &Vector3<f64>) -> (Vector3<f64>, f64) {
-        let k_cam = Vector4::new(1.0, -d_cam.x, -d_cam.y, -d_cam.z);
-        // camera -> world is the boost with velocity -v.
-        let k_world = lorentz_world_to_moving(&(-v)) * k_cam;
-        let nu_world = k_world[0];
-        let p_world = Vector3::new(k_world[1], k_world[2], k_world[3]);
-        // The photon propagates along p; the ray towards its source is -p.
-        (-p_world / p_world.norm(), nu_world / k_cam[0])
-    }
 
     fn random_unit(rng: &mut Pcg64) -> Vector3<f64> {
         loop {
@@ -379,7 +350,7 @@ mod tests {
             let v = random_unit(&mut rng) * speed;
             let d_cam = random_unit(&mut rng);
             let boost = Boost::new(v).unwrap();
-            let (d_expect, dop_expect) = boosted_photon(&v, &d_cam);
+            let (d_expect, dop_expect) = photon_camera_to_world(&v, &d_cam);
             let d_world = boost.aberrate(&d_cam);
             let dop = boost.doppler_factor(&d_cam);
             assert!(

@@ -1,14 +1,17 @@
 //! Shared fixtures of the renderer's tests and benchmark: small meshes built from primitives,
 //! synthetic world-time cubes made by casting the capture camera's pixel rays, and an
-//! independent general Lorentz boost of photon 4-momenta.
+//! independent Lorentz boost of photon 4-momenta (`lorentz`).
 #![allow(dead_code)]
+
+pub mod lorentz;
+pub use lorentz::{photon_camera_to_world, photon_world_to_camera};
 
 use femto::camera::{Calibration, Intrinsics, Pose};
 use femto::cube::{Cube, TimeAxis, TimeFrame};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::{Ray, TriangleMesh};
 use femto::units::C_M_PER_PS;
-use nalgebra::{Matrix4, Point3, Vector3, Vector4};
+use nalgebra::{Point3, Vector3};
 
 /// A quad as two triangles (corners in order around the quad).
 pub fn quad(c: [[f32; 3]; 4]) -> TriangleMesh {
@@ -194,47 +197,6 @@ pub fn single_bounce_energy(
             / (sigma_ps * (2.0 * std::f64::consts::PI).sqrt());
         cos / (r * r) * density * (b - a)
     }
-}
-
-/// General Lorentz boost (contravariant components, c = 1) from the world frame to a frame
-/// moving with velocity `v` (over c) in the world.
-pub fn lorentz_world_to_moving(v: &Vector3<f64>) -> Matrix4<f64> {
-    let b2 = v.norm_squared();
-    let g = 1.0 / (1.0 - b2).sqrt();
-    let mut m = Matrix4::identity();
-    m[(0, 0)] = g;
-    for i in 0..3 {
-        m[(0, i + 1)] = -g * v[i];
-        m[(i + 1, 0)] = -g * v[i];
-        for j in 0..3 {
-            let k = if b2 > 0.0 {
-                (g - 1.0) * v[i] * v[j] / b2
-            } else {
-                0.0
-            };
-            m[(i + 1, j + 1)] = if i == j { 1.0 + k } else { k };
-        }
-    }
-    m
-}
-
-/// A photon arriving at a camera moving with `v`, from world direction `n_world` (unit, from
-/// the camera towards the source): its direction towards the source in the camera frame and
-/// `D = nu_world / nu_camera = lambda_camera / lambda_world`.
-pub fn photon_world_to_camera(v: &Vector3<f64>, n_world: &Vector3<f64>) -> (Vector3<f64>, f64) {
-    let k_world = Vector4::new(1.0, -n_world.x, -n_world.y, -n_world.z);
-    let k_cam = lorentz_world_to_moving(v) * k_world;
-    let p = Vector3::new(k_cam[1], k_cam[2], k_cam[3]);
-    (-p / p.norm(), k_world[0] / k_cam[0])
-}
-
-/// The same photon the other way: camera-frame direction `d_cam` (towards the source) to the
-/// world-frame direction and `D`.
-pub fn photon_camera_to_world(v: &Vector3<f64>, d_cam: &Vector3<f64>) -> (Vector3<f64>, f64) {
-    let k_cam = Vector4::new(1.0, -d_cam.x, -d_cam.y, -d_cam.z);
-    let k_world = lorentz_world_to_moving(&(-v)) * k_cam;
-    let p = Vector3::new(k_world[1], k_world[2], k_world[3]);
-    (-p / p.norm(), k_world[0] / k_cam[0])
 }
 
 /// A world-time cube as the unwarp of a streak capture leaves it. Capture pixel `(x, y)`,
