@@ -4,6 +4,7 @@
 
 mod common;
 
+use common::lorentz::{photon_camera_to_world, photon_world_to_camera};
 use common::*;
 #[path = "common/cli.rs"]
 mod cli;

@@ -4,7 +4,6 @@
 #![allow(dead_code)]
 
 pub mod lorentz;
-pub use lorentz::{photon_camera_to_world, photon_world_to_camera};
 
 use femto::camera::{Calibration, Intrinsics, Pose};
 use femto::cube::{Cube, TimeAxis, TimeFrame};
