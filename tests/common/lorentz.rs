@@ -59,12 +59,12 @@ pub fn photon_camera_to_world(v: &Vector3<f64>, d_cam: &Vector3<f64>) -> (Vector
 
 #[cfg(test)]
 mod oracle_checks {
-    use super::*;
-
     /// The oracle's own sanity: it preserves the Minkowski norm, a boost along +x is the
     /// 1905 form, and boosting by v then by -v is the identity.
     #[test]
     fn the_oracle_is_a_lorentz_transformation() {
+        use super::lorentz_world_to_moving;
+        use nalgebra::{Matrix4, Vector3, Vector4};
         let eta = Matrix4::from_diagonal(&Vector4::new(1.0, -1.0, -1.0, -1.0));
         for v in [
             Vector3::new(0.3, 0.0, 0.0),
