@@ -69,10 +69,29 @@ pub fn inputs_memory_estimate(nx: usize, ny: usize, nt: usize, build_pyramid: bo
         + cube
 }
 
-/// Peak memory of rendering `width` x `height` frames from a world-time cube of `nx` x `ny`
-/// pixels and `nt` bins whose pyramid is in memory, bytes.
-pub fn memory_estimate(nx: usize, ny: usize, nt: usize, width: usize, height: usize) -> f64 {
-    inputs_memory_estimate(nx, ny, nt, false) + BYTES_PER_FRAME_PIXEL * width as f64 * height as f64
+/// Bytes per pixel of each frame that an MP4 or GIF holds in memory until it is written
+/// whole (a frame sequence streams its frames to disk): about 4 x the 0.27 bytes a pixel of
+/// the demo's H.264 (`fig6_approach.mp4`: 2.45 MB for 120 frames of 320 x 240), and the
+/// 1.5 bytes a pixel of GIF's LZW at its worst (12-bit codes for 8-bit indices).
+fn encoded_bytes_per_pixel(format: VideoFormat) -> f64 {
+    match format {
+        VideoFormat::Mp4 => 1.0,
+        VideoFormat::Gif => 1.5,
+        VideoFormat::PngSequence | VideoFormat::ExrSequence => 0.0,
+    }
+}
+
+/// Peak memory of rendering `frames` frames of `width` x `height` into `format` from a
+/// world-time cube of `nx` x `ny` pixels and `nt` bins whose pyramid is in memory, bytes.
+pub fn memory_estimate(
+    (nx, ny, nt): (usize, usize, usize),
+    (width, height, frames): (usize, usize, usize),
+    format: VideoFormat,
+) -> f64 {
+    let frame_pixels = width as f64 * height as f64;
+    inputs_memory_estimate(nx, ny, nt, false)
+        + BYTES_PER_FRAME_PIXEL * frame_pixels
+        + encoded_bytes_per_pixel(format) * frame_pixels * frames as f64
 }
 
 /// Where the laser wavelength came from.
@@ -475,13 +494,35 @@ pub fn plan(
         });
     }
     let w = scene.world;
+    let in_memory = encoded_bytes_per_pixel(options.format) > 0.0;
     check_memory(
-        memory_estimate(w.nx, w.ny, w.axis.nt, spec.width, spec.height),
-        format_args!(
-            "rendering {}x{} frames from a {} x {} x {} cube",
-            spec.width, spec.height, w.nx, w.ny, w.axis.nt
+        memory_estimate(
+            (w.nx, w.ny, w.axis.nt),
+            (spec.width, spec.height, spec.frames),
+            options.format,
         ),
-        "lower --size",
+        format_args!(
+            "rendering {} frames of {}x{} from a {} x {} x {} cube{}",
+            spec.frames,
+            spec.width,
+            spec.height,
+            w.nx,
+            w.ny,
+            w.axis.nt,
+            if in_memory {
+                format!(
+                    " into an {} held in memory until it is written",
+                    options.format
+                )
+            } else {
+                String::new()
+            }
+        ),
+        if in_memory {
+            "lower --size or --frame-count, or render a frame sequence (--format png)"
+        } else {
+            "lower --size"
+        },
     )?;
     if options.format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         return Err(StageError::Option {

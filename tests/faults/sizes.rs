@@ -386,7 +386,11 @@ fn render_memory_estimate_is_within_a_factor_two_of_the_peak() {
     let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
     let meta = femto::container::read_meta(&dir.path().join("world.h5")).unwrap();
     let (w, h) = (1024, 1024);
-    let est = femto::pipeline::render::memory_estimate(meta.nx, meta.ny, meta.axis.nt, w, h);
+    let est = femto::pipeline::render::memory_estimate(
+        (meta.nx, meta.ny, meta.axis.nt),
+        (w, h, 1),
+        femto::video::VideoFormat::Gif,
+    );
     let (code, peak) = peak_memory_bytes(
         dir.path(),
         &render_args(
@@ -470,4 +474,47 @@ fn an_hdf5_stack_beyond_the_memory_is_refused_before_reading() {
         assert!(err.contains(name), "names {name}: {err}");
     }
     assert!(before.changes(&cli::Snapshot::of(dir.path())).is_empty());
+}
+
+/// An MP4 or GIF is held in memory until it is written whole: its frames count in the
+/// render's memory estimate (they did not). With a limit that one frame fits, 4000 frames of
+/// 320 x 240 (77 MB as H.264 at the estimate's 1 byte a pixel) are refused for MP4, naming
+/// `--frame-count` and the frame sequence that streams instead; a PNG sequence of the same
+/// frames passes the memory check (it is then refused for its folder, which is not a folder).
+#[test]
+fn render_counts_the_frames_an_mp4_holds_in_memory() {
+    let dir = case(&["world.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let meta = femto::container::read_meta(&dir.path().join("world.h5")).unwrap();
+    let one = femto::pipeline::render::memory_estimate(
+        (meta.nx, meta.ny, meta.axis.nt),
+        (320, 240, 1),
+        femto::video::VideoFormat::Mp4,
+    );
+    let limit = format!("{}", (one + 20e6) as u64);
+    let env = [("FEMTO_MEMORY_LIMIT_BYTES", limit.as_str())];
+    let flags = |out: &'static str| {
+        let mut a = render_args(
+            "cube.calibration.toml",
+            &[
+                "--dolly",
+                "0.5",
+                "--size",
+                "320x240",
+                "--frame-count",
+                "4000",
+            ],
+        );
+        a.extend_from_slice(&["--out", out]);
+        a
+    };
+    let err = cli::refused_unchanged(
+        dir.path(),
+        &flags("long.mp4"),
+        &env,
+        &["--frame-count", "--format png", "MP4 held in memory"],
+    );
+    assert!(err.contains("4000 frames of 320x240"), "{err}");
+    std::fs::write(dir.path().join("file"), b"not a folder").unwrap();
+    let err = cli::refused_unchanged(dir.path(), &flags("file"), &env, &["file"]);
+    assert!(!err.contains("memory"), "a frame sequence streams: {err}");
 }
