@@ -418,6 +418,7 @@ pub fn read_group(path: &Path, name: &str) -> Result<GroupData> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::container::schema::{AttrValue, DataBuf};
     use crate::container::update::GroupUpdate;
     use crate::container::write::camera_writer;
 
