@@ -21,6 +21,9 @@ use rust_hdf5::FilterPipeline;
 /// `tools/bench_ingest_results.md`): miniz_oxide at level 1 (its fast greedy mode beat
 /// libdeflate's level 1 by 1.5x in CPU for 5 % more bytes), libdeflate at every other level
 /// (at level 4, 2.2x faster than miniz_oxide and 5 % smaller).
+///
+/// [`CubeWriter::row_compressor`]: super::CubeWriter::row_compressor
+/// [`CubeWriter::write_compressed_row`]: super::CubeWriter::write_compressed_row
 #[derive(Clone, Debug)]
 pub struct RowCompressor {
     pub(super) nx: usize,

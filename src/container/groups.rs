@@ -1,5 +1,7 @@
 //! Reading extra groups: [`GroupReader`] of any HDF5 file (a cube file or a side file), which
-//! a [`CubeReader`](super::CubeReader) owns for its groups.
+//! a [`CubeReader`] owns for its groups.
+//!
+//! [`CubeReader`]: super::CubeReader
 
 use super::attributes::read_group_attrs;
 use super::error::{h5, invalid, ContainerError, Result};
@@ -15,6 +17,8 @@ use std::path::PathBuf;
 /// Reader of the extra groups of any HDF5 file: a cube file, or a side file that holds
 /// groups only (e.g. `femto pyramid --side-file`), which [`CubeReader`] refuses for lack
 /// of a `/cube`.
+///
+/// [`CubeReader`]: super::CubeReader
 pub struct GroupReader {
     pub(super) file: H5File,
     pub(super) path: PathBuf,

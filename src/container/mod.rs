@@ -22,7 +22,7 @@
 //! | module | what it holds |
 //! |---|---|
 //! | `error` | [`ContainerError`] and the helpers that name the file in every error |
-//! | `schema` | dataset and attribute names, chunk and slab sizes, the value types ([`CubeMeta`], [`DataBuf`], [`GroupData`], [`DatasetSpec`]) and the element types on disk |
+//! | `schema` | names, chunk and slab sizes, types: [`CubeMeta`], [`DataBuf`], [`GroupData`] |
 //! | `open` | opening HDF5 files and datasets for reading ([`is_hdf5`]) |
 //! | `write` | the cube writer: [`write_cube`], [`CubeWriter`] and the sink under both |
 //! | `compression` | the shuffle + deflate chunk compressor ([`RowCompressor`]) |

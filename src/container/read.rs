@@ -262,6 +262,8 @@ impl CubeReader {
     /// How `/cube` is stored: shuffle + deflate at its level when its filters hold deflate
     /// (a cube of another tool's with deflate alone is re-stored with shuffle too), else
     /// [`CubeCompression::None`]. Stages that rewrite a cube keep this unless told otherwise.
+    ///
+    /// [`GroupUpdate::open`]: super::GroupUpdate::open
     pub fn stored_compression(&self) -> CubeCompression {
         match self.cube.filters() {
             Ok(filters) => {

@@ -14,6 +14,8 @@ pub const CUBE_DATASET: &str = "cube";
 pub const MASK_DATASET: &str = "mask";
 /// Units written by [`write_cube`] when the caller names none: the cube holds relative
 /// signal per bin with no absolute calibration.
+///
+/// [`write_cube`]: super::write_cube
 pub const DEFAULT_UNITS: &str = "arbitrary";
 /// String attribute on each extra group holding all its attributes, typed, as JSON.
 ///
@@ -363,6 +365,9 @@ impl DataBuf {
 
 /// A dataset of an extra group that is written by row slabs ([`GroupUpdate::begin_group`],
 /// [`CubeWriter::begin_group`]).
+///
+/// [`GroupUpdate::begin_group`]: super::GroupUpdate::begin_group
+/// [`CubeWriter::begin_group`]: super::CubeWriter::begin_group
 #[derive(Clone, Debug, PartialEq)]
 pub struct DatasetSpec {
     /// Name inside the group.

@@ -106,6 +106,8 @@ impl UpdateTarget {
 /// onto it by [`GroupUpdate::finish`]; dropping an unfinished update deletes the temporary file
 /// and leaves the old file as it was. For a cube, the cube and mask are copied when the update
 /// is opened, and the groups that were not rewritten when it is finished.
+///
+/// [`CubeWriter`]: super::CubeWriter
 pub struct GroupUpdate {
     // Field order matters: the HDF5 file is closed before the temporary path is deleted.
     groups: GroupSinks,
@@ -176,6 +178,8 @@ impl GroupUpdate {
 
     /// Start a new side file at `path` that will hold groups only (no `/cube`); read it back
     /// with [`GroupReader`].
+    ///
+    /// [`GroupReader`]: super::GroupReader
     pub fn side_file(path: &Path) -> Result<GroupUpdate> {
         let out = create_atomic(path)?;
         let file = H5File::options()

@@ -246,6 +246,8 @@ impl CubeSink {
 
     /// Store row `y` from chunks already filtered by this sink's pipeline (bytes and filter
     /// mask of each, as [`CubeReader::read_raw_row`] gives them).
+    ///
+    /// [`CubeReader::read_raw_row`]: super::CubeReader::read_raw_row
     pub(super) fn write_raw_row(&mut self, y: usize, chunks: &[(Vec<u8>, u32)]) -> Result<()> {
         for (c, (bytes, mask)) in chunks.iter().enumerate() {
             self.cube
