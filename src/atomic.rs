@@ -7,6 +7,12 @@
 //! them; one left by a run that was killed outright (SIGKILL, the OOM killer) is recognised by
 //! its name and removed by the next run that writes the same destination, once no process of
 //! that id is alive.
+//!
+//! Files go through one type, [`AtomicFile`] (stage, write, commit by rename; dropped
+//! uncommitted, removed), or its one-call forms [`write_atomically`] and
+//! [`write_atomically_with`]; folders (a frame sequence, a capture) through [`TempDir`] and
+//! [`replace_dir`]. Both keep their temporary path in one private `Staged` value, which
+//! removes and unregisters it when dropped.
 
 use crate::interrupt::{self, Registration};
 use std::io;
@@ -21,38 +27,120 @@ where
     F: FnOnce(&Path) -> Result<T, E>,
     E: From<io::Error>,
 {
-    let tmp = temp_beside(dest)?;
-    let value = write(&tmp)?;
-    persist(tmp, dest)?;
+    write_atomically_with(dest, E::from, write)
+}
+
+/// [`write_atomically`] for a writer whose error type has no `From<io::Error>`: `io` turns a
+/// failure to create or rename the temporary file into the writer's error (naming `dest`,
+/// typically).
+pub fn write_atomically_with<T, E>(
+    dest: &Path,
+    io: impl Fn(io::Error) -> E,
+    write: impl FnOnce(&Path) -> Result<T, E>,
+) -> Result<T, E> {
+    let file = AtomicFile::create(dest).map_err(&io)?;
+    let value = write(file.path())?;
+    file.commit().map_err(io)?;
     Ok(value)
 }
 
-/// A temporary file beside an output, removed when dropped unless [`persist`]ed.
+/// A temporary path (file or folder) registered with [`crate::interrupt`]: removed, and
+/// unregistered, when dropped unless [`Staged::release`]d. What [`AtomicFile`] and
+/// [`TempDir`] share.
 #[derive(Debug)]
-pub struct TempFile {
+struct Staged {
     path: PathBuf,
     registration: Option<Registration>,
+    is_dir: bool,
 }
 
-impl std::ops::Deref for TempFile {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.path
-    }
-}
-
-impl AsRef<Path> for TempFile {
-    fn as_ref(&self) -> &Path {
-        &self.path
-    }
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
+impl Staged {
+    /// Unregister the path and keep it: it has been renamed into place.
+    fn release(&mut self) {
         if let Some(r) = self.registration.take() {
-            let _ = std::fs::remove_file(&self.path);
             interrupt::unregister(r);
         }
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some(r) = self.registration.take() {
+            let _ = if self.is_dir {
+                std::fs::remove_dir_all(&self.path)
+            } else {
+                std::fs::remove_file(&self.path)
+            };
+            interrupt::unregister(r);
+        }
+    }
+}
+
+/// One output file written atomically: staged under a temporary name beside its
+/// destination (see the module doc), written by path, and renamed onto the destination by
+/// [`AtomicFile::commit`]. Dropped uncommitted (a write failed, a command gave up), the
+/// temporary file is removed and any earlier file at the destination stays as it was.
+///
+/// [`write_atomically`] is the one-call form; a writer that holds its output open across
+/// calls (a streamed cube), or a command that must commit several outputs together, keeps
+/// the `AtomicFile`.
+#[derive(Debug)]
+pub struct AtomicFile {
+    staged: Staged,
+    dest: PathBuf,
+}
+
+impl AtomicFile {
+    /// A new, empty temporary file beside `dest`. No handle is kept, so writers that open
+    /// by path work.
+    pub fn create(dest: &Path) -> io::Result<AtomicFile> {
+        let (path, registration) = create_beside(dest, |p| {
+            std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(p)
+                .map(drop)
+        })?;
+        Ok(AtomicFile {
+            staged: Staged {
+                path,
+                registration: Some(registration),
+                is_dir: false,
+            },
+            dest: dest.to_path_buf(),
+        })
+    }
+
+    /// A temporary file beside `dest` holding `bytes`, for an output that must appear
+    /// together with others: [`AtomicFile::commit`] it once everything else has succeeded.
+    pub fn stage(dest: &Path, bytes: &[u8]) -> io::Result<AtomicFile> {
+        let file = AtomicFile::create(dest)?;
+        std::fs::write(file.path(), bytes)?;
+        Ok(file)
+    }
+
+    /// The temporary path, to write.
+    pub fn path(&self) -> &Path {
+        &self.staged.path
+    }
+
+    /// The destination the file is committed to.
+    pub fn dest(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Rename the temporary file onto the destination, as an ordinary (0644) file, inside a
+    /// [`interrupt::commit`] section.
+    pub fn commit(mut self) -> io::Result<()> {
+        let _commit = interrupt::commit();
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&self.staged.path, std::fs::Permissions::from_mode(0o644))?;
+        }
+        std::fs::rename(&self.staged.path, &self.dest)?;
+        self.staged.release();
+        Ok(())
     }
 }
 
@@ -60,22 +148,12 @@ impl Drop for TempFile {
 /// [`replace_dir`] put it in place.
 #[derive(Debug)]
 pub struct TempDir {
-    path: PathBuf,
-    registration: Option<Registration>,
+    staged: Staged,
 }
 
 impl TempDir {
     pub fn path(&self) -> &Path {
-        &self.path
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if let Some(r) = self.registration.take() {
-            let _ = std::fs::remove_dir_all(&self.path);
-            interrupt::unregister(r);
-        }
+        &self.staged.path
     }
 }
 
@@ -177,55 +255,17 @@ fn create_beside(
     ))
 }
 
-/// A new, empty temporary file in `dest`'s folder (see the module doc for its name), removed
-/// when dropped. No handle is kept, so writers that open by path work.
-pub fn temp_beside(dest: &Path) -> io::Result<TempFile> {
-    let (path, registration) = create_beside(dest, |p| {
-        std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(p)
-            .map(drop)
-    })?;
-    Ok(TempFile {
-        path,
-        registration: Some(registration),
-    })
-}
-
 /// A new, empty temporary folder in `dest`'s folder, for outputs that are folders (a frame
 /// sequence, a capture); put in place by [`replace_dir`], removed when dropped.
 pub fn temp_dir_beside(dest: &Path) -> io::Result<TempDir> {
     let (path, registration) = create_beside(dest, |p| std::fs::create_dir(p))?;
     Ok(TempDir {
-        path,
-        registration: Some(registration),
+        staged: Staged {
+            path,
+            registration: Some(registration),
+            is_dir: true,
+        },
     })
-}
-
-/// Write `bytes` into a temporary file beside `dest` and keep it there, for outputs that
-/// must appear together with others: [`persist`] renames it onto `dest` once everything else
-/// has succeeded; dropping it deletes the temporary file.
-pub fn stage_beside(dest: &Path, bytes: &[u8]) -> io::Result<TempFile> {
-    let tmp = temp_beside(dest)?;
-    std::fs::write(&tmp, bytes)?;
-    Ok(tmp)
-}
-
-/// Rename a temporary file ([`temp_beside`], [`stage_beside`]) onto `dest`, as an ordinary
-/// (0644) file, inside a [`interrupt::commit`] section.
-pub fn persist(mut tmp: TempFile, dest: &Path) -> io::Result<()> {
-    let _commit = interrupt::commit();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp.path, std::fs::Permissions::from_mode(0o644))?;
-    }
-    std::fs::rename(&tmp.path, dest)?;
-    if let Some(r) = tmp.registration.take() {
-        interrupt::unregister(r);
-    }
-    Ok(())
 }
 
 /// Put the finished temporary folder `tmp` in place as `dest`, replacing whatever folder is
@@ -234,6 +274,7 @@ pub fn persist(mut tmp: TempFile, dest: &Path) -> io::Result<()> {
 /// removed under its temporary name, so no moment leaves `dest` missing.
 pub fn replace_dir(mut tmp: TempDir, dest: &Path) -> io::Result<()> {
     let _commit = interrupt::commit();
+    let tmp = &mut tmp.staged;
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
@@ -254,23 +295,19 @@ pub fn replace_dir(mut tmp: TempDir, dest: &Path) -> io::Result<()> {
             return Err(e);
         }
         // `tmp` is unregistered below; the old folder is removed as `tmp` would have been.
-        let old = TempDir {
+        let old = Staged {
             path: aside,
             registration: Some(reg),
+            is_dir: true,
         };
-        if let Some(r) = tmp.registration.take() {
-            interrupt::unregister(r);
-        }
+        tmp.release();
         drop(old);
         return Ok(());
     }
     // After an exchange `tmp.path` holds the old folder: dropping `tmp` removes it.
     if !exists {
-        if let Some(r) = tmp.registration.take() {
-            interrupt::unregister(r);
-        }
+        tmp.release();
     }
-    drop(tmp);
     Ok(())
 }
 
@@ -351,21 +388,64 @@ mod tests {
     fn temps_are_named_registered_and_unregistered() {
         let dir = tempfile::tempdir().unwrap();
         let dest = dir.path().join("c.h5");
-        let tmp = temp_beside(&dest).unwrap();
-        let name = tmp.file_name().unwrap().to_string_lossy().into_owned();
+        let tmp = AtomicFile::create(&dest).unwrap();
+        assert_eq!(tmp.dest(), dest);
+        let name = tmp
+            .path()
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
         let pid = std::process::id();
         assert!(name.starts_with(&format!(".c.h5.femto-{pid}-")), "{name}");
         assert!(name.ends_with(".tmp"), "{name}");
-        assert!(interrupt::registered().contains(&tmp.to_path_buf()));
-        let path = tmp.to_path_buf();
+        assert!(interrupt::registered().contains(&tmp.path().to_path_buf()));
+        let path = tmp.path().to_path_buf();
         drop(tmp);
         assert!(!path.exists());
         assert!(!interrupt::registered().contains(&path));
-        let tmp = stage_beside(&dest, b"x").unwrap();
-        let path = tmp.to_path_buf();
-        persist(tmp, &dest).unwrap();
+        let tmp = AtomicFile::stage(&dest, b"x").unwrap();
+        let path = tmp.path().to_path_buf();
+        tmp.commit().unwrap();
         assert!(!interrupt::registered().contains(&path));
         assert_eq!(names(dir.path()), ["c.h5"]);
+        assert_eq!(std::fs::read(&dest).unwrap(), b"x");
+    }
+
+    /// `write_atomically_with` maps a failure of the temporary file with the caller's `io`
+    /// and passes the writer's own error through, leaving no temporary file either way.
+    #[test]
+    fn write_atomically_with_maps_only_the_temporary_files_errors() {
+        #[derive(Debug, PartialEq)]
+        enum E {
+            Io(String),
+            Writer,
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("no such folder").join("a.gif");
+        let r = write_atomically_with(&missing, |e| E::Io(e.kind().to_string()), |_| Ok(()));
+        assert_eq!(r, Err(E::Io(io::ErrorKind::NotFound.to_string())));
+        let dest = dir.path().join("a.gif");
+        let r: Result<(), E> = write_atomically_with(
+            &dest,
+            |_| unreachable!("the temporary file is fine"),
+            |p| {
+                std::fs::write(p, "half").unwrap();
+                Err(E::Writer)
+            },
+        );
+        assert_eq!(r, Err(E::Writer));
+        assert!(names(dir.path()).is_empty());
+        let n = write_atomically_with(
+            &dest,
+            |e| E::Io(e.to_string()),
+            |p| {
+                std::fs::write(p, "gif").unwrap();
+                Ok(3)
+            },
+        );
+        assert_eq!(n, Ok(3));
+        assert_eq!(names(dir.path()), ["a.gif"]);
     }
 
     #[cfg(unix)]

@@ -26,7 +26,7 @@
 //!
 //! Writers: [`raster::write_png16`] (counts with a recorded value per count),
 //! [`raster::write_exr_f32`] and [`hamamatsu::write_img`] (the real HPD-TA container with a
-//! time table). Every writer goes through [`crate::atomic::write_atomically`].
+//! time table). Every writer goes through [`crate::atomic::write_atomically_with`].
 
 pub mod hamamatsu;
 pub mod raster;
@@ -318,27 +318,14 @@ pub(crate) fn transpose_rows(data: &[f32], width: usize, height: usize) -> Vec<f
     out
 }
 
-/// Run `write` through [`crate::atomic::write_atomically`], naming `dest` in every error.
+/// Run `write` through [`crate::atomic::write_atomically_with`], naming `dest` in every error.
 pub(crate) fn write_file_atomically<T>(
     dest: &Path,
     write: impl FnOnce(&Path) -> Result<T, FormatError>,
 ) -> Result<T, FormatError> {
-    enum Failure {
-        Io(std::io::Error),
-        Format(FormatError),
-    }
-    impl From<std::io::Error> for Failure {
-        fn from(e: std::io::Error) -> Failure {
-            Failure::Io(e)
-        }
-    }
-    crate::atomic::write_atomically(dest, |tmp| write(tmp).map_err(Failure::Format)).map_err(|f| {
-        match f {
-            Failure::Io(source) => FormatError::Io {
-                path: dest.to_path_buf(),
-                source,
-            },
-            Failure::Format(e) => e,
-        }
-    })
+    let io = |source| FormatError::Io {
+        path: dest.to_path_buf(),
+        source,
+    };
+    crate::atomic::write_atomically_with(dest, io, write)
 }

@@ -411,7 +411,7 @@ pub fn write_calibration(
         source,
     };
     let text = format!("{header}{}", result.calibration.to_toml());
-    let staged = crate::atomic::stage_beside(toml_path, text.as_bytes()).map_err(io)?;
+    let staged = crate::atomic::AtomicFile::stage(toml_path, text.as_bytes()).map_err(io)?;
     let group = registration::registration_group(
         &result.registration,
         &result.calibration,
@@ -423,5 +423,5 @@ pub fn write_calibration(
     let cube = update.finish_staged()?;
     let _commit = crate::interrupt::commit();
     cube.persist()?;
-    crate::atomic::persist(staged, toml_path).map_err(io)
+    staged.commit().map_err(io)
 }

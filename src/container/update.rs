@@ -1,0 +1,375 @@
+//! In-place group updates: [`GroupUpdate`] adds or replaces extra groups of a cube file (or
+//! writes a side file of groups only) through a temporary file renamed when done, and
+//! [`write_groups`] does it with whole groups.
+
+use super::attributes::{read_group_attrs, write_group_attrs};
+use super::error::{h5, invalid, Result};
+use super::groups::{dataset_names_in, group_elem, open_group};
+use super::open::open_dataset;
+use super::read::CubeReader;
+use super::schema::{
+    chunk_rows, slab_rows, AttrValue, CubeCompression, DataBuf, DatasetSpec, GroupData,
+    GROUP_DEFLATE_LEVEL,
+};
+use super::sinks::{check_group, create_group_dataset, write_group_rows, GroupSinks};
+use super::write::{commit, create_atomic, CubeAttrs, CubeSink, QuietFile};
+use crate::atomic::AtomicFile;
+use rust_hdf5::format::messages::filter::FILTER_DEFLATE;
+use rust_hdf5::H5File;
+use std::path::Path;
+
+/// Add the given extra groups to the cube at `cube_path`, replacing groups of the same
+/// names, atomically.
+///
+/// A complete new file is written beside the old one (the cube copied slab by slab, other
+/// groups copied row slab by row slab) and renamed onto it, so on failure the old file is
+/// left as it was. [`GroupUpdate`] does the same with groups streamed by rows.
+pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()> {
+    for (i, (name, data)) in groups.iter().enumerate() {
+        check_group(cube_path, name, data)?;
+        if groups[..i].iter().any(|(o, _)| o == name) {
+            return Err(invalid(cube_path, format!("group /{name} given twice")));
+        }
+    }
+    let mut update = GroupUpdate::open(cube_path)?;
+    for (name, data) in groups {
+        update.write_group(name, data)?;
+    }
+    update.finish()
+}
+
+/// Copy every row of group `name` of `reader` into a new group of `file`.
+pub(super) fn copy_group(reader: &CubeReader, file: &H5File, name: &str) -> Result<()> {
+    let path = &reader.path;
+    let e = h5(path);
+    let src = open_group(&reader.file, path, name)?;
+    let dst = file.create_group(name).map_err(&e)?;
+    write_group_attrs(&dst, &read_group_attrs(&src, path, name)?).map_err(&e)?;
+    for ds_name in dataset_names_in(&src, path, name)? {
+        let (shape, _) = reader.group_dataset_shape(name, &ds_name)?;
+        let full = format!("{name}/{ds_name}");
+        let src_ds = open_dataset(&reader.file, path, &full)?;
+        let elem = group_elem(&src_ds, path, &full)?;
+        // Stored as it was: uncompressed, or deflated at its level.
+        let compression = match src_ds
+            .filters()
+            .map_err(&e)?
+            .iter()
+            .find(|f| f.id == FILTER_DEFLATE)
+        {
+            Some(f) => CubeCompression::Deflate(
+                f.cd_values
+                    .first()
+                    .copied()
+                    .unwrap_or(GROUP_DEFLATE_LEVEL)
+                    .min(9),
+            ),
+            None => CubeCompression::None,
+        };
+        let ds = create_group_dataset(&dst, &ds_name, elem, &shape, compression).map_err(&e)?;
+        let row_bytes = shape[1..].iter().product::<usize>() * elem.size();
+        let step = slab_rows(row_bytes, shape[0]);
+        for r0 in (0..shape[0]).step_by(step) {
+            let n = step.min(shape[0] - r0);
+            let slab = reader.read_group_rows(name, &ds_name, r0, n)?;
+            write_group_rows(&ds, &shape, compression, r0, &slab).map_err(&e)?;
+        }
+    }
+    Ok(())
+}
+
+/// What a [`GroupUpdate`] writes into.
+pub(super) enum UpdateTarget {
+    /// A copy of a cube file; its groups not rewritten are copied at the end.
+    Cube {
+        sink: Box<CubeSink>,
+        reader: Box<CubeReader>,
+    },
+    /// A file holding groups only.
+    SideFile { file: QuietFile },
+}
+
+impl UpdateTarget {
+    /// The file being written.
+    fn file(&self) -> &H5File {
+        match self {
+            UpdateTarget::Cube { sink, .. } => &sink.file,
+            UpdateTarget::SideFile { file } => file,
+        }
+    }
+}
+
+/// Adds or replaces extra groups of an existing cube file, or writes a side file that holds
+/// groups only, with datasets streamed by row slabs so that peak memory is one slab.
+///
+/// Like [`CubeWriter`], everything goes to a temporary file beside the destination, renamed
+/// onto it by [`GroupUpdate::finish`]; dropping an unfinished update deletes the temporary file
+/// and leaves the old file as it was. For a cube, the cube and mask are copied when the update
+/// is opened, and the groups that were not rewritten when it is finished.
+///
+/// [`CubeWriter`]: super::CubeWriter
+pub struct GroupUpdate {
+    // Field order matters: the HDF5 file is closed before the temporary path is deleted.
+    groups: GroupSinks,
+    target: UpdateTarget,
+    out: AtomicFile,
+}
+
+impl GroupUpdate {
+    /// Start an update of the cube file at `cube_path` (copying its cube and mask).
+    pub fn open(cube_path: &Path) -> Result<GroupUpdate> {
+        let reader = CubeReader::open(cube_path)?;
+        let out = create_atomic(cube_path)?;
+        let meta = reader.meta.clone();
+        let attrs = CubeAttrs {
+            axis: meta.axis,
+            frame: meta.frame,
+            units: &meta.units,
+            femto_version: meta.femto_version.as_deref(),
+            command_line: meta.command_line.as_deref(),
+            notes: &meta.notes,
+        };
+        // The cube keeps its compression (level included).
+        let compression = reader.stored_compression();
+        let mut sink =
+            CubeSink::create_with(out.path(), cube_path, meta.nx, meta.ny, &attrs, compression)?;
+        let row_len = meta.row_len();
+        // Chunks stored as this sink stores them are copied as they are (no decompression
+        // and recompression); other rows are decoded and written.
+        let cx = chunk_rows(meta.axis.nt * 4, meta.nx);
+        let raw =
+            matches!(sink.compression, CubeCompression::Deflate(_)) && reader.stored_as_written(cx);
+        let rows = slab_rows(row_len * 4, meta.ny);
+        let mut buf = vec![0.0f32; rows * row_len];
+        for y0 in (0..meta.ny).step_by(rows) {
+            let n = rows.min(meta.ny - y0);
+            let copied = raw
+                .then(|| {
+                    (y0..y0 + n)
+                        .map(|y| reader.read_raw_row(y, meta.nx.div_ceil(cx)))
+                        .collect::<Option<Vec<_>>>()
+                })
+                .flatten();
+            match copied {
+                Some(slab) => {
+                    for (y, chunks) in (y0..).zip(&slab) {
+                        sink.write_raw_row(y, chunks)?;
+                    }
+                }
+                None => {
+                    reader.read_rows_into(y0, &mut buf[..n * row_len])?;
+                    sink.write_rows(y0, &buf[..n * row_len])?;
+                }
+            }
+        }
+        drop(buf);
+        if let Some(mask) = reader.read_mask()? {
+            sink.write_mask(&mask)?;
+        }
+        Ok(GroupUpdate {
+            groups: GroupSinks::default(),
+            target: UpdateTarget::Cube {
+                sink: Box::new(sink),
+                reader: Box::new(reader),
+            },
+            out,
+        })
+    }
+
+    /// Start a new side file at `path` that will hold groups only (no `/cube`); read it back
+    /// with [`GroupReader`].
+    ///
+    /// [`GroupReader`]: super::GroupReader
+    pub fn side_file(path: &Path) -> Result<GroupUpdate> {
+        let out = create_atomic(path)?;
+        let file = H5File::options()
+            .best_effort_locking()
+            .create(out.path())
+            .map_err(h5(path))?;
+        Ok(GroupUpdate {
+            groups: GroupSinks::default(),
+            target: UpdateTarget::SideFile {
+                file: QuietFile(Some(file)),
+            },
+            out,
+        })
+    }
+
+    /// Create group `name` with its attributes and empty datasets, to be filled by
+    /// [`GroupUpdate::write_group_rows`]. A group of that name in the old file is replaced.
+    pub fn begin_group(
+        &mut self,
+        name: &str,
+        attrs: &[(String, AttrValue)],
+        datasets: &[DatasetSpec],
+    ) -> Result<()> {
+        let file = self.target.file();
+        self.groups
+            .begin(file, self.out.dest(), name, attrs, datasets)
+    }
+
+    /// Write rows `r0 ..` of dataset `dataset` of group `group` (begun before).
+    pub fn write_group_rows(
+        &mut self,
+        group: &str,
+        dataset: &str,
+        r0: usize,
+        rows: &DataBuf,
+    ) -> Result<()> {
+        self.groups
+            .write_rows(self.out.dest(), group, dataset, r0, rows)
+    }
+
+    /// Write a whole group at once.
+    pub fn write_group(&mut self, name: &str, data: &GroupData) -> Result<()> {
+        let file = self.target.file();
+        self.groups.write_whole(file, self.out.dest(), name, data)
+    }
+
+    /// Check that every row was written, copy the untouched groups of the old cube file,
+    /// close the file and rename it onto the destination.
+    pub fn finish(self) -> Result<()> {
+        self.finish_staged()?.persist()
+    }
+
+    /// [`GroupUpdate::finish`] but the rename: the closed file stays beside the destination
+    /// until [`StagedFile::persist`], for a command that commits several outputs together.
+    pub fn finish_staged(self) -> Result<StagedFile> {
+        let GroupUpdate {
+            groups,
+            target,
+            out,
+        } = self;
+        let written = groups.written.clone();
+        groups.close(out.dest())?;
+        match target {
+            UpdateTarget::Cube { sink, reader } => {
+                for old in &reader.meta.groups {
+                    if !written.contains(old) {
+                        copy_group(&reader, &sink.file, old)?;
+                    }
+                }
+                drop(reader);
+                sink.close()?;
+            }
+            UpdateTarget::SideFile { file } => file.into_inner().close().map_err(h5(out.dest()))?,
+        }
+        Ok(StagedFile { out })
+    }
+}
+
+/// A finished file still under its temporary name beside its destination (dropping it
+/// deletes it).
+pub struct StagedFile {
+    out: AtomicFile,
+}
+
+impl StagedFile {
+    /// Rename the file onto its destination.
+    pub fn persist(self) -> Result<()> {
+        commit(self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::container::error::ContainerError;
+    use crate::container::groups::GroupReader;
+    use crate::container::read::{read_cube, CubeReader};
+    use crate::container::schema::{chunk_rows, GroupElem};
+    use crate::container::write::camera_writer;
+    use crate::cube::TimeAxis;
+
+    /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
+    /// made it (deflate at any level), decoded and written again otherwise (an uncompressed
+    /// cube); the cube, its mask and its compression come back unchanged either way.
+    #[test]
+    fn group_update_copies_the_cube_raw_or_decoded() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nt) = (300, 3, 512);
+        let axis = TimeAxis {
+            t0_ps: 1.0,
+            dt_ps: 2.0,
+            nt,
+        };
+        let data: Vec<f32> = (0..nx * ny * nt).map(|i| (i % 97) as f32 - 3.5).collect();
+        let mask: Vec<u8> = (0..nx * ny).map(|i| u8::from(i % 4 != 0)).collect();
+        for (compression, raw) in [
+            (CubeCompression::Deflate(6), true),
+            (CubeCompression::None, false),
+        ] {
+            let p = dir.path().join(format!("{compression:?}.h5"));
+            let mut w = camera_writer(&p, nx, ny, axis, compression).unwrap();
+            w.write_rows(0, &data).unwrap();
+            w.write_mask(&mask).unwrap();
+            w.finish().unwrap();
+            let cx = chunk_rows(nt * 4, nx);
+            assert!(cx < nx, "the test needs several chunks per row");
+            assert_eq!(CubeReader::open(&p).unwrap().stored_as_written(cx), raw);
+            let mut u = GroupUpdate::open(&p).unwrap();
+            u.begin_group("g", &[], &[DatasetSpec::new("d", &[2, 3], GroupElem::F64)])
+                .unwrap();
+            u.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0; 6]))
+                .unwrap();
+            u.finish().unwrap();
+            let back = read_cube(&p).unwrap();
+            assert_eq!(back.data, data, "{compression:?}");
+            assert_eq!(back.mask.as_deref(), Some(&mask[..]));
+            // The cube keeps its compression: an uncompressed cube stays uncompressed.
+            let reader = CubeReader::open(&p).unwrap();
+            assert_eq!(reader.stored_compression(), compression);
+            assert_eq!(reader.stored_as_written(cx), raw);
+        }
+    }
+
+    #[test]
+    fn streamed_groups_must_be_complete_and_leave_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let side = dir.path().join("side.h5");
+        let spec = [DatasetSpec::new("d", &[3, 2], GroupElem::F64)];
+        let attrs = vec![("n".to_string(), AttrValue::I64(3))];
+        // Row 2 never written: refused, and neither the file nor a temporary file remains.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        up.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0, 2.0, 3.0, 4.0]))
+            .unwrap();
+        let e = up.finish().unwrap_err().to_string();
+        assert!(e.contains("/g/d") && e.contains("row 2"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // Wrong type, past the end, undeclared dataset, then a complete file read back.
+        let mut up = GroupUpdate::side_file(&side).unwrap();
+        up.begin_group("g", &attrs, &spec).unwrap();
+        assert!(up
+            .write_group_rows("g", "d", 0, &DataBuf::F32(vec![0.0; 2]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "d", 2, &DataBuf::F64(vec![0.0; 4]))
+            .is_err());
+        assert!(up
+            .write_group_rows("g", "e", 0, &DataBuf::F64(vec![0.0; 2]))
+            .is_err());
+        assert!(up.begin_group("g", &[], &[]).is_err());
+        for r in [2, 0, 1] {
+            let v = vec![r as f64, -(r as f64)];
+            up.write_group_rows("g", "d", r, &DataBuf::F64(v)).unwrap();
+        }
+        up.finish().unwrap();
+        let reader = GroupReader::open(&side).unwrap();
+        assert!(!reader.has_cube());
+        assert_eq!(reader.groups(), ["g"]);
+        let g = reader.read_group("g").unwrap();
+        assert_eq!(g.attrs, attrs);
+        assert_eq!(
+            g.dataset("d").unwrap(),
+            (
+                &[3usize, 2][..],
+                &DataBuf::F64(vec![0.0, -0.0, 1.0, -1.0, 2.0, -2.0])
+            )
+        );
+        assert!(matches!(
+            CubeReader::open(&side),
+            Err(ContainerError::NoCube { .. })
+        ));
+    }
+}
