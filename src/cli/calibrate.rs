@@ -34,7 +34,7 @@ pub struct CalibrateArgs {
     pub points: PathBuf,
     /// The laser spot on the scene, mesh frame, metres: X,Y,Z. Required unless the
     /// --intrinsics file has a [laser] section.
-    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    #[arg(long, value_parser = super::values::point, allow_hyphen_values = true)]
     pub laser: Option<[f64; 3]>,
     /// Known intrinsics: a calibration TOML whose [intrinsics] table is used (its [laser] and
     /// [medium] too, unless --laser or --eta are given). Only the pose is fitted then, from
@@ -76,19 +76,6 @@ pub struct CalibrateArgs {
 
 /// Above this many correspondences the report lists only the worst (and every outlier).
 const MAX_POINTS_LISTED: usize = 40;
-
-/// Parse "x,y,z" (metres).
-pub fn parse_point(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("'{s}' is not X,Y,Z in metres: {e}"))?;
-    match v.as_slice() {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
-        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
-    }
-}
 
 /// The `--intrinsics` file ([`KnownIntrinsics`]: the same tables and keys as a calibration
 /// file), for a cube of `nx x ny` pixels.
@@ -188,6 +175,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
 }
 
 /// The report printed after a calibration.
+///
+/// Long (about 140 lines) on purpose: the report's lines one after another in print order,
+/// with no logic beyond choosing which points to list.
 fn report(
     args: &CalibrateArgs,
     meta: &femto::container::CubeMeta,

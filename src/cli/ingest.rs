@@ -4,11 +4,10 @@
 //! streams the rows ([`femto::ingest::assemble`]). This module draws the progress bar and
 //! prints the summary.
 
-use anyhow::Context;
+use super::values;
 use clap::Args;
 use femto::container::{CubeCompression, Provenance};
 use femto::ingest::assemble::{self, rms, Pass};
-use femto::ingest::corrections::RefRegion;
 use femto::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
@@ -79,11 +78,11 @@ pub struct IngestArgs {
     /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
     /// that sees a fixed part of the scene in every scanline, or 'auto' (each pixel's
     /// integral against the same pixel in the neighbouring scanlines).
-    #[arg(long, value_parser = parse_power_ref)]
+    #[arg(long, value_parser = values::power_ref)]
     pub power_ref: Option<PowerRef>,
     /// Mask saturated pixels: a level (value units) or 'auto' (the sample type's maximum).
-    #[arg(long)]
-    pub saturation: Option<String>,
+    #[arg(long, value_parser = values::saturation)]
+    pub saturation: Option<SaturationInput>,
     /// Fill missing scanlines by interpolation (masked) instead of failing.
     #[arg(long)]
     pub allow_missing: bool,
@@ -97,46 +96,11 @@ pub struct IngestArgs {
     /// h5py's gzip default) is about 8 % smaller for about 1.5x the CPU time. 'none' is
     /// fastest, about 1.7x the time of decoding the images alone, for 2-3.5x the bytes (see
     /// docs/ingest.md).
-    #[arg(long, value_parser = super::parse_compression)]
+    #[arg(long, value_parser = values::compression)]
     pub compression: Option<CubeCompression>,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
     #[arg(long, hide = true)]
     pub decode_only: bool,
-}
-
-fn parse_range(s: &str, what: &str) -> Result<(usize, usize), String> {
-    let (a, b) = s
-        .split_once(':')
-        .ok_or_else(|| format!("{what} '{s}' is not A:B"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<usize>()
-            .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
-    };
-    Ok((parse(a)?, parse(b)?))
-}
-
-/// `auto` or `x0:x1,t0:t1`.
-fn parse_power_ref(s: &str) -> Result<PowerRef, String> {
-    if s == "auto" {
-        return Ok(PowerRef::Auto);
-    }
-    parse_region(s).map(PowerRef::Region)
-}
-
-/// `x0:x1,t0:t1`.
-fn parse_region(s: &str) -> Result<RefRegion, String> {
-    let (xs, ts) = s
-        .split_once(',')
-        .ok_or_else(|| format!("'{s}' is not x0:x1,t0:t1"))?;
-    let (x0, x1) = parse_range(xs, "x range")?;
-    let (t0_bin, t1_bin) = parse_range(ts, "bin range")?;
-    Ok(RefRegion {
-        x0,
-        x1,
-        t0_bin,
-        t1_bin,
-    })
 }
 
 fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
@@ -147,13 +111,6 @@ fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
             _ => Some(DarkInput::File(PathBuf::from(s))),
         },
     };
-    let saturation = match args.saturation.as_deref() {
-        None => None,
-        Some("auto") => Some(SaturationInput::Auto),
-        Some(s) => Some(SaturationInput::Level(s.parse().with_context(|| {
-            format!("--saturation {s}: expected a level or 'auto'")
-        })?)),
-    };
     Ok(IngestOptions {
         dt_ps: args.dt_ps,
         t0_ps: args.t0_ps,
@@ -163,7 +120,7 @@ fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
         sweep_table: args.sweep_table.clone(),
         jitter: !args.no_jitter,
         power_ref: args.power_ref,
-        saturation,
+        saturation: args.saturation,
         allow_missing: args.allow_missing,
         value_scale: args.value_scale,
         resample_time: args.resample_time,

@@ -12,6 +12,7 @@ pub mod pyramid;
 pub mod render;
 pub mod simulate;
 pub mod unwarp;
+pub mod values;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -222,16 +223,4 @@ unsafe fn libc_sigpipe_default() {
     const SIGPIPE: i32 = 13;
     const SIG_DFL: usize = 0;
     signal(SIGPIPE, SIG_DFL);
-}
-
-/// `--compression`: `none` or a deflate level 0-9 (with shuffle).
-pub fn parse_compression(s: &str) -> Result<femto::container::CubeCompression, String> {
-    use femto::container::CubeCompression;
-    if s == "none" {
-        return Ok(CubeCompression::None);
-    }
-    match s.parse::<u32>() {
-        Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
-        _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
-    }
 }

@@ -24,7 +24,7 @@ pub struct PyramidArgs {
     /// pyramid is derived data, rebuilt from the cube in seconds: uncompressed it is written
     /// at disk speed; level 1 stores noisy camera data in about 60 % of the bytes in about
     /// twice the time (tools/bench_commands.sh)
-    #[arg(long, default_value = "none", value_parser = super::parse_compression)]
+    #[arg(long, default_value = "none", value_parser = super::values::compression)]
     pub compression: CubeCompression,
 }
 

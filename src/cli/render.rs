@@ -18,14 +18,15 @@
 //! side by side. Flags map onto [`femto::pipeline::render::RenderOptions`]; the stage is
 //! [`femto::pipeline::render`].
 
+use super::values::{
+    EffectsArg, EnumArg, FrameRange, RadiometryArg, Size, VideoFormatArg, ViewArg,
+};
 use anyhow::{anyhow, bail};
 use clap::{ArgGroup, Args};
-use femto::pipeline::render::{open_render_inputs, render_to, Camera, RenderOptions, ViewKind};
-use femto::relativity::Radiometry;
+use femto::pipeline::render::{open_render_inputs, render_to, Camera, RenderOptions};
 use femto::render::paths::Shortcut;
 use femto::render::Effects;
 use femto::video::VideoFormat;
-use std::ops::Range;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -64,11 +65,11 @@ pub struct RenderArgs {
     pub capture_view: bool,
     /// Frame size (default 640x480, or the path file's).
     #[arg(long, value_name = "WxH")]
-    pub size: Option<String>,
+    pub size: Option<Size>,
     /// Render only frames A..B (B excluded) of the sequence; identical to the same frames
     /// of a full render, numbered alike in frame sequences.
     #[arg(long, value_name = "A..B")]
-    pub frames: Option<String>,
+    pub frames: Option<FrameRange>,
     /// Number of frames of the whole sequence (default 100, or the path file's).
     #[arg(long, value_name = "N")]
     pub frame_count: Option<usize>,
@@ -82,16 +83,17 @@ pub struct RenderArgs {
     pub time_offset_ps: Option<f64>,
     /// Effects to apply: a comma-separated list of unwarp, aberration, doppler, searchlight,
     /// dilation, rotation; or all; or none.
-    #[arg(long, value_name = "LIST", default_value = "all")]
-    pub effects: String,
-    /// consistent (physics.md: D^-3 over the window dtau/D) or paper (the seed's D^-5
-    /// literally).
-    #[arg(long, value_name = "MODE", default_value = "consistent")]
-    pub radiometry: String,
-    /// transient, naive (keeps the capture's time warp), isochrones (time of first arrival)
-    /// or integrated (time-integrated image).
-    #[arg(long, value_name = "VIEW", default_value = "transient")]
-    pub view: String,
+    #[arg(long, value_name = "LIST", default_value = "all", value_parser = EffectsArg)]
+    pub effects: Effects,
+    /// Radiometry of a moving camera: consistent (physics.md: D^-3 over the window dtau/D)
+    /// or paper (the seed's D^-5 literally).
+    #[arg(long, value_name = "MODE", value_enum, default_value_t = RadiometryArg::Consistent)]
+    pub radiometry: RadiometryArg,
+    /// What a frame shows: transient, naive (keeps the capture's time warp), isochrones
+    /// (time of first arrival) or integrated (time-integrated image).
+    #[arg(long, value_name = "VIEW", default_value = "transient", ignore_case = true,
+          value_parser = EnumArg::<ViewArg>::new())]
+    pub view: ViewArg,
     /// Exposure multiplier relative to the automatic exposure (which puts the brightest
     /// 0.1 % of the capture at half of the display range).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
@@ -106,8 +108,9 @@ pub struct RenderArgs {
     pub contour_ps: Option<f64>,
     /// Output format: png or exr (frame sequences in the folder --out), mp4 or gif (the file
     /// --out). Default: from the extension of --out, else png.
-    #[arg(long, value_name = "FORMAT")]
-    pub format: Option<String>,
+    #[arg(long, value_name = "FORMAT", ignore_case = true,
+          value_parser = EnumArg::<VideoFormatArg>::extension())]
+    pub format: Option<VideoFormatArg>,
     /// Output file (mp4, gif) or folder (png, exr sequences).
     #[arg(long, value_name = "PATH")]
     pub out: PathBuf,
@@ -119,34 +122,9 @@ pub struct RenderArgs {
     pub threads: Option<usize>,
 }
 
-/// `WxH` with both positive.
-fn parse_size(text: &str) -> anyhow::Result<(usize, usize)> {
-    let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-        Some((
-            w.trim().parse::<usize>().ok()?,
-            h.trim().parse::<usize>().ok()?,
-        ))
-    });
-    match parsed {
-        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
-        _ => bail!("--size {text}: expected WIDTHxHEIGHT with positive integers, e.g. 640x480"),
-    }
-}
-
-/// `A..B` (B excluded).
-fn parse_frames(text: &str) -> anyhow::Result<Range<usize>> {
-    let parsed = text
-        .split_once("..")
-        .and_then(|(a, b)| Some(a.trim().parse::<usize>().ok()?..b.trim().parse::<usize>().ok()?));
-    match parsed {
-        Some(r) if r.start < r.end => Ok(r),
-        _ => bail!("--frames {text}: expected A..B with A < B, frame B excluded, e.g. 0..50"),
-    }
-}
-
 fn output_format(args: &RenderArgs) -> anyhow::Result<VideoFormat> {
-    if let Some(f) = &args.format {
-        return VideoFormat::parse(f).map_err(|e| anyhow!("--format {f}: {e}"));
+    if let Some(f) = args.format {
+        return Ok(f.into());
     }
     match VideoFormat::from_path(&args.out) {
         Some(Ok(f)) => Ok(f),
@@ -177,19 +155,14 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
         Camera::Shortcut(Shortcut::CaptureView)
     };
     let options = RenderOptions {
-        size: args.size.as_deref().map(parse_size).transpose()?,
+        size: args.size.map(Size::pair),
         frame_count: args.frame_count,
-        frames: args.frames.as_deref().map(parse_frames).transpose()?,
+        frames: args.frames.clone().map(|f| f.0),
         dtau_ps: args.dtau_ps,
         time_offset_ps: args.time_offset_ps,
-        effects: Effects::parse(&args.effects)
-            .map_err(|e| anyhow!("--effects {}: {e}", args.effects))?,
-        radiometry: match args.radiometry.as_str() {
-            "consistent" => Radiometry::Consistent,
-            "paper" => Radiometry::Paper,
-            other => bail!("--radiometry {other}: expected consistent or paper"),
-        },
-        view: ViewKind::parse(&args.view).map_err(|e| anyhow!("--view {}: {e}", args.view))?,
+        effects: args.effects,
+        radiometry: args.radiometry.into(),
+        view: args.view.into(),
         exposure: args.exposure,
         contour_ps: args.contour_ps,
         format: output_format(args)?,
@@ -255,25 +228,4 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         done.time_offset_ps
     );
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn size_and_frame_ranges_parse_and_errors_name_the_flag() {
-        assert_eq!(parse_size("640x480").unwrap(), (640, 480));
-        assert_eq!(parse_size("64X48").unwrap(), (64, 48));
-        for bad in ["640", "0x10", "ax4", "10x-2"] {
-            assert!(parse_size(bad).unwrap_err().to_string().contains("--size"));
-        }
-        assert_eq!(parse_frames("3..9").unwrap(), 3..9);
-        for bad in ["3..3", "9..3", "3-9", "..4"] {
-            assert!(parse_frames(bad)
-                .unwrap_err()
-                .to_string()
-                .contains("--frames"));
-        }
-    }
 }

@@ -2,16 +2,22 @@
 //! [`femto::simulate`]). Flags are checked here and named in errors; the scene, the render,
 //! the imperfections and the files are the library's.
 
+use super::values::{offset_sigma, positive_finite, EnumArg, Size, StreakFormatArg};
 use anyhow::{bail, Context};
 use clap::Args;
-use femto::manifest::StreakFormat;
 use femto::scene::{Scene, BUILTIN_NAMES};
-use femto::simulate::{simulate_capture, Flaws, SimulateError, SimulateOptions, Stage};
+use femto::simulate::{
+    simulate_capture, Flaw, Flaws, SimulateError, SimulateOption, SimulateOptions, Stage,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 /// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
 const SEED_SIZE: (usize, usize, usize, f64) = (672, 600, 512, 1.71);
+/// The most bounces `--bounces` may ask for.
+const MAX_BOUNCES: i64 = 1000;
+/// The most time bins `--nt` may ask for.
+const MAX_NT: u64 = 1 << 20;
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -33,23 +39,27 @@ pub struct SimulateArgs {
         long,
         value_delimiter = ',',
         default_value = "png16",
-        value_name = "LIST"
+        value_name = "LIST",
+        ignore_case = true,
+        value_parser = EnumArg::<StreakFormatArg>::new()
     )]
-    pub format: Vec<String>,
+    pub format: Vec<StreakFormatArg>,
     /// Camera paths per pixel.
     #[arg(
         long,
         default_value_t = 64,
         allow_negative_numbers = true,
-        value_name = "N"
+        value_name = "N",
+        value_parser = clap::value_parser!(u32).range(1..)
     )]
-    pub spp: i64,
+    pub spp: u32,
     /// Random seed (0 to 2^63 - 1).
     #[arg(
         long,
         default_value_t = 0,
         allow_negative_numbers = true,
-        value_name = "S"
+        value_name = "S",
+        value_parser = clap::value_parser!(i64).range(0..)
     )]
     pub seed: i64,
     /// Most surface interactions per path (1 = direct light only).
@@ -57,24 +67,31 @@ pub struct SimulateArgs {
         long,
         default_value_t = 4,
         allow_negative_numbers = true,
-        value_name = "N"
+        value_name = "N",
+        value_parser = clap::value_parser!(u32).range(1..=MAX_BOUNCES)
     )]
-    pub bounces: i64,
-    /// Image size in pixels, e.g. 64x48 (default: the scene's).
+    pub bounces: u32,
+    /// Image size in pixels, e.g. 64x48 (default: the scene's; at most
+    /// femto::simulate::budget::MAX_SIDE a side, checked with the capture's memory).
     #[arg(long, value_name = "WxH")]
-    pub size: Option<String>,
+    pub size: Option<Size>,
     /// Number of time bins (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_name = "N")]
-    pub nt: Option<i64>,
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        value_parser = clap::value_parser!(u64).range(1..=MAX_NT)
+    )]
+    pub nt: Option<u64>,
     /// Width of a time bin, ps (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_name = "PS")]
+    #[arg(long, allow_negative_numbers = true, value_name = "PS", value_parser = positive_finite)]
     pub dt_ps: Option<f64>,
     /// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
     #[arg(long, conflicts_with_all = ["size", "nt", "dt_ps"])]
     pub seed_size: bool,
     /// Spacing of the fiducial marker grid on flat surfaces, metres.
     #[arg(long, default_value_t = femto::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
-          allow_negative_numbers = true, value_name = "M")]
+          allow_negative_numbers = true, value_name = "M", value_parser = positive_finite)]
     pub marker_spacing_m: f64,
 
     /// Start from the realistic set of imperfections (the flags below override it).
@@ -93,9 +110,10 @@ pub struct SimulateArgs {
         long,
         allow_hyphen_values = true,
         value_name = "OFFSET,SIGMA",
-        help_heading = "Imperfections"
+        help_heading = "Imperfections",
+        value_parser = offset_sigma
     )]
-    pub dark: Option<String>,
+    pub dark: Option<(f64, f64)>,
     /// Vignetting strength in [0, 1): gain 1 - S r^2 (r = 1 at the corners).
     #[arg(
         long,
@@ -138,48 +156,28 @@ pub struct SimulateArgs {
     pub saturation: Option<f64>,
 }
 
-/// The flag that sets each [`Flaws`] field.
-fn flaw_flag(field: &str) -> &'static str {
-    match field {
-        "photon_noise" => "--photon-noise",
-        "dark" => "--dark",
-        "vignetting" => "--vignetting",
-        "jitter_ps" => "--jitter-ps",
-        "power_sigma" => "--power-sigma",
-        "sweep" => "--sweep",
-        "saturation" => "--saturation",
-        _ => "an imperfection flag",
+/// The flag that sets each imperfection.
+fn flaw_flag(flaw: Flaw) -> &'static str {
+    match flaw {
+        Flaw::PhotonNoise => "--photon-noise",
+        Flaw::Dark => "--dark",
+        Flaw::Vignetting => "--vignetting",
+        Flaw::JitterPs => "--jitter-ps",
+        Flaw::PowerSigma => "--power-sigma",
+        Flaw::Sweep => "--sweep",
+        Flaw::Saturation => "--saturation",
     }
 }
 
-fn parse_format(s: &str) -> anyhow::Result<StreakFormat> {
-    Ok(match s.trim().to_ascii_lowercase().as_str() {
-        "png16" | "png" => StreakFormat::Png16,
-        "exr" => StreakFormat::ExrF32,
-        "img16" | "img" => StreakFormat::Img16,
-        "img32" => StreakFormat::Img32,
-        other => bail!("--format: unknown format '{other}' (known: png16, exr, img16, img32)"),
-    })
-}
-
-fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
-    let bad = || anyhow::anyhow!("--size: '{s}' is not WIDTHxHEIGHT with both at least 1");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: usize = w.trim().parse().map_err(|_| bad())?;
-    let h: usize = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 {
-        return Err(bad());
+/// The flag that sets each option [`SimulateOptions::validate`] checks.
+fn option_flag(option: SimulateOption) -> &'static str {
+    match option {
+        SimulateOption::Spp => "--spp",
+        SimulateOption::MaxBounces => "--bounces",
+        SimulateOption::Seed => "--seed",
+        SimulateOption::Formats => "--format",
+        SimulateOption::MarkerSpacingM => "--marker-spacing-m",
     }
-    Ok((w, h))
-}
-
-fn parse_dark(s: &str) -> anyhow::Result<(f64, f64)> {
-    let bad = || anyhow::anyhow!("--dark: '{s}' is not OFFSET,SIGMA (two numbers)");
-    let (o, sd) = s.split_once(',').ok_or_else(bad)?;
-    Ok((
-        o.trim().parse().map_err(|_| bad())?,
-        sd.trim().parse().map_err(|_| bad())?,
-    ))
 }
 
 fn load_scene(args: &SimulateArgs) -> anyhow::Result<Scene> {
@@ -217,44 +215,13 @@ struct Plan {
 }
 
 fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
-    if args.spp < 1 || args.spp > u32::MAX as i64 {
-        bail!("--spp {} must be between 1 and {}", args.spp, u32::MAX);
-    }
-    if args.seed < 0 {
-        bail!("--seed {} must be between 0 and {}", args.seed, i64::MAX);
-    }
-    if args.bounces < 1 || args.bounces > 1000 {
-        bail!("--bounces {} must be between 1 and 1000", args.bounces);
-    }
-    let size = args.size.as_deref().map(parse_size).transpose()?;
-    if let Some(nt) = args.nt {
-        if !(1..=1 << 20).contains(&nt) {
-            bail!("--nt {nt} must be between 1 and {}", 1 << 20);
-        }
-    }
-    if let Some(dt) = args.dt_ps {
-        if !(dt.is_finite() && dt > 0.0) {
-            bail!("--dt-ps {dt} must be finite and > 0");
-        }
-    }
-    if !(args.marker_spacing_m.is_finite() && args.marker_spacing_m > 0.0) {
-        bail!(
-            "--marker-spacing-m {} must be finite and > 0",
-            args.marker_spacing_m
-        );
-    }
-    let formats = args
-        .format
-        .iter()
-        .map(|f| parse_format(f))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-
+    let formats = args.format.iter().map(|&f| f.into()).collect();
     let mut flaws = if args.realistic {
         Flaws::realistic()
     } else {
         Flaws::default()
     };
-    let dark = args.dark.as_deref().map(parse_dark).transpose()?;
+    let dark = args.dark;
     let set = |slot: &mut Option<f64>, v: Option<f64>| {
         if v.is_some() {
             *slot = v;
@@ -284,8 +251,8 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
     if args.seed_size {
         (nx, ny, nt, dt_ps) = SEED_SIZE;
     }
-    if let Some((w, h)) = size {
-        (nx, ny) = (w, h);
+    if let Some(size) = args.size {
+        (nx, ny) = size.pair();
     }
     if let Some(n) = args.nt {
         nt = n as usize;
@@ -305,9 +272,9 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
     }
 
     let opts = SimulateOptions {
-        spp: args.spp as u32,
+        spp: args.spp,
         seed: args.seed as u64,
-        max_bounces: args.bounces as u32,
+        max_bounces: args.bounces,
         formats,
         flaws,
         marker_spacing_m: args.marker_spacing_m,
@@ -317,14 +284,7 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
     if let Err(e) = opts.validate(&scene) {
         match e {
             SimulateError::InvalidOption { option, message } => {
-                let flag = match option {
-                    "formats" => "--format",
-                    "seed" => "--seed",
-                    "spp" => "--spp",
-                    "max_bounces" => "--bounces",
-                    _ => option,
-                };
-                bail!("{flag}: {message}");
+                bail!("{}: {message}", option_flag(option))
             }
             SimulateError::Flaw(f) => bail!("{}: {}", flaw_flag(f.flaw), f.message),
             other => return Err(other.into()),

@@ -9,7 +9,8 @@
 //! [`femto::pipeline::unwarp::UnwarpOptions`]; the stage is
 //! [`femto::pipeline::unwarp::unwarp_file`].
 
-use clap::{Args, ValueEnum};
+use super::values::{self, Clock};
+use clap::Args;
 use femto::camera::Calibration;
 use femto::container::CubeCompression;
 use femto::cube::TimeAxis;
@@ -18,14 +19,6 @@ use femto::geometry::load::load_mesh;
 use femto::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions};
 use femto::unwarp::Direction;
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Clock {
-    /// World time: when light is at the surface point.
-    World,
-    /// Camera time: when light reaches the sensor.
-    Camera,
-}
 
 #[derive(Args, Debug)]
 pub struct UnwarpArgs {
@@ -57,7 +50,7 @@ pub struct UnwarpArgs {
     /// Compression of the output cube: a deflate level 0-9 (with shuffle) or 'none'
     /// [default: the input cube's]. Level 1, `femto ingest`'s default, compresses camera data
     /// about 2.5 times faster than level 4 for about 4 % more bytes
-    #[arg(long, value_parser = super::parse_compression)]
+    #[arg(long, value_parser = values::compression)]
     pub compression: Option<CubeCompression>,
 }
 

@@ -21,7 +21,7 @@
 //! reports `t0`'s standard error (the inliers' robust sigma over the square root of their
 //! number) and the two fits.
 
-use super::{Progress, StageError};
+use super::{Progress, StageError, StageOption};
 use crate::calibrate::{
     arrival_samples, direct_arrival_samples, fit_camera, fit_direct_time, footprints, register,
     ArrivalOptions, ArrivalSample, CalibrateError, Correspondence, Footprints, Registration,
@@ -192,20 +192,20 @@ pub fn calibrate_cube(
     let t = options.threshold_fraction;
     if !(t > 0.0 && t <= 1.0) {
         return Err(StageError::Option {
-            name: "threshold",
+            name: StageOption::Threshold,
             message: format!("must be in (0, 1], got {t}"),
         });
     }
     if !(options.eta.is_finite() && options.eta >= 1.0) {
         return Err(StageError::Option {
-            name: "eta",
+            name: StageOption::Eta,
             message: format!("must be a number >= 1, got {}", options.eta),
         });
     }
     if let DetectionFloor::Level(v) = options.floor {
         if !(v.is_finite() && v >= 0.0) {
             return Err(StageError::Option {
-                name: "min-peak",
+                name: StageOption::MinPeak,
                 message: format!("must be a finite number >= 0, got {v}"),
             });
         }
@@ -215,7 +215,7 @@ pub fn calibrate_cube(
         Some(k) => {
             if (k.width, k.height) != (meta.nx, meta.ny) {
                 return Err(StageError::Option {
-                    name: "intrinsics",
+                    name: StageOption::Intrinsics,
                     message: format!(
                         "are for {} x {} pixels but {} is {} x {}",
                         k.width,

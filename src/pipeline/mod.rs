@@ -113,10 +113,11 @@ pub enum StageError {
         check_floor: f32,
         noise_sigma: f64,
     },
-    /// An option is out of range; `name` is the flag's name without dashes, `message` starts
-    /// with the value given (`--levels 40: ...`) or says what is wrong (`--eta must be ...`).
+    /// An option is out of range; `name` is the option (displayed as its flag's name
+    /// without dashes), `message` starts with the value given (`--levels 40: ...`) or says
+    /// what is wrong (`--eta must be ...`).
     #[error("--{name} {message}")]
-    Option { name: &'static str, message: String },
+    Option { name: StageOption, message: String },
     /// An input does not fit the stage (a world-time cube given for calibration, ...).
     #[error("{path}: {message}")]
     Input { path: String, message: String },
@@ -133,6 +134,95 @@ pub enum StageError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// The option of a stage that a [`StageError::Option`] is about, so that a caller can tell
+/// the cases apart; displayed as the name of its `femto` flag without the leading dashes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StageOption {
+    /// `--levels`.
+    Levels,
+    /// `--laser-nm`.
+    LaserNm,
+    /// `--calibration`.
+    Calibration,
+    /// `--mesh`.
+    Mesh,
+    /// `--cube`.
+    Cube,
+    /// `--pyramid`.
+    Pyramid,
+    /// `--path`.
+    Path,
+    /// `--dolly`.
+    Dolly,
+    /// `--orbit`.
+    Orbit,
+    /// `--capture-view`.
+    CaptureView,
+    /// `--frame-count`.
+    FrameCount,
+    /// `--size`.
+    Size,
+    /// `--dtau-ps`.
+    DtauPs,
+    /// `--time-offset-ps`.
+    TimeOffsetPs,
+    /// `--exposure`.
+    Exposure,
+    /// `--fps`.
+    Fps,
+    /// `--contour-ps`.
+    ContourPs,
+    /// `--frames`.
+    Frames,
+    /// `--threshold`.
+    Threshold,
+    /// `--eta`.
+    Eta,
+    /// `--min-peak`.
+    MinPeak,
+    /// `--intrinsics`.
+    Intrinsics,
+    /// `femto unwarp --t0-ps/--dt-ps/--nt`: the output time axis.
+    OutputAxis,
+}
+
+impl StageOption {
+    /// The name of its `femto` flag without the leading dashes.
+    pub fn flag_name(self) -> &'static str {
+        match self {
+            StageOption::Levels => "levels",
+            StageOption::LaserNm => "laser-nm",
+            StageOption::Calibration => "calibration",
+            StageOption::Mesh => "mesh",
+            StageOption::Cube => "cube",
+            StageOption::Pyramid => "pyramid",
+            StageOption::Path => "path",
+            StageOption::Dolly => "dolly",
+            StageOption::Orbit => "orbit",
+            StageOption::CaptureView => "capture-view",
+            StageOption::FrameCount => "frame-count",
+            StageOption::Size => "size",
+            StageOption::DtauPs => "dtau-ps",
+            StageOption::TimeOffsetPs => "time-offset-ps",
+            StageOption::Exposure => "exposure",
+            StageOption::Fps => "fps",
+            StageOption::ContourPs => "contour-ps",
+            StageOption::Frames => "frames",
+            StageOption::Threshold => "threshold",
+            StageOption::Eta => "eta",
+            StageOption::MinPeak => "min-peak",
+            StageOption::Intrinsics => "intrinsics",
+            StageOption::OutputAxis => "t0-ps/--dt-ps/--nt",
+        }
+    }
+}
+
+impl std::fmt::Display for StageOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.flag_name())
+    }
 }
 
 impl From<crate::calibrate::CalibrateError> for StageError {

@@ -3,7 +3,7 @@
 //! stored in the cube file's `pyramid` group or in a side file. The cube itself is copied as
 //! it is stored (its compression kept).
 
-use super::{refuse_same_file, Progress, StageError};
+use super::{refuse_same_file, Progress, StageError, StageOption};
 use crate::container::{CubeCompression, CubeReader, GroupUpdate};
 use crate::pyramid::top_level;
 use crate::store::pyramid::{write_pyramid, PyramidInfo};
@@ -43,7 +43,7 @@ pub fn pyramid_file(
     let levels = options.levels.unwrap_or(top);
     if levels > top {
         return Err(StageError::Option {
-            name: "levels",
+            name: StageOption::Levels,
             message: format!(
                 "{levels}: a cube of {} bins has at most {top} mip levels (level k sums 2^k bins)",
                 meta.axis.nt

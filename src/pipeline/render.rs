@@ -9,7 +9,7 @@
 //! capture's manifest and carried by `femto unwarp`), else [`DEFAULT_LASER_NM`] with a
 //! warning: [`LaserWavelength::source`] says which.
 
-use super::{refuse_same_file, Progress, StageError};
+use super::{refuse_same_file, Progress, StageError, StageOption};
 use crate::camera::Calibration;
 use crate::camera_path::{CameraPath, FrameSpec};
 use crate::container::{self, CubeMeta};
@@ -23,7 +23,7 @@ use crate::render::coverage::{frame_is_black, predict_coverage};
 use crate::render::paths::{shortcut_path, Shortcut};
 use crate::render::{
     auto_exposure, check_frames, check_path_clear, encode_srgb8, isochrone_range, render_sequence,
-    Effects, Isochrones, RenderError, RenderScene, RenderSettings, View,
+    Effects, RenderError, RenderScene, RenderSettings, View,
 };
 use crate::store::pyramid::{self as stored_pyramid, read_pyramid_for};
 use crate::video::{Frame, VideoFormat, VideoWriter};
@@ -135,7 +135,7 @@ pub fn laser_wavelength(
     if let Some(nm) = given {
         if !(nm.is_finite() && nm > 0.0) {
             return Err(StageError::Option {
-                name: "laser-nm",
+                name: StageOption::LaserNm,
                 message: format!("{nm}: must be a positive wavelength in nm"),
             });
         }
@@ -194,7 +194,7 @@ pub fn open_render_inputs(
     laser_nm: Option<f64>,
 ) -> Result<RenderInputs, StageError> {
     // Errors name the flag that gave the file (the file's own messages name the file).
-    let flagged = |name: &'static str| {
+    let flagged = |name: StageOption| {
         move |e: StageError| StageError::Option {
             name,
             message: e.to_string(),
@@ -202,12 +202,12 @@ pub fn open_render_inputs(
     };
     let calibration = Calibration::load(calibration_path)
         .map_err(StageError::from)
-        .map_err(flagged("calibration"))?;
+        .map_err(flagged(StageOption::Calibration))?;
     let mesh = load_mesh(mesh_path)
         .map_err(StageError::from)
-        .map_err(flagged("mesh"))?;
+        .map_err(flagged(StageOption::Mesh))?;
     if mesh.triangles.is_empty() {
-        return Err(flagged("mesh")(StageError::Input {
+        return Err(flagged(StageOption::Mesh)(StageError::Input {
             path: mesh_path.display().to_string(),
             message: "the mesh has no triangles".into(),
         }));
@@ -215,9 +215,9 @@ pub fn open_render_inputs(
     let bvh = Bvh::new(mesh);
     let meta = container::read_meta(cube_path)
         .map_err(StageError::from)
-        .map_err(flagged("cube"))?;
+        .map_err(flagged(StageOption::Cube))?;
     if meta.frame != TimeFrame::World {
-        return Err(flagged("cube")(StageError::Input {
+        return Err(flagged(StageOption::Cube)(StageError::Input {
             path: cube_path.display().to_string(),
             message: format!(
                 "the cube is in {} time; the renderer needs a world-time cube (unwarp it first)",
@@ -229,7 +229,7 @@ pub fn open_render_inputs(
     // renderer's own check, RenderScene::new, knows neither).
     let k = &calibration.intrinsics;
     if (meta.nx, meta.ny) != (k.width, k.height) {
-        return Err(flagged("calibration")(StageError::Input {
+        return Err(flagged(StageOption::Calibration)(StageError::Input {
             path: calibration_path.display().to_string(),
             message: format!(
                 "intrinsics are for {} x {} pixels, but {} is {} x {}",
@@ -257,7 +257,7 @@ pub fn open_render_inputs(
     let mut notes = Vec::new();
     let pyramid = if let Some(side) = pyramid_file {
         read_pyramid_for(cube_path, Some(side)).map_err(|e| StageError::Option {
-            name: "pyramid",
+            name: StageOption::Pyramid,
             message: e.to_string(),
         })?
     } else if meta.groups.iter().any(|g| g == stored_pyramid::GROUP) {
@@ -300,23 +300,6 @@ pub enum ViewKind {
     Naive,
     Isochrones,
     Integrated,
-}
-
-impl ViewKind {
-    /// `transient`, `naive`, `isochrones` or `integrated`.
-    pub fn parse(name: &str) -> Result<ViewKind, RenderError> {
-        let unresolved = Isochrones {
-            t_min_ps: 0.0,
-            t_max_ps: 1.0,
-            contour_ps: 1.0,
-        };
-        Ok(match View::parse(name, unresolved)? {
-            View::Transient => ViewKind::Transient,
-            View::Naive => ViewKind::Naive,
-            View::Isochrones(_) => ViewKind::Isochrones,
-            View::Integrated => ViewKind::Integrated,
-        })
-    }
 }
 
 /// How [`render_to`] renders; `Default` is what `femto render` does.
@@ -393,7 +376,7 @@ fn check_options(options: &RenderOptions) -> Result<(), StageError> {
     if let Some(n) = options.frame_count {
         if n == 0 || n > MAX_FRAMES {
             return bad(
-                "frame-count",
+                StageOption::FrameCount,
                 format!("{n}: need between 1 and {MAX_FRAMES} frames"),
             );
         }
@@ -401,7 +384,7 @@ fn check_options(options: &RenderOptions) -> Result<(), StageError> {
     if let Some((w, h)) = options.size {
         if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
             return bad(
-                "size",
+                StageOption::Size,
                 format!("{w}x{h}: each side must be between 1 and {MAX_SIDE} pixels"),
             );
         }
@@ -409,28 +392,37 @@ fn check_options(options: &RenderOptions) -> Result<(), StageError> {
     if let Some(d) = options.dtau_ps {
         if !(d.is_finite() && d > 0.0) {
             return bad(
-                "dtau-ps",
+                StageOption::DtauPs,
                 format!("{d}: must be a positive number of picoseconds"),
             );
         }
     }
     if let Some(t) = options.time_offset_ps {
         if !t.is_finite() {
-            return bad("time-offset-ps", format!("{t}: must be a finite number"));
+            return bad(
+                StageOption::TimeOffsetPs,
+                format!("{t}: must be a finite number"),
+            );
         }
     }
     if !(options.exposure.is_finite() && options.exposure > 0.0) {
         return bad(
-            "exposure",
+            StageOption::Exposure,
             format!("{}: must be a positive number", options.exposure),
         );
     }
     if !(options.fps.is_finite() && options.fps > 0.0) {
-        return bad("fps", format!("{}: must be a positive number", options.fps));
+        return bad(
+            StageOption::Fps,
+            format!("{}: must be a positive number", options.fps),
+        );
     }
     if let Some(c) = options.contour_ps {
         if !(c.is_finite() && c > 0.0) {
-            return bad("contour-ps", format!("{c}: must be a positive number"));
+            return bad(
+                StageOption::ContourPs,
+                format!("{c}: must be a positive number"),
+            );
         }
     }
     Ok(())
@@ -446,7 +438,7 @@ pub fn plan(
     let (path, default_offset_ps) = match camera {
         Camera::PathFile(p) => {
             let loaded = CameraPath::load(p).map_err(|e| StageError::Option {
-                name: "path",
+                name: StageOption::Path,
                 message: e.to_string(),
             })?;
             let spec = loaded.spec();
@@ -486,7 +478,7 @@ pub fn plan(
     let spec = path.spec();
     if spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.frames > MAX_FRAMES {
         return Err(StageError::Option {
-            name: "size",
+            name: StageOption::Size,
             message: format!(
                 "{}x{} pixels and {} frames: at most {MAX_SIDE} pixels a side and {MAX_FRAMES} frames",
                 spec.width, spec.height, spec.frames
@@ -526,7 +518,7 @@ pub fn plan(
     )?;
     if options.format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         return Err(StageError::Option {
-            name: "size",
+            name: StageOption::Size,
             message: format!(
                 "{}x{}: MP4 (H.264, 4:2:0) needs an even width and height; use {}x{} or another format",
                 spec.width,
@@ -547,7 +539,7 @@ pub fn plan(
     })?;
     let frames = options.frames.clone().unwrap_or(0..spec.frames);
     check_frames(&path, &frames).map_err(|e| StageError::Option {
-        name: "frames",
+        name: StageOption::Frames,
         message: format!("{}..{}: {e}", frames.start, frames.end),
     })?;
 
@@ -572,12 +564,12 @@ pub fn plan(
 }
 
 /// The flag that chose `camera`, without dashes, and its value.
-fn camera_flag(camera: &Camera) -> (&'static str, String) {
+fn camera_flag(camera: &Camera) -> (StageOption, String) {
     match camera {
-        Camera::PathFile(p) => ("path", p.display().to_string()),
-        Camera::Shortcut(Shortcut::Dolly { beta }) => ("dolly", beta.to_string()),
-        Camera::Shortcut(Shortcut::Orbit { beta }) => ("orbit", beta.to_string()),
-        Camera::Shortcut(Shortcut::CaptureView) => ("capture-view", String::new()),
+        Camera::PathFile(p) => (StageOption::Path, p.display().to_string()),
+        Camera::Shortcut(Shortcut::Dolly { beta }) => (StageOption::Dolly, beta.to_string()),
+        Camera::Shortcut(Shortcut::Orbit { beta }) => (StageOption::Orbit, beta.to_string()),
+        Camera::Shortcut(Shortcut::CaptureView) => (StageOption::CaptureView, String::new()),
     }
 }
 

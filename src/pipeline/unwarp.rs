@@ -11,7 +11,7 @@
 //! compression and provenance notes (the laser wavelength `laser_nm` among them) unless told
 //! otherwise.
 
-use super::{refuse_same_file, Progress, StageError};
+use super::{refuse_same_file, Progress, StageError, StageOption};
 use crate::calibrate::register;
 use crate::camera::Calibration;
 use crate::container::{CubeCompression, CubeReader, CubeWriter, GroupData, Provenance};
@@ -234,7 +234,7 @@ pub fn unwarp_file(
         Some(a) => {
             if !(a.t0_ps.is_finite() && a.dt_ps.is_finite() && a.dt_ps > 0.0 && a.nt > 0) {
                 return Err(StageError::Option {
-                    name: "t0-ps/--dt-ps/--nt",
+                    name: StageOption::OutputAxis,
                     message: format!(
                         "need a finite start, a positive bin width and at least one bin, got \
                          {} ps, {} ps, {} bins",

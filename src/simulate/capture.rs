@@ -28,11 +28,10 @@ use std::time::Instant;
 /// Errors of [`simulate_capture`]. Messages name the file, folder or option at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
-    /// An option is out of range (`spp`, `max_bounces`, `seed`, `formats`,
-    /// `marker_spacing_m`).
+    /// An option is out of range.
     #[error("{option}: {message}")]
     InvalidOption {
-        option: &'static str,
+        option: SimulateOption,
         message: String,
     },
     /// An imperfection parameter is out of range.
@@ -81,6 +80,41 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SimulateError + '_ {
     }
 }
 
+/// A field of [`SimulateOptions`] that [`SimulateOptions::validate`] can refuse; displayed as
+/// the field's name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimulateOption {
+    /// [`SimulateOptions::spp`].
+    Spp,
+    /// [`SimulateOptions::max_bounces`].
+    MaxBounces,
+    /// [`SimulateOptions::seed`].
+    Seed,
+    /// [`SimulateOptions::formats`].
+    Formats,
+    /// [`SimulateOptions::marker_spacing_m`].
+    MarkerSpacingM,
+}
+
+impl SimulateOption {
+    /// The name of its field of [`SimulateOptions`].
+    pub fn field(self) -> &'static str {
+        match self {
+            SimulateOption::Spp => "spp",
+            SimulateOption::MaxBounces => "max_bounces",
+            SimulateOption::Seed => "seed",
+            SimulateOption::Formats => "formats",
+            SimulateOption::MarkerSpacingM => "marker_spacing_m",
+        }
+    }
+}
+
+impl std::fmt::Display for SimulateOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.field())
+    }
+}
+
 /// Settings of a simulated capture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimulateOptions {
@@ -122,33 +156,36 @@ impl SimulateOptions {
     /// Check every option and imperfection, and the capture's sizes against their caps and
     /// the memory available ([`super::budget`]); the error names the one at fault.
     pub fn validate(&self, scene: &Scene) -> Result<(), SimulateError> {
-        let bad = |option: &'static str, message: String| {
+        let bad = |option: SimulateOption, message: String| {
             Err(SimulateError::InvalidOption { option, message })
         };
         if self.spp == 0 {
-            return bad("spp", "must be at least 1".into());
+            return bad(SimulateOption::Spp, "must be at least 1".into());
         }
         if self.max_bounces == 0 {
-            return bad("max_bounces", "must be at least 1".into());
+            return bad(SimulateOption::MaxBounces, "must be at least 1".into());
         }
         if self.seed > i64::MAX as u64 {
             return bad(
-                "seed",
+                SimulateOption::Seed,
                 format!("{} exceeds {} (TOML's integer range)", self.seed, i64::MAX),
             );
         }
         if self.formats.is_empty() {
-            return bad("formats", "at least one format is needed".into());
+            return bad(
+                SimulateOption::Formats,
+                "at least one format is needed".into(),
+            );
         }
         for (i, f) in self.formats.iter().enumerate() {
             if self.formats[..i].contains(f) {
-                return bad("formats", format!("{f:?} is listed twice"));
+                return bad(SimulateOption::Formats, format!("{f:?} is listed twice"));
             }
         }
         let has = |f| self.formats.contains(&f);
         if has(StreakFormat::Img16) && has(StreakFormat::Img32) {
             return bad(
-                "formats",
+                SimulateOption::Formats,
                 "img16 and img32 both write scanline_NNNN.img; choose one".into(),
             );
         }
@@ -157,13 +194,13 @@ impl SimulateOptions {
         if (has(StreakFormat::Img16) || has(StreakFormat::Img32)) && (nx > max_img || nt > max_img)
         {
             return bad(
-                "formats",
+                SimulateOption::Formats,
                 format!("HPD-TA .img holds at most {max_img} x {max_img} pixels, not {nx} x {nt}"),
             );
         }
         if !(self.marker_spacing_m.is_finite() && self.marker_spacing_m > 0.0) {
             return bad(
-                "marker_spacing_m",
+                SimulateOption::MarkerSpacingM,
                 format!("{} must be finite and > 0", self.marker_spacing_m),
             );
         }

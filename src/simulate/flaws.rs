@@ -56,11 +56,61 @@ pub const FULL_SCALE_COUNTS: f64 = 60000.0;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{flaw}: {message}")]
 pub struct FlawError {
-    /// The [`Flaws`] field at fault (`photon_noise`, `dark`, `vignetting`, `jitter_ps`,
-    /// `power_sigma`, `sweep`, `saturation`).
-    pub flaw: &'static str,
+    /// The [`Flaws`] field at fault.
+    pub flaw: Flaw,
     /// What is wrong with its value.
     pub message: String,
+}
+
+/// One imperfection of [`Flaws`]; displayed as the name of its field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flaw {
+    /// [`Flaws::photon_noise`].
+    PhotonNoise,
+    /// [`Flaws::dark`].
+    Dark,
+    /// [`Flaws::vignetting`].
+    Vignetting,
+    /// [`Flaws::jitter_ps`].
+    JitterPs,
+    /// [`Flaws::power_sigma`].
+    PowerSigma,
+    /// [`Flaws::sweep`].
+    Sweep,
+    /// [`Flaws::saturation`].
+    Saturation,
+}
+
+impl Flaw {
+    /// Every imperfection, in the order of the fields of [`Flaws`].
+    pub const ALL: [Flaw; 7] = [
+        Flaw::PhotonNoise,
+        Flaw::Dark,
+        Flaw::Vignetting,
+        Flaw::JitterPs,
+        Flaw::PowerSigma,
+        Flaw::Sweep,
+        Flaw::Saturation,
+    ];
+
+    /// The name of its field of [`Flaws`].
+    pub fn field(self) -> &'static str {
+        match self {
+            Flaw::PhotonNoise => "photon_noise",
+            Flaw::Dark => "dark",
+            Flaw::Vignetting => "vignetting",
+            Flaw::JitterPs => "jitter_ps",
+            Flaw::PowerSigma => "power_sigma",
+            Flaw::Sweep => "sweep",
+            Flaw::Saturation => "saturation",
+        }
+    }
+}
+
+impl std::fmt::Display for Flaw {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.field())
+    }
 }
 
 /// Which imperfections to simulate, each off (`None`) by default. Levels relative to the
@@ -106,24 +156,27 @@ impl Flaws {
 
     /// Check every parameter; the error names the field.
     pub fn validate(&self) -> Result<(), FlawError> {
-        let bad = |flaw: &'static str, message: String| Err(FlawError { flaw, message });
+        let bad = |flaw: Flaw, message: String| Err(FlawError { flaw, message });
         if let Some(n) = self.photon_noise {
             if !(n.is_finite() && n > 0.0) {
                 return bad(
-                    "photon_noise",
+                    Flaw::PhotonNoise,
                     format!("{n} photons must be finite and > 0"),
                 );
             }
         }
         if let Some((offset, sigma)) = self.dark {
             if !offset.is_finite() {
-                return bad("dark", format!("offset {offset} must be finite"));
+                return bad(Flaw::Dark, format!("offset {offset} must be finite"));
             }
             if !(sigma.is_finite() && sigma >= 0.0) {
-                return bad("dark", format!("sigma {sigma} must be finite and >= 0"));
+                return bad(Flaw::Dark, format!("sigma {sigma} must be finite and >= 0"));
             }
         }
-        for (flaw, v) in [("vignetting", self.vignetting), ("sweep", self.sweep)] {
+        for (flaw, v) in [
+            (Flaw::Vignetting, self.vignetting),
+            (Flaw::Sweep, self.sweep),
+        ] {
             if let Some(s) = v {
                 if !(s.is_finite() && (0.0..1.0).contains(&s)) {
                     return bad(flaw, format!("strength {s} must be in [0, 1)"));
@@ -131,8 +184,8 @@ impl Flaws {
             }
         }
         for (flaw, v) in [
-            ("jitter_ps", self.jitter_ps),
-            ("power_sigma", self.power_sigma),
+            (Flaw::JitterPs, self.jitter_ps),
+            (Flaw::PowerSigma, self.power_sigma),
         ] {
             if let Some(s) = v {
                 if !(s.is_finite() && s >= 0.0) {
@@ -142,7 +195,10 @@ impl Flaws {
         }
         if let Some(l) = self.saturation {
             if !(l.is_finite() && l > 0.0) {
-                return bad("saturation", format!("level {l} must be finite and > 0"));
+                return bad(
+                    Flaw::Saturation,
+                    format!("level {l} must be finite and > 0"),
+                );
             }
         }
         Ok(())
@@ -857,7 +913,7 @@ mod tests {
             ),
         ];
         for (f, name) in cases {
-            assert_eq!(f.validate().unwrap_err().flaw, name);
+            assert_eq!(f.validate().unwrap_err().flaw.field(), name);
         }
         assert!(Flaws::realistic().validate().is_ok());
     }

@@ -31,5 +31,7 @@ pub mod capture;
 pub mod fiducials;
 pub mod flaws;
 
-pub use capture::{simulate_capture, SimulateError, SimulateOptions, SimulateSummary, Stage};
-pub use flaws::{CaptureModel, FlawError, Flaws};
+pub use capture::{
+    simulate_capture, SimulateError, SimulateOption, SimulateOptions, SimulateSummary, Stage,
+};
+pub use flaws::{CaptureModel, Flaw, FlawError, Flaws};
