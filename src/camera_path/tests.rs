@@ -526,6 +526,7 @@ vfov_deg = 40.0
 
 /// Every number of both path kinds, made non-finite (or too far), is refused naming the
 /// keyframe and the key (issue 16: `look_at_m = [0, -inf, 0]` reached the BVH).
+/// Long (132 lines) because it is one table: a row per number of the file format.
 #[test]
 fn every_number_must_be_finite_and_the_message_names_its_key() {
     let key = example_toml();

@@ -225,23 +225,7 @@ impl Resolver<'_> {
         file: SceneFile,
         meshes: Vec<Spanned<MeshEntry>>,
     ) -> Result<Scene, SceneError> {
-        let eta = match &file.eta {
-            Some(e) => {
-                let x = *e.get_ref();
-                if !(x.is_finite() && x >= ETA_RANGE.0 && x <= ETA_RANGE.1) {
-                    return Err(self.bad(
-                        &e.span(),
-                        "eta",
-                        format!(
-                            "must lie in [{}, {}] (a refractive index), got {x}",
-                            ETA_RANGE.0, ETA_RANGE.1
-                        ),
-                    ));
-                }
-                x
-            }
-            None => 1.0,
-        };
+        let eta = self.eta(file.eta.as_ref())?;
         let laser = self.laser(&file.laser)?;
         let camera = self.camera(&file.camera)?;
         // The pulse must fit in the camera's time window.
@@ -333,6 +317,27 @@ impl Resolver<'_> {
             eta,
             fiducial_candidates: candidates,
         })
+    }
+
+    /// The medium's index: 1 when absent, else within [`ETA_RANGE`].
+    fn eta(&self, eta: Option<&Spanned<f64>>) -> Result<f64, SceneError> {
+        match eta {
+            Some(e) => {
+                let x = *e.get_ref();
+                if !(x.is_finite() && x >= ETA_RANGE.0 && x <= ETA_RANGE.1) {
+                    return Err(self.bad(
+                        &e.span(),
+                        "eta",
+                        format!(
+                            "must lie in [{}, {}] (a refractive index), got {x}",
+                            ETA_RANGE.0, ETA_RANGE.1
+                        ),
+                    ));
+                }
+                Ok(x)
+            }
+            None => Ok(1.0),
+        }
     }
 
     fn laser(&self, l: &Spanned<LaserEntry>) -> Result<Laser, SceneError> {

@@ -216,6 +216,7 @@ pub(super) enum Kind {
 }
 
 impl MeshHead {
+    /// The entry's kind, from its `primitive` and `file` keys.
     pub fn kind(&self) -> Kind {
         match (&self.primitive, &self.file) {
             (Some(_), Some(f)) => Kind::Both(f.span()),
