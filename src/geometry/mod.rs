@@ -2,12 +2,17 @@
 //!
 //! Geometry is single precision (the tracer and renderer cast billions of rays); calibration
 //! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading (OBJ, glTF) in
-//! [`load`]; writing binary glTF in [`glb`]; built-in primitive meshes in [`primitives`].
+//! [`load`]; writing binary glTF in [`glb`]; built-in primitive meshes in [`primitives`]; point
+//! queries (inside a closed mesh, distance to the surface) in [`queries`]; welding and fitting
+//! of mesh files in [`normalize`]; fiducial candidates of primitives in [`fiducials`].
 
 pub mod bvh;
+pub mod fiducials;
 pub mod glb;
 pub mod load;
+pub mod normalize;
 pub mod primitives;
+pub mod queries;
 mod simd;
 
 use nalgebra::{Point3, Vector3};
