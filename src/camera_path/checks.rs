@@ -12,7 +12,7 @@ pub(super) fn finite3(v: &Vector3<f64>) -> bool {
     v.iter().all(|c| c.is_finite())
 }
 
-/// The most frames a path may have: [`CameraPath::new`] walks every frame to check its speed,
+/// The most frames a path may have: [`CameraPath::new`](super::CameraPath::new) walks every frame to check its speed,
 /// so the count is capped before the walk (`frames = 18446744073709551615` would never end).
 pub const MAX_FRAMES: usize = 1_000_000;
 
