@@ -117,9 +117,14 @@ pub struct RenderArgs {
     /// Frames per second of MP4 and GIF output.
     #[arg(long, value_name = "FPS", default_value_t = 30.0)]
     pub fps: f64,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
+    /// Worker threads, 1 to 1024 (default: all cores). The cap is far beyond any machine's
+    /// cores, and low enough that the threads' stacks cannot exhaust memory.
+    #[arg(
+        long,
+        value_name = "N",
+        value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS)
+    )]
+    pub threads: Option<u16>,
 }
 
 fn output_format(args: &RenderArgs) -> anyhow::Result<VideoFormat> {
@@ -171,17 +176,13 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
     Ok((camera, options))
 }
 
-/// The most worker threads `--threads` may ask for: far beyond any machine's cores, and few
-/// enough that their stacks cannot exhaust memory.
-const MAX_THREADS: usize = 1024;
+/// The most worker threads `--threads` may ask for.
+const MAX_THREADS: i64 = 1024;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(n) = args.threads {
-        if n == 0 || n > MAX_THREADS {
-            bail!("--threads {n}: must lie in [1, {MAX_THREADS}] (each thread holds its own stack and frame tiles)");
-        }
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(n.into())
             .build_global()
             .map_err(|e| anyhow!("--threads {n}: {e}"))?;
     }
