@@ -55,8 +55,8 @@ mod tests;
 mod traverse;
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::{Avx, Sse};
-use super::simd::{Lanes, Native, Pairs, Portable};
+use super::simd::{Avx, Avx512, Sse};
+use super::simd::{Lanes, Pairs, Portable, Simd, NATIVE};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use build::build;
 use nalgebra::{Point3, Vector3};
@@ -168,9 +168,10 @@ struct Wide<const N: usize> {
 enum Tree {
     /// Four children per node (SSE2, or plain arrays off x86_64).
     Four(Wide<4>),
-    /// Eight children per node, traversed with AVX (only built where the CPU has it), compiled
-    /// for the instruction set `Isa` says.
-    Eight(Wide<8>, Isa),
+    /// Eight children per node, traversed with the instruction set `Isa` holds the proof of
+    /// (`Bvh::new` builds it only where the CPU has AVX); with none (tests on a CPU without
+    /// AVX, other architectures), with plain arrays.
+    Eight(Wide<8>, Option<Isa>),
 }
 
 /// Values of the `INSTANCE` parameter of [`Wide::intersect`] and [`Wide::occluded`].
@@ -180,18 +181,20 @@ const AVX: u8 = 1;
 #[cfg(target_arch = "x86_64")]
 const AVX512: u8 = 2;
 
-/// The instructions the eight-wide traversal is compiled for. Both run the same lane
-/// operations (AVX intrinsics), so they return the same hits bit for bit.
+/// The instructions the eight-wide traversal is compiled for, with the proof that the CPU
+/// runs them (none off x86_64). Both run the same lane operations (AVX intrinsics), so they
+/// return the same hits bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 enum Isa {
     /// AVX: sixteen vector registers.
-    Avx,
+    #[cfg(target_arch = "x86_64")]
+    Avx(Avx),
     /// AVX-512 F and VL (with AVX2, BMI1, BMI2 and POPCNT, which every such CPU has): the same
     /// eight-lane operations, EVEX-encoded, with thirty-two vector registers, so the ray's
     /// constants for the node and triangle tests stay in registers instead of being spilled
     /// to the stack and reloaded at every node and leaf.
-    Avx512,
+    #[cfg(target_arch = "x86_64")]
+    Avx512(Avx512),
 }
 
 /// An acceleration structure that owns its mesh.
@@ -204,33 +207,20 @@ pub struct Bvh {
     normals: Vec<Vector3<f32>>,
 }
 
-/// Whether this CPU runs the eight-wide traversal (AVX).
-fn has_avx() -> bool {
+/// The best instruction set for the eight-wide traversal on this CPU, with its proof:
+/// AVX-512 where it has it, else AVX; none where it has neither (or off x86_64).
+fn eight_isa() -> Option<Isa> {
     #[cfg(target_arch = "x86_64")]
     {
-        is_x86_feature_detected!("avx")
+        if let Some(proof) = Avx512::new() {
+            return Some(Isa::Avx512(proof));
+        }
+        Avx::new().map(Isa::Avx)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        false
+        None
     }
-}
-
-/// The best instruction set for the eight-wide traversal on this CPU (where [`has_avx`]).
-fn eight_isa() -> Isa {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if is_x86_feature_detected!("avx512f")
-            && is_x86_feature_detected!("avx512vl")
-            && is_x86_feature_detected!("avx2")
-            && is_x86_feature_detected!("bmi1")
-            && is_x86_feature_detected!("bmi2")
-            && is_x86_feature_detected!("popcnt")
-        {
-            return Isa::Avx512;
-        }
-    }
-    Isa::Avx
 }
 
 impl Bvh {
@@ -238,10 +228,11 @@ impl Bvh {
     ///
     /// Every index in `mesh.triangles` must be a valid position index (the loaders check this).
     pub fn new(mesh: TriangleMesh) -> Bvh {
-        Bvh::with_width(mesh, if has_avx() { 8 } else { 4 })
+        Bvh::with_width(mesh, if eight_isa().is_some() { 8 } else { 4 })
     }
 
-    /// Build with `width` (4 or 8) children per node; 8 only where [`has_avx`].
+    /// Build with `width` (4 or 8) children per node (8 is traversed with plain arrays where
+    /// [`eight_isa`] finds no instruction set).
     fn with_width(mesh: TriangleMesh, width: usize) -> Bvh {
         let bounds = mesh.bounds();
         let (binary, order) = build(&mesh);
@@ -287,7 +278,9 @@ impl Bvh {
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let found = match &self.tree {
-            Tree::Four(w) => w.intersect::<Native, Native, PORTABLE_OR_SSE>(ray, t_min, t_max),
+            Tree::Four(w) => {
+                w.intersect::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, ray, t_min, t_max)
+            }
             Tree::Eight(w, isa) => intersect_eight(w, *isa, ray, t_min, t_max),
         };
         found.map(|(triangle, t, u, v)| Hit {
@@ -302,71 +295,76 @@ impl Bvh {
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         match &self.tree {
-            Tree::Four(w) => w.occluded::<Native, Native, PORTABLE_OR_SSE>(ray, t_min, t_max),
+            Tree::Four(w) => w.occluded::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, ray, t_min, t_max),
             Tree::Eight(w, isa) => occluded_eight(w, *isa, ray, t_min, t_max),
         }
     }
 }
 
-/// [`Wide::intersect`] of an eight-wide tree: AVX or AVX-512 (`isa`) on x86_64 (a tree of
-/// eight is only built where the CPU has AVX, with the `isa` it has), plain arrays elsewhere.
+/// [`Wide::intersect`] of an eight-wide tree: AVX or AVX-512 on x86_64 where `isa` holds the
+/// proof of one, plain arrays otherwise.
 #[inline]
 fn intersect_eight(
     w: &Wide<8>,
-    isa: Isa,
+    isa: Option<Isa>,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
 ) -> Option<(u32, f32, f32, f32)> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `Tree::Eight` is only built by `Bvh::new` when `has_avx()`, with the `isa`
-        // that `eight_isa()` detected; tests that build one or choose an `isa` directly check
-        // for them first.
-        unsafe {
-            match isa {
-                Isa::Avx => intersect_avx(w, ray, t_min, t_max),
-                Isa::Avx512 => intersect_avx512(w, ray, t_min, t_max),
-            }
+    match isa {
+        // SAFETY: the proof `avx` says that the CPU runs AVX, the one feature the function
+        // enables.
+        #[cfg(target_arch = "x86_64")]
+        Some(Isa::Avx(avx)) => unsafe { intersect_avx(w, avx, ray, t_min, t_max) },
+        // SAFETY: the proof `p` says that the CPU runs every feature the function enables.
+        #[cfg(target_arch = "x86_64")]
+        Some(Isa::Avx512(p)) => unsafe { intersect_avx512(w, p, ray, t_min, t_max) },
+        #[cfg(not(target_arch = "x86_64"))]
+        Some(isa) => match isa {},
+        None => {
+            let lanes = Portable::<8>::new();
+            w.intersect::<_, _, PORTABLE_OR_SSE>(lanes, lanes, ray, t_min, t_max)
         }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = isa;
-        w.intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(ray, t_min, t_max)
     }
 }
 
 /// [`Wide::occluded`] of an eight-wide tree (see [`intersect_eight`]).
 #[inline]
-fn occluded_eight(w: &Wide<8>, isa: Isa, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
+fn occluded_eight(w: &Wide<8>, isa: Option<Isa>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    match isa {
         // SAFETY: as in `intersect_eight`.
-        unsafe {
-            match isa {
-                Isa::Avx => occluded_avx(w, ray, t_min, t_max),
-                Isa::Avx512 => occluded_avx512(w, ray, t_min, t_max),
-            }
+        #[cfg(target_arch = "x86_64")]
+        Some(Isa::Avx(avx)) => unsafe { occluded_avx(w, avx, ray, t_min, t_max) },
+        // SAFETY: as in `intersect_eight`.
+        #[cfg(target_arch = "x86_64")]
+        Some(Isa::Avx512(p)) => unsafe { occluded_avx512(w, p, ray, t_min, t_max) },
+        #[cfg(not(target_arch = "x86_64"))]
+        Some(isa) => match isa {},
+        None => {
+            let lanes = Portable::<8>::new();
+            w.occluded::<_, _, PORTABLE_OR_SSE>(lanes, lanes, ray, t_min, t_max)
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = isa;
-        w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(ray, t_min, t_max)
-    }
 }
 
+/// [`Wide::intersect`] with the lanes of the proof `avx`, compiled for AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn intersect_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, f32, f32, f32)> {
-    w.intersect::<Avx, Avx, AVX>(ray, t_min, t_max)
+fn intersect_avx(
+    w: &Wide<8>,
+    avx: Avx,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, f32, f32, f32)> {
+    w.intersect::<_, _, AVX>(avx, avx, ray, t_min, t_max)
 }
 
+/// [`Wide::occluded`] with the lanes of the proof `avx`, compiled for AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    w.occluded::<Avx, Avx, AVX>(ray, t_min, t_max)
+fn occluded_avx(w: &Wide<8>, avx: Avx, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    w.occluded::<_, _, AVX>(avx, avx, ray, t_min, t_max)
 }
 
 /// [`intersect_avx`] compiled for [`Isa::Avx512`].
@@ -374,18 +372,21 @@ fn occluded_avx(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
 #[target_feature(enable = "avx,avx2,bmi1,bmi2,popcnt,avx512f,avx512vl")]
 fn intersect_avx512(
     w: &Wide<8>,
+    proof: Avx512,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
 ) -> Option<(u32, f32, f32, f32)> {
-    w.intersect::<Avx, Avx, AVX512>(ray, t_min, t_max)
+    let avx = proof.avx();
+    w.intersect::<_, _, AVX512>(avx, avx, ray, t_min, t_max)
 }
 
 /// [`occluded_avx`] compiled for [`Isa::Avx512`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2,bmi1,bmi2,popcnt,avx512f,avx512vl")]
-fn occluded_avx512(w: &Wide<8>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    w.occluded::<Avx, Avx, AVX512>(ray, t_min, t_max)
+fn occluded_avx512(w: &Wide<8>, proof: Avx512, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    let avx = proof.avx();
+    w.occluded::<_, _, AVX512>(avx, avx, ray, t_min, t_max)
 }
 
 /// Unit `(v1 - v0) x (v2 - v0)`, computed in f64 so that thin (but non-degenerate) triangles

@@ -17,18 +17,15 @@ pub(super) struct TriRay<T> {
 
 impl<T> TriRay<T> {
     #[inline(always)]
-    pub(super) fn new<const M: usize>(c: &RayConsts) -> Self
-    where
-        T: Lanes<M>,
-    {
+    pub(super) fn new<S: Simd<M, Lanes = T>, const M: usize>(lanes: S, c: &RayConsts) -> Self {
         TriRay {
-            o: c.origin.map(T::splat),
+            o: c.origin.map(|x| lanes.splat(x)),
             kx: c.kx,
             ky: c.ky,
             kz: c.kz,
-            sx: T::splat(c.sx),
-            sy: T::splat(c.sy),
-            sz: T::splat(c.sz),
+            sx: lanes.splat(c.sx),
+            sy: lanes.splat(c.sy),
+            sz: lanes.splat(c.sz),
         }
     }
 }
@@ -37,18 +34,23 @@ impl<T> TriRay<T> {
 /// (eight-wide tree, AVX) the leaf's one or two packets side by side in eight lanes, which
 /// halves the number of tests while the packets stay four wide in memory (a leaf of one to
 /// four triangles reads no more than in the four-wide tree).
-pub(super) trait LeafLanes: Sized {
+pub(super) trait LeafLanes: Copy {
+    /// The vectors of the test.
+    type Lanes;
+
     /// The ray splatted into these lanes.
-    fn ray(c: &RayConsts) -> TriRay<Self>;
+    fn ray(self, c: &RayConsts) -> TriRay<Self::Lanes>;
 
     /// Hits of the triangles of `packets[first .. first + count]` (`count` is 1 or 2; lane
     /// `4 i + j` is lane `j` of packet `first + i`) with `t_min < t < t_max`. With `any`
     /// (shadow rays) the test may stop at the first packet that has a hit.
+    #[allow(clippy::too_many_arguments)]
     fn test_leaf(
+        self,
         packets: &[TriPacket],
         first: usize,
         count: usize,
-        r: &TriRay<Self>,
+        r: &TriRay<Self::Lanes>,
         t_min: f32,
         t_max: f32,
         any: bool,
@@ -57,18 +59,20 @@ pub(super) trait LeafLanes: Sized {
 
 /// [`LeafLanes::test_leaf`] one four-lane packet at a time.
 #[inline(always)]
-pub(super) fn leaf_by_packets<T: Lanes<PACKET>>(
+#[allow(clippy::too_many_arguments)]
+pub(super) fn leaf_by_packets<S: Simd<PACKET>>(
+    lanes: S,
     packets: &[TriPacket],
     first: usize,
     count: usize,
-    r: &TriRay<T>,
+    r: &TriRay<S::Lanes>,
     t_min: f32,
     t_max: f32,
     any: bool,
 ) -> PacketHits<8> {
     let mut out = PacketHits::<8>::NONE;
     for (i, p) in packets[first..first + count].iter().enumerate() {
-        let h = packet_test::<T, PACKET, _>(p, r, t_min, t_max);
+        let h = packet_test(lanes, p, r, t_min, t_max);
         if h.mask != 0 {
             out.mask |= h.mask << (PACKET * i);
             let lanes = PACKET * i..PACKET * (i + 1);
@@ -87,11 +91,12 @@ pub(super) fn leaf_by_packets<T: Lanes<PACKET>>(
 /// leaf's last packet in lanes 4..8. A leaf of one packet tests it twice and keeps the lower
 /// half, which costs less than a branch on the count that random rays mispredict.
 #[inline(always)]
-pub(super) fn leaf_by_pairs<T: Pairs>(
+pub(super) fn leaf_by_pairs<S: Pairs>(
+    lanes: S,
     packets: &[TriPacket],
     first: usize,
     count: usize,
-    r: &TriRay<T>,
+    r: &TriRay<S::Lanes>,
     t_min: f32,
     t_max: f32,
 ) -> PacketHits<8> {
@@ -100,7 +105,7 @@ pub(super) fn leaf_by_pairs<T: Pairs>(
     // indexing `first - 1`.
     debug_assert!((1..=2).contains(&count), "leaf of {count} packets");
     let pair = PacketPair(&packets[first], &packets[first + count.max(1) - 1]);
-    let mut h = packet_test::<T, 8, _>(&pair, r, t_min, t_max);
+    let mut h = packet_test(lanes, &pair, r, t_min, t_max);
     h.mask &= match count {
         2 => 0xff,
         1 => 0x0f,
@@ -109,64 +114,68 @@ pub(super) fn leaf_by_pairs<T: Pairs>(
     h
 }
 
-/// `impl LeafLanes` for a lane type that tests a leaf `by_packets` (one four-lane packet at a
-/// time: four-lane types) or `by_pairs` (two packets side by side: eight-lane types).
+/// `impl LeafLanes` for the proof of `M`-lane vectors that tests a leaf `by_packets` (one
+/// four-lane packet at a time: four-lane types) or `by_pairs` (two packets side by side:
+/// eight-lane types).
 macro_rules! leaf_lanes {
-    ($lanes:ty, $test:ident) => {
+    ($lanes:ty, $m:literal, $test:ident) => {
         impl LeafLanes for $lanes {
+            type Lanes = <$lanes as Simd<$m>>::Lanes;
             #[inline(always)]
-            fn ray(c: &RayConsts) -> TriRay<Self> {
-                TriRay::new(c)
+            fn ray(self, c: &RayConsts) -> TriRay<Self::Lanes> {
+                TriRay::new(self, c)
             }
             #[inline(always)]
             fn test_leaf(
+                self,
                 packets: &[TriPacket],
                 first: usize,
                 count: usize,
-                r: &TriRay<Self>,
+                r: &TriRay<Self::Lanes>,
                 t_min: f32,
                 t_max: f32,
                 any: bool,
             ) -> PacketHits<8> {
-                leaf_lanes!(@$test packets, first, count, r, t_min, t_max, any)
+                leaf_lanes!(@$test self, packets, first, count, r, t_min, t_max, any)
             }
         }
     };
     (@by_packets $($arg:expr),*) => {
         leaf_by_packets($($arg),*)
     };
-    (@by_pairs $p:expr, $f:expr, $c:expr, $r:expr, $a:expr, $b:expr, $any:expr) => {{
+    (@by_pairs $s:expr, $p:expr, $f:expr, $c:expr, $r:expr, $a:expr, $b:expr, $any:expr) => {{
         let _ = $any; // a pair is one test: nothing to stop early
-        leaf_by_pairs($p, $f, $c, $r, $a, $b)
+        leaf_by_pairs($s, $p, $f, $c, $r, $a, $b)
     }};
 }
 
-leaf_lanes!(Portable<4>, by_packets);
-leaf_lanes!(Portable<8>, by_pairs);
+leaf_lanes!(Portable<4>, 4, by_packets);
+leaf_lanes!(Portable<8>, 8, by_pairs);
 #[cfg(target_arch = "x86_64")]
-leaf_lanes!(Sse, by_packets);
+leaf_lanes!(Sse, 4, by_packets);
 #[cfg(target_arch = "x86_64")]
-leaf_lanes!(Avx, by_pairs);
+leaf_lanes!(Avx, 8, by_pairs);
 
-/// Where [`packet_test`] reads corner `k`, axis `a` of its triangles.
-pub(super) trait Corners<T> {
-    fn load(&self, k: usize, a: usize) -> T;
+/// Where [`packet_test`] reads corner `k`, axis `a` of its triangles, in the `M` lanes of the
+/// proof `S`.
+pub(super) trait Corners<S: Simd<M>, const M: usize> {
+    fn load(&self, lanes: S, k: usize, a: usize) -> S::Lanes;
 }
 
-impl<T: Lanes<PACKET>> Corners<T> for TriPacket {
+impl<S: Simd<PACKET>> Corners<S, PACKET> for TriPacket {
     #[inline(always)]
-    fn load(&self, k: usize, a: usize) -> T {
-        T::load(&self.v[k][a])
+    fn load(&self, lanes: S, k: usize, a: usize) -> S::Lanes {
+        lanes.load(&self.v[k][a])
     }
 }
 
 /// Two packets side by side, eight lanes.
 pub(super) struct PacketPair<'a>(&'a TriPacket, &'a TriPacket);
 
-impl<T: Pairs> Corners<T> for PacketPair<'_> {
+impl<S: Pairs> Corners<S, 8> for PacketPair<'_> {
     #[inline(always)]
-    fn load(&self, k: usize, a: usize) -> T {
-        T::load_pair(&self.0.v[k][a], &self.1.v[k][a])
+    fn load(&self, lanes: S, k: usize, a: usize) -> S::Lanes {
+        lanes.load_pair(&self.0.v[k][a], &self.1.v[k][a])
     }
 }
 
@@ -174,14 +183,15 @@ impl<T: Pairs> Corners<T> for PacketPair<'_> {
 /// frame (the ray becomes the +z axis). A function rather than a closure so that it is always
 /// inlined into its caller, whose target features (AVX) the lane operations need.
 #[inline(always)]
-pub(super) fn sheared_corner<T: Lanes<M>, const M: usize, C: Corners<T>>(
+pub(super) fn sheared_corner<S: Simd<M>, const M: usize, C: Corners<S, M>>(
+    lanes: S,
     p: &C,
     k: usize,
-    r: &TriRay<T>,
-) -> (T, T, T) {
-    let pz = p.load(k, r.kz).sub(r.o[r.kz]);
-    let px = p.load(k, r.kx).sub(r.o[r.kx]).sub(r.sx.mul(pz));
-    let py = p.load(k, r.ky).sub(r.o[r.ky]).sub(r.sy.mul(pz));
+    r: &TriRay<S::Lanes>,
+) -> (S::Lanes, S::Lanes, S::Lanes) {
+    let pz = p.load(lanes, k, r.kz).sub(r.o[r.kz]);
+    let px = p.load(lanes, k, r.kx).sub(r.o[r.kx]).sub(r.sx.mul(pz));
+    let py = p.load(lanes, k, r.ky).sub(r.o[r.ky]).sub(r.sy.mul(pz));
     (px, py, pz)
 }
 
@@ -207,20 +217,21 @@ impl<const M: usize> PacketHits<M> {
 /// of `p`, hits with `t_min < t < t_max` only. Each lane computes exactly what the scalar test
 /// would (see the module doc).
 #[inline(always)]
-pub(super) fn packet_test<T: Lanes<M>, const M: usize, C: Corners<T>>(
+pub(super) fn packet_test<S: Simd<M>, const M: usize, C: Corners<S, M>>(
+    lanes: S,
     p: &C,
-    r: &TriRay<T>,
+    r: &TriRay<S::Lanes>,
     t_min: f32,
     t_max: f32,
 ) -> PacketHits<M> {
-    let (ax, ay, az) = sheared_corner(p, 0, r);
-    let (bx, by, bz) = sheared_corner(p, 1, r);
-    let (cx, cy, cz) = sheared_corner(p, 2, r);
+    let (ax, ay, az) = sheared_corner(lanes, p, 0, r);
+    let (bx, by, bz) = sheared_corner(lanes, p, 1, r);
+    let (cx, cy, cz) = sheared_corner(lanes, p, 2, r);
     // Scaled barycentric coordinates (2D edge functions).
     let mut u = cx.mul(by).sub(cy.mul(bx));
     let mut v = ax.mul(cy).sub(ay.mul(cx));
     let mut w = bx.mul(ay).sub(by.mul(ax));
-    let zero = T::splat(0.0);
+    let zero = lanes.splat(0.0);
     let on_edge = u.eq(zero).or(v.eq(zero)).or(w.eq(zero)).bits();
     if on_edge != 0 {
         // Exactly zero in f32: recompute those lanes in f64, where the products are exact.
@@ -241,7 +252,7 @@ pub(super) fn packet_test<T: Lanes<M>, const M: usize, C: Corners<T>>(
                 wa[j] = f(bx[j], ay[j], by[j], ax[j]);
             }
         }
-        (u, v, w) = (T::load(&ua), T::load(&va), T::load(&wa));
+        (u, v, w) = (lanes.load(&ua), lanes.load(&va), lanes.load(&wa));
     }
     // Two-sided: reject only when the signs differ.
     let neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
@@ -251,10 +262,10 @@ pub(super) fn packet_test<T: Lanes<M>, const M: usize, C: Corners<T>>(
         .mul(r.sz.mul(az))
         .add(v.mul(r.sz.mul(bz)))
         .add(w.mul(r.sz.mul(cz)));
-    let inv_det = T::splat(1.0).div(det);
+    let inv_det = lanes.splat(1.0).div(det);
     let t = t_scaled.mul(inv_det);
     // A NaN `t` (degenerate ray, unused lane) fails both comparisons.
-    let in_range = t.gt(T::splat(t_min)).and(t.lt(T::splat(t_max)));
+    let in_range = t.gt(lanes.splat(t_min)).and(t.lt(lanes.splat(t_max)));
     let mask = neg.and(pos).or(det.eq(zero)).andnot(in_range).bits();
     if mask == 0 {
         return PacketHits::NONE;

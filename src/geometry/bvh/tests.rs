@@ -55,7 +55,7 @@ fn non_finite_rays_and_corners_meet_nothing() {
     ];
     for width in [4, 8] {
         let b = Bvh::with_width(mesh.clone(), width);
-        if width == 4 || has_avx() {
+        if width == 4 || eight_isa().is_some() {
             // The finite ray still works (and never reports the NaN triangle).
             let hit = brute_force(&mesh, &finite, f32::INFINITY);
             let got = b.intersect(&finite, 0.0, f32::INFINITY);
@@ -63,16 +63,28 @@ fn non_finite_rays_and_corners_meet_nothing() {
             assert_ne!(got.map(|h| h.triangle), Some(bad));
         }
         for r in &rays {
-            if width == 4 || has_avx() {
+            if width == 4 || eight_isa().is_some() {
                 assert!(b.intersect(r, 0.0, f32::INFINITY).is_none(), "{r:?}");
                 assert!(!b.occluded(r, 0.0, f32::INFINITY), "{r:?}");
             }
             if width == 8 {
                 let w = eight(&b);
                 assert!(w
-                    .intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, inf)
+                    .intersect::<_, _, PORTABLE_OR_SSE>(
+                        Portable::<8>::new(),
+                        Portable::<8>::new(),
+                        r,
+                        0.0,
+                        inf
+                    )
                     .is_none());
-                assert!(!w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, inf));
+                assert!(!w.occluded::<_, _, PORTABLE_OR_SSE>(
+                    Portable::<8>::new(),
+                    Portable::<8>::new(),
+                    r,
+                    0.0,
+                    inf
+                ));
             }
         }
     }
@@ -97,7 +109,7 @@ fn many_identical_triangles_build_a_bounded_tree() {
             Tree::Four(w) => check_leaves(w, 1000),
             Tree::Eight(w, _) => check_leaves(w, 1000),
         }
-        if width == 4 || has_avx() {
+        if width == 4 || eight_isa().is_some() {
             let ray = Ray::new(Point3::new(0.25, 0.25, 0.0), Vector3::new(0.0, 0.0, 1.0));
             let hit = bvh.intersect(&ray, 0.0, f32::INFINITY).unwrap();
             assert!((hit.t - 1.0).abs() < 1e-6);
@@ -255,7 +267,7 @@ fn agrees_with_brute_force(width: usize, cast: &Cast) {
 
 fn agrees_on(mesh: &TriangleMesh, rays: &[(Ray, f32)], width: usize, cast: &Cast) {
     let bvh = Bvh::with_width(mesh.clone(), width);
-    let public = width == 4 || has_avx();
+    let public = width == 4 || eight_isa().is_some();
     let mut hits = 0;
     for (k, (ray, t_max)) in rays.iter().enumerate() {
         let expected = brute_force(mesh, ray, *t_max);
@@ -416,8 +428,8 @@ fn four_wide_tree_agrees_with_brute_force_native() {
     agrees_with_brute_force(4, &|b, r, t| {
         let w = four(b);
         (
-            w.intersect::<Native, Native, PORTABLE_OR_SSE>(r, 0.0, t),
-            w.occluded::<Native, Native, PORTABLE_OR_SSE>(r, 0.0, t),
+            w.intersect::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, r, 0.0, t),
+            w.occluded::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, r, 0.0, t),
         )
     });
 }
@@ -427,8 +439,20 @@ fn four_wide_tree_agrees_with_brute_force_portable() {
     agrees_with_brute_force(4, &|b, r, t| {
         let w = four(b);
         (
-            w.intersect::<Portable<4>, Portable<4>, PORTABLE_OR_SSE>(r, 0.0, t),
-            w.occluded::<Portable<4>, Portable<4>, PORTABLE_OR_SSE>(r, 0.0, t),
+            w.intersect::<_, _, PORTABLE_OR_SSE>(
+                Portable::<4>::new(),
+                Portable::<4>::new(),
+                r,
+                0.0,
+                t,
+            ),
+            w.occluded::<_, _, PORTABLE_OR_SSE>(
+                Portable::<4>::new(),
+                Portable::<4>::new(),
+                r,
+                0.0,
+                t,
+            ),
         )
     });
 }
@@ -438,45 +462,72 @@ fn eight_wide_tree_agrees_with_brute_force_portable() {
     agrees_with_brute_force(8, &|b, r, t| {
         let w = eight(b);
         (
-            w.intersect::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, t),
-            w.occluded::<Portable<8>, Portable<8>, PORTABLE_OR_SSE>(r, 0.0, t),
+            w.intersect::<_, _, PORTABLE_OR_SSE>(
+                Portable::<8>::new(),
+                Portable::<8>::new(),
+                r,
+                0.0,
+                t,
+            ),
+            w.occluded::<_, _, PORTABLE_OR_SSE>(
+                Portable::<8>::new(),
+                Portable::<8>::new(),
+                r,
+                0.0,
+                t,
+            ),
         )
     });
 }
 
+#[cfg(target_arch = "x86_64")]
 #[test]
 fn eight_wide_tree_agrees_with_brute_force_avx() {
-    if !has_avx() {
+    let Some(avx) = Avx::new() else {
         println!("skipped: no AVX on this CPU");
         return;
-    }
-    agrees_with_brute_force(8, &|b, r, t| {
+    };
+    let isa = Some(Isa::Avx(avx));
+    agrees_with_brute_force(8, &move |b, r, t| {
         let w = eight(b);
         (
-            intersect_eight(w, Isa::Avx, r, 0.0, t),
-            occluded_eight(w, Isa::Avx, r, 0.0, t),
+            intersect_eight(w, isa, r, 0.0, t),
+            occluded_eight(w, isa, r, 0.0, t),
+        )
+    });
+}
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn eight_wide_tree_agrees_with_brute_force_avx512() {
+    let Some(proof) = Avx512::new() else {
+        println!("skipped: no AVX-512 on this CPU");
+        return;
+    };
+    let isa = Some(Isa::Avx512(proof));
+    agrees_with_brute_force(8, &move |b, r, t| {
+        let w = eight(b);
+        (
+            intersect_eight(w, isa, r, 0.0, t),
+            occluded_eight(w, isa, r, 0.0, t),
         )
     });
 }
 
 #[test]
-fn eight_wide_tree_agrees_with_brute_force_avx512() {
-    if !has_avx() || eight_isa() != Isa::Avx512 {
-        println!("skipped: no AVX-512 on this CPU");
-        return;
-    }
+fn eight_wide_trees_without_an_instruction_set_use_plain_arrays() {
     agrees_with_brute_force(8, &|b, r, t| {
         let w = eight(b);
         (
-            intersect_eight(w, Isa::Avx512, r, 0.0, t),
-            occluded_eight(w, Isa::Avx512, r, 0.0, t),
+            intersect_eight(w, None, r, 0.0, t),
+            occluded_eight(w, None, r, 0.0, t),
         )
     });
 }
 
 /// Each lane of the packet test is the scalar test, bit for bit, including lanes that
 /// take the double-precision fallback (rays through shared edges and corners).
-fn packet_lanes_are_the_scalar_test<T: Lanes<PACKET>>() {
+fn packet_lanes_are_the_scalar_test<S: Simd<PACKET>>(lanes: S) {
     let mut rng = Uniforms(12);
     let mesh = test_mesh(&mut rng);
     let bvh = Bvh::with_width(mesh, 4);
@@ -484,9 +535,9 @@ fn packet_lanes_are_the_scalar_test<T: Lanes<PACKET>>() {
     let mut compared = 0;
     for (ray, t_max) in test_rays(&mut rng, 400) {
         let consts = RayConsts::new(&ray);
-        let tri_ray = TriRay::<T>::new(&consts);
+        let tri_ray = TriRay::new(lanes, &consts);
         for (p, ids) in w.packets.iter().zip(&w.packet_ids) {
-            let h = packet_test::<T, PACKET, _>(p, &tri_ray, 0.0, t_max);
+            let h = packet_test(lanes, p, &tri_ray, 0.0, t_max);
             for (j, &id) in ids.iter().enumerate() {
                 let scalar = if id == u32::MAX {
                     None
@@ -512,17 +563,17 @@ fn packet_lanes_are_the_scalar_test<T: Lanes<PACKET>>() {
 
 #[test]
 fn packet_lanes_are_the_scalar_test_native() {
-    packet_lanes_are_the_scalar_test::<Native>();
+    packet_lanes_are_the_scalar_test(NATIVE);
 }
 
 #[test]
 fn packet_lanes_are_the_scalar_test_portable() {
-    packet_lanes_are_the_scalar_test::<Portable<4>>();
+    packet_lanes_are_the_scalar_test(Portable::<4>::new());
 }
 
 /// Each lane of the eight-lane leaf test (two packets side by side, or one packet whose
 /// upper half is masked off) is the scalar test of its triangle, bit for bit.
-fn pair_lanes_are_the_scalar_test<T: LeafLanes>() {
+fn pair_lanes_are_the_scalar_test<T: LeafLanes>(lanes: T) {
     let mut rng = Uniforms(13);
     let mesh = test_mesh(&mut rng);
     let bvh = Bvh::with_width(mesh, 4);
@@ -530,10 +581,10 @@ fn pair_lanes_are_the_scalar_test<T: LeafLanes>() {
     let mut compared = 0;
     for (ray, t_max) in test_rays(&mut rng, 300) {
         let consts = RayConsts::new(&ray);
-        let tri_ray = T::ray(&consts);
+        let tri_ray = lanes.ray(&consts);
         for first in 0..w.packets.len() {
             for count in 1..=2.min(w.packets.len() - first) {
-                let h = T::test_leaf(&w.packets, first, count, &tri_ray, 0.0, t_max, false);
+                let h = lanes.test_leaf(&w.packets, first, count, &tri_ray, 0.0, t_max, false);
                 for lane in 0..8 {
                     let (pk, j) = (first + lane / PACKET, lane % PACKET);
                     let id = if lane < PACKET * count {
@@ -567,29 +618,29 @@ fn pair_lanes_are_the_scalar_test<T: LeafLanes>() {
 
 #[test]
 fn pair_lanes_are_the_scalar_test_portable() {
-    pair_lanes_are_the_scalar_test::<Portable<8>>();
+    pair_lanes_are_the_scalar_test(Portable::<8>::new());
 }
 
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn pair_lanes_are_the_scalar_test_avx() {
-    if !has_avx() {
+    let Some(avx) = Avx::new() else {
         println!("skipped: no AVX on this CPU");
         return;
-    }
-    // SAFETY: AVX was detected just above.
-    unsafe { pair_lanes_avx() }
+    };
+    // SAFETY: the proof `avx` says that the CPU runs AVX.
+    unsafe { pair_lanes_avx(avx) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn pair_lanes_avx() {
-    pair_lanes_are_the_scalar_test::<Avx>();
+fn pair_lanes_avx(avx: Avx) {
+    pair_lanes_are_the_scalar_test(avx);
 }
 
 #[test]
 fn leaf_lanes_native_are_the_scalar_test() {
-    pair_lanes_are_the_scalar_test::<Native>();
+    pair_lanes_are_the_scalar_test(NATIVE);
 }
 
 #[test]

@@ -5,7 +5,8 @@
 use super::*;
 
 impl<const N: usize> Wide<N> {
-    /// Nearest hit `(triangle, t, u, v)` with node lanes `V` and leaf lanes `T`.
+    /// Nearest hit `(triangle, t, u, v)` with node lanes of the proof `node_lanes` and leaf
+    /// lanes of the proof `leaf_lanes`.
     ///
     /// `INSTANCE` gives each caller compiled with its own target features (the AVX and the
     /// AVX-512 function) its own copy of this code, and so of the closure inside: a closure is
@@ -13,45 +14,67 @@ impl<const N: usize> Wide<N> {
     /// inline one closure shared by two callers, whose lane operations then all became calls
     /// (ten times slower).
     #[inline(always)]
-    pub(super) fn intersect<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(
+    pub(super) fn intersect<V: Simd<N>, T: LeafLanes, const INSTANCE: u8>(
         &self,
+        node_lanes: V,
+        leaf_lanes: T,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
     ) -> Option<(u32, f32, f32, f32)> {
         // (first packet of the leaf, lane, t, u, v) of the closest hit so far.
         let mut best: Option<(usize, usize, f32, f32, f32)> = None;
-        self.traverse::<V, T, _, true>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
-            let h = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, false);
-            let mut t_best = t_far;
-            let mut m = h.mask;
-            while m != 0 {
-                let j = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if h.t[j] < t_best {
-                    t_best = h.t[j];
-                    best = Some((first, j, h.t[j], h.u[j], h.v[j]));
+        self.traverse::<V, T, _, true>(
+            node_lanes,
+            leaf_lanes,
+            ray,
+            t_min,
+            t_max,
+            |first, count, tri_ray, t_far| {
+                let h =
+                    leaf_lanes.test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, false);
+                let mut t_best = t_far;
+                let mut m = h.mask;
+                while m != 0 {
+                    let j = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if h.t[j] < t_best {
+                        t_best = h.t[j];
+                        best = Some((first, j, h.t[j], h.u[j], h.v[j]));
+                    }
                 }
-            }
-            (t_best, false)
-        });
+                (t_best, false)
+            },
+        );
         best.map(|(first, j, t, u, v)| (self.packet_ids[first + j / PACKET][j % PACKET], t, u, v))
     }
 
-    /// Whether anything lies on the ray, with node lanes `V` and leaf lanes `T` (`INSTANCE`
-    /// as in [`Wide::intersect`]).
+    /// Whether anything lies on the ray, with node lanes of the proof `node_lanes` and leaf
+    /// lanes of the proof `leaf_lanes` (`INSTANCE` as in [`Wide::intersect`]).
     #[inline(always)]
-    pub(super) fn occluded<V: Lanes<N>, T: LeafLanes, const INSTANCE: u8>(
+    pub(super) fn occluded<V: Simd<N>, T: LeafLanes, const INSTANCE: u8>(
         &self,
+        node_lanes: V,
+        leaf_lanes: T,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
     ) -> bool {
         let mut hit = false;
-        self.traverse::<V, T, _, false>(ray, t_min, t_max, |first, count, tri_ray, t_far| {
-            hit = T::test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, true).mask != 0;
-            (t_far, hit)
-        });
+        self.traverse::<V, T, _, false>(
+            node_lanes,
+            leaf_lanes,
+            ray,
+            t_min,
+            t_max,
+            |first, count, tri_ray, t_far| {
+                hit = leaf_lanes
+                    .test_leaf(&self.packets, first, count, tri_ray, t_min, t_far, true)
+                    .mask
+                    != 0;
+                (t_far, hit)
+            },
+        );
         hit
     }
 
@@ -61,14 +84,16 @@ impl<const N: usize> Wide<N> {
     /// `ORDERED`: visit the children of a node nearest first (closest hit); otherwise in any
     /// order (any hit: shadow rays), which saves sorting them.
     #[inline(always)]
-    pub(super) fn traverse<V: Lanes<N>, T: LeafLanes, F, const ORDERED: bool>(
+    pub(super) fn traverse<V: Simd<N>, T: LeafLanes, F, const ORDERED: bool>(
         &self,
+        node_lanes: V,
+        leaf_lanes: T,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
         mut visit: F,
     ) where
-        F: FnMut(usize, usize, &TriRay<T>, f32) -> (f32, bool),
+        F: FnMut(usize, usize, &TriRay<T::Lanes>, f32) -> (f32, bool),
     {
         // An empty tree's root is the one leaf of no packets that can be reached (an empty child
         // slot's box is never entered); leaf tests need at least one packet.
@@ -82,9 +107,9 @@ impl<const N: usize> Wide<N> {
             return;
         }
         let consts = RayConsts::new(ray);
-        let node_ray = NodeRay::<V, N>::new(&consts);
-        let tri_ray = T::ray(&consts);
-        let t_min_v = V::splat(t_min);
+        let node_ray = NodeRay::new(node_lanes, &consts);
+        let tri_ray = leaf_lanes.ray(&consts);
+        let t_min_v = node_lanes.splat(t_min);
         let mut t_far = t_max;
         let mut t_cull = t_max * CULL_SLACK;
         // Entries: (child reference, entry distance). Left uninitialised: zeroing the stack for
@@ -95,7 +120,8 @@ impl<const N: usize> Wide<N> {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, t_enter) = slab::<V, N>(node, &node_ray, t_min_v, V::splat(t_cull));
+                let t_cull_v = node_lanes.splat(t_cull);
+                let (mask, t_enter) = slab(node_lanes, node, &node_ray, t_min_v, t_cull_v);
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
                         cur = node.child[mask.trailing_zeros() as usize];
@@ -201,11 +227,13 @@ impl RayConsts {
         let kx = (kz + 1 + flip) % 3;
         let ky = (kz + 2 - flip) % 3;
         // The five quotients in two vector divisions (each lane exactly the scalar quotient).
-        let inv = Native::splat(1.0)
-            .div(Native::load(&[d[0], d[1], d[2], 1.0]))
+        let inv = NATIVE
+            .splat(1.0)
+            .div(NATIVE.load(&[d[0], d[1], d[2], 1.0]))
             .to_array();
-        let [sx, sy, ..] = Native::load(&[d[kx], d[ky], 1.0, 1.0])
-            .div(Native::load(&[d[kz], d[kz], 1.0, 1.0]))
+        let [sx, sy, ..] = NATIVE
+            .load(&[d[kx], d[ky], 1.0, 1.0])
+            .div(NATIVE.load(&[d[kz], d[kz], 1.0, 1.0]))
             .to_array();
         let inv_dir = [inv[0], inv[1], inv[2]];
         RayConsts {
@@ -223,41 +251,43 @@ impl RayConsts {
     }
 }
 
-/// The ray splatted for the slab test of `N` boxes.
-pub(super) struct NodeRay<V, const N: usize> {
-    pub(super) o: [V; 3],
-    pub(super) inv: [V; 3],
+/// The ray splatted for the slab test of `N` boxes, in lanes `L`.
+pub(super) struct NodeRay<L, const N: usize> {
+    pub(super) o: [L; 3],
+    pub(super) inv: [L; 3],
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
 }
 
-impl<V: Lanes<N>, const N: usize> NodeRay<V, N> {
+impl<L: Lanes<N>, const N: usize> NodeRay<L, N> {
     #[inline(always)]
-    pub(super) fn new(c: &RayConsts) -> Self {
+    pub(super) fn new<V: Simd<N, Lanes = L>>(lanes: V, c: &RayConsts) -> Self {
         NodeRay {
-            o: c.origin.map(V::splat),
-            inv: c.inv_dir.map(V::splat),
+            o: c.origin.map(|x| lanes.splat(x)),
+            inv: c.inv_dir.map(|x| lanes.splat(x)),
             near: c.near,
             far: c.far,
         }
     }
 }
 
-/// Conservative slab test of the `N` boxes of `n`: a bit per child whose box the ray meets
-/// within `(t_min, t_far)`, and the entry distances.
+/// Conservative slab test of the `N` boxes of `n`, in the lanes of the proof `lanes`: a bit
+/// per child whose box the ray meets within `(t_min, t_far)`, and the entry distances.
 #[inline(always)]
-pub(super) fn slab<V: Lanes<N>, const N: usize>(
+pub(super) fn slab<V: Simd<N>, const N: usize>(
+    lanes: V,
     n: &Node<N>,
-    r: &NodeRay<V, N>,
-    t_min: V,
-    t_far: V,
+    r: &NodeRay<V::Lanes, N>,
+    t_min: V::Lanes,
+    t_far: V::Lanes,
 ) -> (u32, [f32; N]) {
     let mut t0 = t_min;
     let mut t1 = t_far;
-    let scale = V::splat(SLAB_FAR_SCALE);
+    let scale = lanes.splat(SLAB_FAR_SCALE);
     for a in 0..3 {
-        let near = V::load(&n.bounds[r.near[a]]).sub(r.o[a]).mul(r.inv[a]);
-        let far = V::load(&n.bounds[r.far[a]])
+        let near = lanes.load(&n.bounds[r.near[a]]).sub(r.o[a]).mul(r.inv[a]);
+        let far = lanes
+            .load(&n.bounds[r.far[a]])
             .sub(r.o[a])
             .mul(r.inv[a])
             .mul(scale);
