@@ -89,6 +89,8 @@ impl Listed {
 
 /// List the scanlines of `input`: the file of each (checking that it is there, unless
 /// `allow_missing`), or the values of a stack (checked finite), before any scanline is read.
+/// (About 150 lines: one match over the five kinds of input, kept whole so that the kinds
+/// read side by side; each arm is short.)
 pub(super) fn list_rows(input: &InputSpec, options: &IngestOptions) -> Result<Listed, IngestError> {
     let files_only = |files: Vec<Option<PathBuf>>, manifest| Listed {
         ny: files.len(),
