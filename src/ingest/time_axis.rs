@@ -30,6 +30,8 @@
 //! 5.12 ns, which holds 16 % of the first 31 ns row, and the cube kept 3.0e5 of the file's
 //! 7.06e9 counts.
 
+use std::path::PathBuf;
+
 use super::IngestError;
 use crate::cube::TimeAxis;
 
@@ -78,18 +80,44 @@ impl std::fmt::Display for AxisValue {
     }
 }
 
+/// Where the bin edges of recorded rows come from; its text (`Display`) names it in messages
+/// and provenance.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EdgesSource {
+    /// The uniform axis of a manifest: `manifest PATH`.
+    Manifest(PathBuf),
+    /// The `.img` time table of a scanline: `.img time table of PATH`.
+    ImgTable(PathBuf),
+    /// A sweep calibration table given: `table PATH`.
+    SweepTable(PathBuf),
+    /// The sweep's bin times a manifest records (`[imperfections.sweep] bin_times_ps`):
+    /// `sweep bin times of PATH`.
+    ManifestSweep(PathBuf),
+}
+
+impl std::fmt::Display for EdgesSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EdgesSource::Manifest(p) => write!(f, "manifest {}", p.display()),
+            EdgesSource::ImgTable(p) => write!(f, ".img time table of {}", p.display()),
+            EdgesSource::SweepTable(p) => write!(f, "table {}", p.display()),
+            EdgesSource::ManifestSweep(p) => write!(f, "sweep bin times of {}", p.display()),
+        }
+    }
+}
+
 /// Bin edges of recorded rows, with where they come from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RecordedEdges {
     /// `nt + 1` increasing edges, ps.
     pub edges_ps: Vec<f64>,
-    /// For messages and provenance: `manifest PATH`, `.img time table of PATH`, ...
-    pub source: String,
+    /// For messages and provenance.
+    pub source: EdgesSource,
 }
 
 impl RecordedEdges {
     /// The edges of a uniform axis.
-    pub fn uniform(axis: &TimeAxis, source: String) -> RecordedEdges {
+    pub fn uniform(axis: &TimeAxis, source: EdgesSource) -> RecordedEdges {
         RecordedEdges {
             edges_ps: (0..=axis.nt).map(|i| axis.bin_start_ps(i)).collect(),
             source,
@@ -214,8 +242,8 @@ pub fn resolve(
             Ok(()) => {}
         }
         let (from, description) = match sweep_table {
-            Some(table) => (Some(table.clone()), rec.edges.source.clone()),
-            None if rec.edges.is_uniform() => (None, rec.edges.source.clone()),
+            Some(table) => (Some(table.clone()), rec.edges.source.to_string()),
+            None if rec.edges.is_uniform() => (None, rec.edges.source.to_string()),
             None => (
                 Some(rec.edges.clone()),
                 format!(
@@ -317,7 +345,7 @@ pub fn cover(
             return Err(IngestError::StartAfterRecording {
                 t0_ps: t0,
                 first_edge_ps: from.first(),
-                source_name: from.source.clone(),
+                source_name: from.source.to_string(),
             });
         }
         let k = (before_bins - COVER_SLACK_BINS).ceil();
@@ -333,7 +361,7 @@ pub fn cover(
             last_edge_ps: from.last(),
             needed: needed as u64,
             max,
-            source_name: from.source.clone(),
+            source_name: from.source.to_string(),
         });
     }
     Ok(TimeAxis {
@@ -364,14 +392,14 @@ fn agree(
     what: AxisValue,
     given: Option<f64>,
     recorded: f64,
-    source: &str,
+    source: &EdgesSource,
 ) -> Result<(), IngestError> {
     match given {
         Some(g) if (g - recorded).abs() > AXIS_AGREEMENT_TOLERANCE * recorded.abs().max(1.0) => {
             Err(IngestError::AxisConflict {
                 what,
                 given: g,
-                source_name: source.into(),
+                source_name: source.to_string(),
                 recorded,
             })
         }
@@ -425,7 +453,7 @@ mod tests {
     fn table(starts: &[f64]) -> Recorded {
         let edges = RecordedEdges {
             edges_ps: edges_from_starts(starts),
-            source: "t.img".into(),
+            source: EdgesSource::ImgTable("t.img".into()),
         };
         Recorded {
             axis: edges.span_axis(),
@@ -520,12 +548,12 @@ mod tests {
             nt: 4,
         };
         let rec = Recorded {
-            edges: RecordedEdges::uniform(&axis, "manifest m".into()),
+            edges: RecordedEdges::uniform(&axis, EdgesSource::Manifest("m".into())),
             axis,
         };
         let sweep = RecordedEdges {
             edges_ps: vec![-3.0, 1.0, 4.0, 6.5, 9.5],
-            source: "table s".into(),
+            source: EdgesSource::SweepTable("s".into()),
         };
         let r = resolve(Some(&rec), Some(&sweep), &AxisRequest::default(), 4, "x").unwrap();
         // Two bins before (down to -4), one after (up to 10).
@@ -541,10 +569,34 @@ mod tests {
         // A table within the axis changes nothing.
         let inside = RecordedEdges {
             edges_ps: vec![0.0, 1.0, 4.0, 6.5, 8.0],
-            source: "table s".into(),
+            source: EdgesSource::SweepTable("s".into()),
         };
         let r = resolve(Some(&rec), Some(&inside), &AxisRequest::default(), 4, "x").unwrap();
         assert_eq!(r.out_axis, axis);
+    }
+
+    #[test]
+    fn edge_sources_read_as_the_files_record_them() {
+        for (source, text) in [
+            (
+                EdgesSource::Manifest("c/manifest.toml".into()),
+                "manifest c/manifest.toml",
+            ),
+            (
+                EdgesSource::ImgTable("s_0.img".into()),
+                ".img time table of s_0.img",
+            ),
+            (
+                EdgesSource::SweepTable("sweep.csv".into()),
+                "table sweep.csv",
+            ),
+            (
+                EdgesSource::ManifestSweep("c/manifest.toml".into()),
+                "sweep bin times of c/manifest.toml",
+            ),
+        ] {
+            assert_eq!(source.to_string(), text);
+        }
     }
 
     #[test]

@@ -1,0 +1,104 @@
+//! The provenance notes an ingest adds to the cube (`ingest.*`): the plan's input, time axis,
+//! corrections and their parameters, and what the first pass estimated (power gains,
+//! jitter shifts).
+
+use super::Globals;
+use crate::ingest::plan::{DarkCorrection, IngestPlan, PowerCorrection, RowSource};
+
+/// The provenance notes of an ingest.
+pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String)> {
+    let json = |v: serde_json::Value| v.to_string();
+    let mut n = vec![
+        ("ingest.input".to_string(), plan.input.clone()),
+        (
+            "ingest.source_files".to_string(),
+            json(serde_json::json!(plan.source_files())),
+        ),
+        ("ingest.time_axis".to_string(), plan.axis_source.clone()),
+        (
+            "ingest.recorded_size".to_string(),
+            format!(
+                "{} x {} (x by t), {:?} samples",
+                plan.nx, plan.nt_recorded, plan.pixel_type
+            ),
+        ),
+        (
+            "ingest.value_scale".to_string(),
+            plan.value_scale.to_string(),
+        ),
+        (
+            "ingest.corrections".to_string(),
+            json(serde_json::json!(plan.corrections())),
+        ),
+    ];
+    if let Some(laser) = &plan.laser {
+        // The number alone, as `femto render` and `femto unwarp` read it.
+        n.push(("laser_nm".to_string(), laser.nm.to_string()));
+        n.push(("ingest.laser_nm".to_string(), laser.source.to_string()));
+    }
+    if let RowSource::Stack { path, dataset, .. } = &plan.source {
+        n.push((
+            "ingest.stack".to_string(),
+            format!("{}:/{dataset}", path.display()),
+        ));
+    }
+    if plan.transpose {
+        n.push(("ingest.transpose".to_string(), "true".to_string()));
+    }
+    match &plan.dark {
+        Some(DarkCorrection::Level(v)) => n.push(("ingest.dark".into(), format!("level {v}"))),
+        Some(DarkCorrection::Frame { path, .. }) => {
+            n.push(("ingest.dark".into(), format!("frame {}", path.display())))
+        }
+        None => {}
+    }
+    if let Some(f) = &plan.flat {
+        n.push(("ingest.flat".into(), f.path.display().to_string()));
+    }
+    match &plan.power {
+        Some(PowerCorrection::Region(r)) => n.push((
+            "ingest.power_ref".into(),
+            format!("x {}..{}, bins {}..{}", r.x0, r.x1, r.t0_bin, r.t1_bin),
+        )),
+        Some(PowerCorrection::Auto(_)) => n.push((
+            "ingest.power_ref".into(),
+            "auto (pixel integrals against the same pixels in the neighbouring rows)".into(),
+        )),
+        None => {}
+    }
+    if let Some(g) = &globals.gains {
+        n.push(("ingest.power_gains".into(), json(serde_json::json!(g))));
+    }
+    if let Some(s) = &plan.sweep {
+        n.push(("ingest.sweep".into(), s.source.to_string()));
+        n.push((
+            "ingest.sweep_edges_ps".into(),
+            json(serde_json::json!(s.edges_ps)),
+        ));
+    }
+    if let Some(s) = &globals.shifts_ps {
+        n.push(("ingest.jitter_shifts_ps".into(), json(serde_json::json!(s))));
+        n.push(("ingest.jitter_rms_ps".into(), rms(s).to_string()));
+    }
+    if let Some(s) = &plan.saturation {
+        n.push((
+            "ingest.saturation_level".into(),
+            format!("{} ({})", s.level, s.source),
+        ));
+    }
+    if !plan.missing.is_empty() {
+        n.push((
+            "ingest.missing_rows".into(),
+            json(serde_json::json!(plan.missing)),
+        ));
+    }
+    n
+}
+
+/// Root mean square of a list (0 for an empty one).
+pub fn rms(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
