@@ -12,7 +12,7 @@ use femto::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
 use femto::ingest::time_axis::AxisValue;
-use femto::ingest::IngestError;
+use femto::ingest::{IngestError, IngestValue};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -146,16 +146,16 @@ fn axis_flag(what: AxisValue) -> &'static str {
     }
 }
 
-/// The flag that gives the value the library calls `what` in [`IngestError::BadValue`].
-fn value_flag(what: &str) -> Option<&'static str> {
-    Some(match what {
-        "value scale" => "--value-scale",
-        "dt_ps" => "--dt-ps",
-        "t0_ps" => "--t0-ps",
-        "dark level" => "--dark",
-        "saturation level" => "--saturation",
-        _ => return None,
-    })
+/// The flag that gives each value the library can refuse ([`IngestError::BadValue`]).
+fn value_flag(what: IngestValue) -> &'static str {
+    match what {
+        IngestValue::ValueScale => "--value-scale",
+        IngestValue::DtPs => "--dt-ps",
+        IngestValue::T0Ps => "--t0-ps",
+        IngestValue::LaserNm => "--laser-nm",
+        IngestValue::DarkLevel => "--dark",
+        IngestValue::SaturationLevel => "--saturation",
+    }
 }
 
 /// Name the flag where the library's message names an option, and add the flag to use where
@@ -214,18 +214,11 @@ fn with_hint(e: IngestError) -> anyhow::Error {
                 manifest.display()
             )
         }
-        IngestError::BadValue { what, value, .. } if what == "laser_nm" => {
-            return anyhow::anyhow!("--laser-nm {value}: must be a positive wavelength in nm")
-        }
         IngestError::BadValue {
             what,
             value,
             message,
-        } => {
-            if let Some(flag) = value_flag(what) {
-                return anyhow::anyhow!("{flag} {value}: {message}");
-            }
-        }
+        } => return anyhow::anyhow!("{} {value}: {message}", value_flag(*what)),
         IngestError::Correction { what, source } if what == "power reference region" => {
             return anyhow::anyhow!("--power-ref: {source}");
         }

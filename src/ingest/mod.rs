@@ -232,7 +232,7 @@ pub enum IngestError {
     /// An option value out of its range (names the option and the value).
     #[error("{what} = {value}: {message}")]
     BadValue {
-        what: String,
+        what: IngestValue,
         value: String,
         message: String,
     },
@@ -246,6 +246,31 @@ pub enum IngestError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// The option values of an ingest that [`IngestError::BadValue`] can refuse; displayed as
+/// the library's messages name them (a caller maps each to its own flag).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IngestValue {
+    ValueScale,
+    DtPs,
+    T0Ps,
+    LaserNm,
+    DarkLevel,
+    SaturationLevel,
+}
+
+impl std::fmt::Display for IngestValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            IngestValue::ValueScale => "value scale",
+            IngestValue::DtPs => "dt_ps",
+            IngestValue::T0Ps => "t0_ps",
+            IngestValue::LaserNm => "laser_nm",
+            IngestValue::DarkLevel => "dark level",
+            IngestValue::SaturationLevel => "saturation level",
+        })
+    }
 }
 
 /// `it holds 12 .png, 1 .exr files`, or `it holds no scanline files (.png, ...)`.

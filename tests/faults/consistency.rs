@@ -312,8 +312,10 @@ fn help_and_version_still_print() {
 #[test]
 fn ingest_value_errors_name_the_flag() {
     let dir = case(&["cap"]);
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["--dt-ps=0"], "--dt-ps 0: "),
+        (&["--t0-ps=inf"], "--t0-ps inf: "),
+        (&["--laser-nm=-1"], "--laser-nm -1: "),
         (&["--value-scale=0"], "--value-scale 0: "),
         (&["--saturation=-5"], "--saturation -5: "),
         (&["--dark", "nan"], "--dark NaN: "),

@@ -11,7 +11,7 @@ use crate::formats::{read_streak, PixelType};
 use crate::ingest::corrections::{check_flat, RefRegion};
 use crate::ingest::row_offsets::RowOffsetFit;
 use crate::ingest::time_axis::{EdgesSource, RecordedEdges};
-use crate::ingest::IngestError;
+use crate::ingest::{IngestError, IngestValue};
 use crate::manifest::Manifest;
 
 /// The corrections a manifest records, applied unless given otherwise (the plan's module doc, "Manifest
@@ -155,7 +155,7 @@ pub fn dark(input: Option<&DarkInput>, c: &Capture) -> Result<Option<DarkCorrect
         Some(DarkInput::Level(v)) => {
             if !v.is_finite() {
                 return Err(IngestError::BadValue {
-                    what: "dark level".into(),
+                    what: IngestValue::DarkLevel,
                     value: v.to_string(),
                     message: "must be finite".into(),
                 });
@@ -259,7 +259,7 @@ pub fn saturation(
         SaturationInput::Level(v) => {
             if !(v.is_finite() && v > 0.0) {
                 return Err(IngestError::BadValue {
-                    what: "saturation level".into(),
+                    what: IngestValue::SaturationLevel,
                     value: v.to_string(),
                     message: "must be finite and > 0".into(),
                 });

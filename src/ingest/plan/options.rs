@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use super::super::corrections::RefRegion;
-use crate::ingest::IngestError;
+use crate::ingest::{IngestError, IngestValue};
 
 /// The dark signal asked for.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,18 +103,21 @@ impl IngestOptions {
         if let Some(v) = self.value_scale {
             if !(v.is_finite() && v > 0.0) {
                 return Err(IngestError::BadValue {
-                    what: "value scale".into(),
+                    what: IngestValue::ValueScale,
                     value: v.to_string(),
                     message: "must be finite and > 0".into(),
                 });
             }
         }
-        for (what, v) in [("dt_ps", self.dt_ps), ("t0_ps", self.t0_ps)] {
+        for (what, v) in [
+            (IngestValue::DtPs, self.dt_ps),
+            (IngestValue::T0Ps, self.t0_ps),
+        ] {
             if let Some(v) = v {
-                let ok = v.is_finite() && (what == "t0_ps" || v > 0.0);
+                let ok = v.is_finite() && (what == IngestValue::T0Ps || v > 0.0);
                 if !ok {
                     return Err(IngestError::BadValue {
-                        what: what.into(),
+                        what,
                         value: v.to_string(),
                         message: "must be finite (and dt_ps > 0)".into(),
                     });
@@ -124,7 +127,7 @@ impl IngestOptions {
         if let Some(v) = self.laser_nm {
             if !(v.is_finite() && v > 0.0) {
                 return Err(IngestError::BadValue {
-                    what: "laser_nm".into(),
+                    what: IngestValue::LaserNm,
                     value: v.to_string(),
                     message: "must be a positive wavelength in nm".into(),
                 });
