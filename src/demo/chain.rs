@@ -359,7 +359,7 @@ fn simulate_stage(
                     ));
                 }
             };
-            Ok(simulate_capture(&scene, &opts, capture_dir, &tick)?)
+            Ok(simulate_capture(scene, &opts, capture_dir, &tick)?)
         },
     )?;
     Ok(())

@@ -651,14 +651,7 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
     };
     let x_axis = space_vals.map(|(values, unit)| AxisTable { values, unit });
 
-    let CommentMeta {
-        mode,
-        time_range_ps,
-        mcp_gain,
-        n_exposures,
-        exposure_time_s,
-        total_exposure_s,
-    } = comment_meta(path, &sections)?;
+    let settings = comment_meta(path, &sections)?;
 
     Ok(StreakImage {
         nx,
@@ -675,12 +668,12 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             scaling_y,
             columns_reversed,
             rows_reversed,
-            mode,
-            time_range_ps,
-            mcp_gain,
-            n_exposures,
-            exposure_time_s,
-            total_exposure_s,
+            mode: settings.mode,
+            time_range_ps: settings.time_range_ps,
+            mcp_gain: settings.mcp_gain,
+            n_exposures: settings.n_exposures,
+            exposure_time_s: settings.exposure_time_s,
+            total_exposure_s: settings.total_exposure_s,
         }),
     })
 }

@@ -398,7 +398,7 @@ fn write_side_files(
         .map_err(io_err(&calib_path))?;
     written.push(CALIBRATION_FILE.into());
 
-    let points = fiducials(scene, &bvh, opts.marker_spacing_m);
+    let points = fiducials(scene, bvh, opts.marker_spacing_m);
     save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
     written.push(FIDUCIALS_FILE.into());
 
