@@ -359,158 +359,171 @@ impl Manifest {
 
     /// Check the structure; the message names the offending key or scanline.
     pub fn validate(&self) -> Result<(), String> {
-        let c = &self.capture;
-        for (name, v) in [("nx", c.nx), ("ny", c.ny), ("nt", c.nt)] {
-            if v == 0 {
-                return Err(format!("capture.{name} must be at least 1"));
-            }
-        }
-        positive("capture.dt_ps", c.dt_ps)?;
-        finite("capture.t0_ps", c.t0_ps)?;
-        if !(c.eta.is_finite() && c.eta >= 1.0) {
-            return Err(format!("capture.eta = {} must be finite and >= 1", c.eta));
-        }
-        positive("capture.laser_wavelength_nm", c.laser_wavelength_nm)?;
-        non_negative("capture.pulse_width_fs", c.pulse_width_fs)?;
-        if let Some(v) = c.exposure_s {
-            positive("capture.exposure_s", v)?;
-        }
-        if let Some(v) = c.sensor_fwhm_ps {
-            non_negative("capture.sensor_fwhm_ps", v)?;
-        }
-        if c.formats.is_empty() {
-            return Err("capture.formats is empty".into());
-        }
-        if let Some((i, f)) = c
-            .formats
-            .iter()
-            .enumerate()
-            .find(|(i, f)| c.formats[..*i].contains(f))
-        {
-            return Err(format!("capture.formats lists {f:?} twice (entry {i})"));
-        }
-        if c.formats.contains(&StreakFormat::Img16) && c.formats.contains(&StreakFormat::Img32) {
-            return Err(
-                "capture.formats lists both img16 and img32 (one .img per scanline)".into(),
-            );
-        }
-        match c.png_value_per_count {
-            Some(v) => positive("capture.png_value_per_count", v)?,
-            None if c.formats.contains(&StreakFormat::Png16) => {
-                return Err("capture.png_value_per_count is required with format png16".into())
-            }
-            None => {}
-        }
-        if let Some(seed) = c.seed {
-            if seed > i64::MAX as u64 {
-                return Err(format!(
-                    "capture.seed = {seed} exceeds TOML's integer range"
-                ));
-            }
-        }
+        validate_capture(&self.capture)?;
+        validate_scanlines(&self.capture, &self.scanlines)?;
+        validate_imperfections(&self.imperfections, self.capture.nt, self.capture.ny)
+    }
+}
 
-        let ny = c.ny;
-        // The entries must cover 0..ny once each: more rows than entries is refused before
-        // anything is sized by ny (a ny of 2^64 - 1 asked for that many flags).
-        if ny > self.scanlines.len() {
+/// The `[capture]` table's checks of [`Manifest::validate`]: sizes, times, optics, formats.
+fn validate_capture(c: &CaptureInfo) -> Result<(), String> {
+    for (name, v) in [("nx", c.nx), ("ny", c.ny), ("nt", c.nt)] {
+        if v == 0 {
+            return Err(format!("capture.{name} must be at least 1"));
+        }
+    }
+    positive("capture.dt_ps", c.dt_ps)?;
+    finite("capture.t0_ps", c.t0_ps)?;
+    if !(c.eta.is_finite() && c.eta >= 1.0) {
+        return Err(format!("capture.eta = {} must be finite and >= 1", c.eta));
+    }
+    positive("capture.laser_wavelength_nm", c.laser_wavelength_nm)?;
+    non_negative("capture.pulse_width_fs", c.pulse_width_fs)?;
+    if let Some(v) = c.exposure_s {
+        positive("capture.exposure_s", v)?;
+    }
+    if let Some(v) = c.sensor_fwhm_ps {
+        non_negative("capture.sensor_fwhm_ps", v)?;
+    }
+    if c.formats.is_empty() {
+        return Err("capture.formats is empty".into());
+    }
+    if let Some((i, f)) = c
+        .formats
+        .iter()
+        .enumerate()
+        .find(|(i, f)| c.formats[..*i].contains(f))
+    {
+        return Err(format!("capture.formats lists {f:?} twice (entry {i})"));
+    }
+    if c.formats.contains(&StreakFormat::Img16) && c.formats.contains(&StreakFormat::Img32) {
+        return Err("capture.formats lists both img16 and img32 (one .img per scanline)".into());
+    }
+    match c.png_value_per_count {
+        Some(v) => positive("capture.png_value_per_count", v)?,
+        None if c.formats.contains(&StreakFormat::Png16) => {
+            return Err("capture.png_value_per_count is required with format png16".into())
+        }
+        None => {}
+    }
+    if let Some(seed) = c.seed {
+        if seed > i64::MAX as u64 {
             return Err(format!(
-                "capture.ny = {ny} but only {} scanline entries are listed (indices must cover \
-                 0..ny exactly once)",
-                self.scanlines.len()
+                "capture.seed = {seed} exceeds TOML's integer range"
             ));
         }
-        let mut seen = vec![false; ny];
-        for (k, s) in self.scanlines.iter().enumerate() {
-            if s.index >= ny {
-                return Err(format!(
-                    "scanline entry {k}: index {} is outside 0..{ny}",
-                    s.index
-                ));
-            }
-            if seen[s.index] {
-                return Err(format!("scanline index {} appears twice", s.index));
-            }
-            seen[s.index] = true;
-            if s.file.as_os_str().is_empty() {
-                return Err(format!("scanline {}: empty file name", s.index));
-            }
-            for (fmt, name, field) in [
-                (StreakFormat::Png16, "png", &s.png),
-                (StreakFormat::ExrF32, "exr", &s.exr),
-            ] {
-                if field.is_some() && !c.formats.contains(&fmt) {
-                    return Err(format!(
-                        "scanline {}: {name} file given but capture.formats does not list {fmt:?}",
-                        s.index
-                    ));
-                }
-            }
-            if s.img.is_some()
-                && !(c.formats.contains(&StreakFormat::Img16)
-                    || c.formats.contains(&StreakFormat::Img32))
-            {
-                return Err(format!(
-                    "scanline {}: img file given but capture.formats lists no img format",
-                    s.index
-                ));
-            }
-        }
-        // ny <= entries, each in 0..ny and none twice: every index is covered.
-
-        let im = &self.imperfections;
-        if let Some(p) = &im.photon_noise {
-            match (p.photons_at_full_scale, p.photons_per_unit) {
-                (Some(v), None) => positive("imperfections.photon_noise.photons_at_full_scale", v)?,
-                (None, Some(v)) => positive("imperfections.photon_noise.photons_per_unit", v)?,
-                _ => {
-                    return Err("imperfections.photon_noise needs exactly one of \
-                                photons_at_full_scale and photons_per_unit"
-                        .into())
-                }
-            }
-        }
-        if let Some(d) = &im.dark {
-            finite("imperfections.dark.offset", d.offset)?;
-            non_negative("imperfections.dark.sigma", d.sigma)?;
-        }
-        if let Some(v) = &im.vignetting {
-            non_negative("imperfections.vignetting.strength", v.strength)?;
-        }
-        if let Some(j) = &im.jitter {
-            non_negative("imperfections.jitter.sigma_ps", j.sigma_ps)?;
-            per_scanline("imperfections.jitter.shifts_ps", &j.shifts_ps, ny)?;
-        }
-        if let Some(p) = &im.power {
-            non_negative("imperfections.power.sigma", p.sigma)?;
-            per_scanline("imperfections.power.factors", &p.factors, ny)?;
-        }
-        if let Some(s) = &im.sweep {
-            finite("imperfections.sweep.strength", s.strength)?;
-            let t = &s.bin_times_ps;
-            if t.len() != c.nt.saturating_add(1) {
-                return Err(format!(
-                    "imperfections.sweep.bin_times_ps has {} values, expected nt + 1 = {}",
-                    t.len(),
-                    c.nt as u128 + 1
-                ));
-            }
-            if let Some(i) = t.iter().position(|v| !v.is_finite()) {
-                return Err(format!(
-                    "imperfections.sweep.bin_times_ps[{i}] is not finite"
-                ));
-            }
-            if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(format!(
-                    "imperfections.sweep.bin_times_ps is not strictly increasing at index {}",
-                    i + 1
-                ));
-            }
-        }
-        if let Some(s) = &im.saturation {
-            positive("imperfections.saturation.level", s.level)?;
-        }
-        Ok(())
     }
+    Ok(())
+}
+
+/// The scanline entries' checks of [`Manifest::validate`]: indices covering `0..ny` once
+/// each, a file name, and no file of a format that `[capture] formats` does not list.
+fn validate_scanlines(c: &CaptureInfo, scanlines: &[Scanline]) -> Result<(), String> {
+    let ny = c.ny;
+    // The entries must cover 0..ny once each: more rows than entries is refused before
+    // anything is sized by ny (a ny of 2^64 - 1 asked for that many flags).
+    if ny > scanlines.len() {
+        return Err(format!(
+            "capture.ny = {ny} but only {} scanline entries are listed (indices must cover \
+             0..ny exactly once)",
+            scanlines.len()
+        ));
+    }
+    let mut seen = vec![false; ny];
+    for (k, s) in scanlines.iter().enumerate() {
+        if s.index >= ny {
+            return Err(format!(
+                "scanline entry {k}: index {} is outside 0..{ny}",
+                s.index
+            ));
+        }
+        if seen[s.index] {
+            return Err(format!("scanline index {} appears twice", s.index));
+        }
+        seen[s.index] = true;
+        if s.file.as_os_str().is_empty() {
+            return Err(format!("scanline {}: empty file name", s.index));
+        }
+        for (fmt, name, field) in [
+            (StreakFormat::Png16, "png", &s.png),
+            (StreakFormat::ExrF32, "exr", &s.exr),
+        ] {
+            if field.is_some() && !c.formats.contains(&fmt) {
+                return Err(format!(
+                    "scanline {}: {name} file given but capture.formats does not list {fmt:?}",
+                    s.index
+                ));
+            }
+        }
+        if s.img.is_some()
+            && !(c.formats.contains(&StreakFormat::Img16)
+                || c.formats.contains(&StreakFormat::Img32))
+        {
+            return Err(format!(
+                "scanline {}: img file given but capture.formats lists no img format",
+                s.index
+            ));
+        }
+    }
+    // ny <= entries, each in 0..ny and none twice: every index is covered.
+    Ok(())
+}
+
+/// The `[imperfections]` tables' checks of [`Manifest::validate`] for a capture of `nt` bins
+/// and `ny` scanlines.
+fn validate_imperfections(im: &Imperfections, nt: usize, ny: usize) -> Result<(), String> {
+    if let Some(p) = &im.photon_noise {
+        match (p.photons_at_full_scale, p.photons_per_unit) {
+            (Some(v), None) => positive("imperfections.photon_noise.photons_at_full_scale", v)?,
+            (None, Some(v)) => positive("imperfections.photon_noise.photons_per_unit", v)?,
+            _ => {
+                return Err("imperfections.photon_noise needs exactly one of \
+                            photons_at_full_scale and photons_per_unit"
+                    .into())
+            }
+        }
+    }
+    if let Some(d) = &im.dark {
+        finite("imperfections.dark.offset", d.offset)?;
+        non_negative("imperfections.dark.sigma", d.sigma)?;
+    }
+    if let Some(v) = &im.vignetting {
+        non_negative("imperfections.vignetting.strength", v.strength)?;
+    }
+    if let Some(j) = &im.jitter {
+        non_negative("imperfections.jitter.sigma_ps", j.sigma_ps)?;
+        per_scanline("imperfections.jitter.shifts_ps", &j.shifts_ps, ny)?;
+    }
+    if let Some(p) = &im.power {
+        non_negative("imperfections.power.sigma", p.sigma)?;
+        per_scanline("imperfections.power.factors", &p.factors, ny)?;
+    }
+    if let Some(s) = &im.sweep {
+        finite("imperfections.sweep.strength", s.strength)?;
+        let t = &s.bin_times_ps;
+        if t.len() != nt.saturating_add(1) {
+            return Err(format!(
+                "imperfections.sweep.bin_times_ps has {} values, expected nt + 1 = {}",
+                t.len(),
+                nt as u128 + 1
+            ));
+        }
+        if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "imperfections.sweep.bin_times_ps[{i}] is not finite"
+            ));
+        }
+        if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(format!(
+                "imperfections.sweep.bin_times_ps is not strictly increasing at index {}",
+                i + 1
+            ));
+        }
+    }
+    if let Some(s) = &im.saturation {
+        positive("imperfections.saturation.level", s.level)?;
+    }
+    Ok(())
 }
 
 fn finite(key: &str, v: f64) -> Result<(), String> {

@@ -205,19 +205,7 @@ pub fn fit_camera(
         init.intrinsics.cy = 0.5 * init.intrinsics.height as f64;
     }
     let distortion = options.fit_distortion && !known && points.len() >= MIN_POINTS_FOR_DISTORTION;
-    let mut active: Vec<usize> = (0..6).collect();
-    if !known {
-        active.push(6);
-        if !square {
-            active.push(7);
-        }
-        if !centred {
-            active.extend(8..10);
-        }
-    }
-    if distortion {
-        active.extend(10..12);
-    }
+    let active = active_parameters(known, square, centred, distortion);
     let need = if known {
         dlt::MIN_POINTS_KNOWN_INTRINSICS
     } else {
@@ -248,17 +236,7 @@ pub fn fit_camera(
         let errors = reprojection_errors(points, &cam.k, &cam.pose());
         let (threshold, _) = outlier_threshold(&errors, &used);
         let used_count = used.iter().filter(|&&u| u).count();
-        let worst = (0..n)
-            .filter(|&i| used[i] && errors[i] > threshold)
-            .map(|i| errors[i])
-            .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))));
-        // The worst point, with any other flagged point within a factor two of it (one refit
-        // for a group of gross errors; their smeared neighbours stay).
-        let drop: Vec<usize> = worst.map_or(Vec::new(), |worst| {
-            (0..n)
-                .filter(|&i| used[i] && errors[i] > threshold && errors[i] >= 0.5 * worst)
-                .collect()
-        });
+        let drop = worst_points(&errors, &used, threshold);
         let may_drop = !drop.is_empty()
             && used_count - drop.len() >= need + 2
             && n - used_count + drop.len() <= max_rejected;
@@ -319,6 +297,45 @@ pub fn fit_camera(
         iterations,
         intrinsics_fitted: !known,
         distortion_fitted: distortion,
+    })
+}
+
+/// Indices of the [`CameraParams`] a fit refines: the pose always; with unknown intrinsics
+/// `fx`, `fy` unless `square` (then `fx` alone), `cx, cy` unless `centred`; `k1, k2` with
+/// `distortion`.
+fn active_parameters(known: bool, square: bool, centred: bool, distortion: bool) -> Vec<usize> {
+    let mut active: Vec<usize> = (0..6).collect();
+    if !known {
+        active.push(6);
+        if !square {
+            active.push(7);
+        }
+        if !centred {
+            active.extend(8..10);
+        }
+    }
+    if distortion {
+        active.extend(10..12);
+    }
+    active
+}
+
+/// The points [`fit_camera`] leaves out next: the used point with the worst reprojection
+/// error above `threshold`, with any other flagged point within a factor two of it (one
+/// refit for a group of gross errors; their smeared neighbours stay). Empty when no used
+/// point is above `threshold`.
+fn worst_points(errors: &[f64], used: &[bool], threshold: f64) -> Vec<usize> {
+    let n = errors.len();
+    let worst = (0..n)
+        .filter(|&i| used[i] && errors[i] > threshold)
+        .map(|i| errors[i])
+        .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))));
+    // The worst point, with any other flagged point within a factor two of it (one refit
+    // for a group of gross errors; their smeared neighbours stay).
+    worst.map_or(Vec::new(), |worst| {
+        (0..n)
+            .filter(|&i| used[i] && errors[i] > threshold && errors[i] >= 0.5 * worst)
+            .collect()
     })
 }
 
@@ -481,4 +498,41 @@ fn levenberg_marquardt(
         }
     }
     Ok((cam, iterations))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_active_parameters_follow_the_constraints() {
+        let pose: Vec<usize> = (0..6).collect();
+        assert_eq!(
+            active_parameters(true, true, true, true),
+            [pose.clone(), vec![10, 11]].concat()
+        );
+        assert_eq!(active_parameters(true, false, false, false), pose);
+        assert_eq!(
+            active_parameters(false, false, false, false),
+            [pose.clone(), vec![6, 7, 8, 9]].concat()
+        );
+        assert_eq!(
+            active_parameters(false, true, true, false),
+            [pose.clone(), vec![6]].concat()
+        );
+        assert_eq!(
+            active_parameters(false, true, false, true),
+            [pose, vec![6, 8, 9, 10, 11]].concat()
+        );
+    }
+
+    #[test]
+    fn the_worst_points_are_those_within_a_factor_two_of_the_worst() {
+        let errors = [0.1, 9.0, 5.0, 4.0, 20.0, 0.2];
+        // Point 4 is the worst but already left out: 9.0 is the worst used.
+        let used = [true, true, true, true, false, true];
+        assert_eq!(worst_points(&errors, &used, 1.0), [1, 2]);
+        assert_eq!(worst_points(&errors, &used, 9.0), Vec::<usize>::new());
+        assert_eq!(worst_points(&errors, &[true; 6], 1.0), [4]);
+    }
 }

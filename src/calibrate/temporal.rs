@@ -585,49 +585,7 @@ pub fn fit_time_offset(
     let mut t0 = median(&diff);
     let mut s = 1.0;
     if fit_scale {
-        let (lo, hi) = tau
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        let span = hi - lo;
-        if span.is_nan() || span <= 1.0 {
-            return Err(CalibrateError::TimeDegenerate(format!(
-                "the direct paths differ by {span:.3} ps of flight time only; the time scale \
-                 cannot be fitted (fit t0 alone)"
-            )));
-        }
-        // Least median of squares over random pairs; the median is taken over a subsample.
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(0x7e3f_0d11);
-        let stride = (n / 4000).max(1);
-        let subset: Vec<usize> = (0..n).step_by(stride).collect();
-        let score = |t0: f64, s: f64| -> f64 {
-            let r: Vec<f64> = subset
-                .iter()
-                .map(|&i| (t[i] - t0 - s * tau[i]).abs())
-                .collect();
-            median(&r)
-        };
-        let mut best = score(t0, s);
-        for _ in 0..500 {
-            let i = rng.random_range(0..n);
-            let j = rng.random_range(0..n);
-            let d_tau = tau[j] - tau[i];
-            if d_tau.abs() < 0.05 * span {
-                continue;
-            }
-            let s_c = (t[j] - t[i]) / d_tau;
-            if s_c.is_nan() || s_c <= 0.0 {
-                continue;
-            }
-            let t0_c = t[i] - s_c * tau[i];
-            let sc = score(t0_c, s_c);
-            if sc < best {
-                best = sc;
-                t0 = t0_c;
-                s = s_c;
-            }
-        }
+        (t0, s) = least_median_start(&t, &tau, t0)?;
     }
 
     // Huber IRLS.
@@ -686,6 +644,59 @@ pub fn fit_time_offset(
         rms_ps: (sum_sq / count as f64).sqrt(),
         sigma_ps,
     })
+}
+
+/// The robust start of [`fit_time_offset`]'s time scale: least median of squares over 500
+/// seeded random pairs of samples (`t` arrival times and `tau` flight times, ps), the median
+/// taken over a subsample of at most about 4000, starting from `t0` with scale 1. Refuses
+/// flight times that span 1 ps or less.
+fn least_median_start(t: &[f64], tau: &[f64], t0: f64) -> Result<(f64, f64), CalibrateError> {
+    let n = t.len();
+    let (mut t0, mut s) = (t0, 1.0);
+    let (lo, hi) = tau
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let span = hi - lo;
+    if span.is_nan() || span <= 1.0 {
+        return Err(CalibrateError::TimeDegenerate(format!(
+            "the direct paths differ by {span:.3} ps of flight time only; the time scale \
+             cannot be fitted (fit t0 alone)"
+        )));
+    }
+    // Least median of squares over random pairs; the median is taken over a subsample.
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(0x7e3f_0d11);
+    let stride = (n / 4000).max(1);
+    let subset: Vec<usize> = (0..n).step_by(stride).collect();
+    let score = |t0: f64, s: f64| -> f64 {
+        let r: Vec<f64> = subset
+            .iter()
+            .map(|&i| (t[i] - t0 - s * tau[i]).abs())
+            .collect();
+        median(&r)
+    };
+    let mut best = score(t0, s);
+    for _ in 0..500 {
+        let i = rng.random_range(0..n);
+        let j = rng.random_range(0..n);
+        let d_tau = tau[j] - tau[i];
+        if d_tau.abs() < 0.05 * span {
+            continue;
+        }
+        let s_c = (t[j] - t[i]) / d_tau;
+        if s_c.is_nan() || s_c <= 0.0 {
+            continue;
+        }
+        let t0_c = t[i] - s_c * tau[i];
+        let sc = score(t0_c, s_c);
+        if sc < best {
+            best = sc;
+            t0 = t0_c;
+            s = s_c;
+        }
+    }
+    Ok((t0, s))
 }
 
 #[cfg(test)]
@@ -860,5 +871,30 @@ mod tests {
         );
         let e = fit_time_offset(&[(1.0, 1.0); 12], 1.0, true).unwrap_err();
         assert!(e.to_string().contains("time scale"), "{e}");
+    }
+
+    #[test]
+    fn the_least_median_start_finds_the_line_through_most_samples() {
+        // 70 samples on t = 250 + 1.25 tau, 30 far off it.
+        let tau: Vec<f64> = (0..100).map(|i| 10.0 * i as f64).collect();
+        let t: Vec<f64> = tau
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                250.0
+                    + 1.25 * x
+                    + if i % 10 < 3 {
+                        400.0 + 7.0 * i as f64
+                    } else {
+                        0.0
+                    }
+            })
+            .collect();
+        let (t0, s) = least_median_start(&t, &tau, 0.0).unwrap();
+        assert!((s - 1.25).abs() < 1e-9, "{s}");
+        assert!((t0 - 250.0).abs() < 1e-6, "{t0}");
+        // Flight times within 1 ps: no scale can be fitted.
+        let e = least_median_start(&[1.0, 2.0, 3.0], &[5.0, 5.5, 5.9], 0.0).unwrap_err();
+        assert!(e.to_string().contains("fit t0 alone"), "{e}");
     }
 }

@@ -225,6 +225,102 @@ pub(crate) fn run_chain(
     let mut files = Vec::new();
 
     // 1. Simulate.
+    simulate_stage(&scene, sizes, &capture_dir, label, stages)?;
+    files.push(capture_dir.clone());
+
+    // 2. Ingest.
+    let cube_path = data_dir.join(CUBE_FILE);
+    stages.run(
+        &format!("{label}ingest"),
+        if INGEST_JITTER {
+            "the manifest's dark frame, flat field and sweep bin times; jitter, laser power, saturation"
+        } else {
+            "the manifest's dark frame, flat field and sweep bin times; laser power, saturation (jitter left in)"
+        },
+        || ingest_capture(&capture_dir, &cube_path),
+    )?;
+    files.push(cube_path.clone());
+
+    // 3. Calibrate: the calibrate stage, as `femto calibrate` runs it, on the markers
+    //    "detected" in the high-resolution image (module doc), written in capture pixels.
+    let truth = Calibration::load(&capture_dir.join(crate::simulate::capture::CALIBRATION_FILE))?;
+    let mesh_path = capture_dir.join(crate::simulate::capture::GEOMETRY_FILE);
+    let bvh = Bvh::new(load_mesh(&mesh_path)?);
+    let calib_path = data_dir.join(CALIBRATION_FILE);
+    let points_path = data_dir.join(POINTS_FILE);
+    let options = calibrate_options();
+    let world_path = data_dir.join(WORLD_FILE);
+    let paths = ChainFiles {
+        capture: &capture_dir,
+        cube: &cube_path,
+        points: &points_path,
+        calibration: &calib_path,
+        world: &world_path,
+        mesh: &mesh_path,
+    };
+    let errors = stages.run(
+        &format!("{label}calibrate"),
+        &format!(
+            "camera from fiducials ({}x{} image, {FIDUCIAL_NOISE_PX} px noise), t0 from the direct light",
+            sizes.fiducial_nx, sizes.fiducial_ny
+        ),
+        || calibrate_and_score(&scene, sizes, &paths, &truth, &bvh, &options),
+    )?;
+    files.push(points_path.clone());
+    files.push(calib_path.clone());
+
+    // 4. Unwarp: the unwarp stage with its defaults.
+    stages.run(
+        &format!("{label}unwarp"),
+        "camera time to world time, t_world = t_camera - eta |p - o| / c",
+        || {
+            let options = UnwarpOptions {
+                command_line: "femto demo".into(),
+                ..UnwarpOptions::default()
+            };
+            unwarp_file(
+                &cube_path,
+                &world_path,
+                Distances::Registration,
+                &options,
+                &Quiet,
+            )?;
+            Ok(())
+        },
+    )?;
+    files.push(world_path.clone());
+
+    // 5. Pyramid: the pyramid stage with its defaults, then the render stage's inputs.
+    let render = stages.run(&format!("{label}pyramid"), "temporal prefix sums", || {
+        pyramid_file(&world_path, &PyramidOptions::default(), &Quiet)?;
+        Ok(open_render_inputs(
+            &world_path,
+            None,
+            &calib_path,
+            &mesh_path,
+            None,
+        )?)
+    })?;
+
+    let commands = commands(data_dir, &paths, truth.laser_m, &options);
+    Ok(Chain {
+        scene_name: scene.name.clone(),
+        render,
+        errors,
+        data_files: files,
+        commands,
+    })
+}
+
+/// The simulate stage of [`run_chain`]: `scene` captured into `capture_dir` with the demo's
+/// flaws, a line said at every tenth of the rows rendered.
+fn simulate_stage(
+    scene: &Scene,
+    sizes: &DemoSizes,
+    capture_dir: &Path,
+    label: &str,
+    stages: &mut Stages<'_>,
+) -> Result<(), DemoError> {
     let say = stages.say();
     stages.run(
         &format!("{label}simulate"),
@@ -263,140 +359,72 @@ pub(crate) fn run_chain(
                     ));
                 }
             };
-            Ok(simulate_capture(&scene, &opts, &capture_dir, &tick)?)
+            Ok(simulate_capture(scene, &opts, capture_dir, &tick)?)
         },
     )?;
-    files.push(capture_dir.clone());
+    Ok(())
+}
 
-    // 2. Ingest.
-    let cube_path = data_dir.join(CUBE_FILE);
-    stages.run(
-        &format!("{label}ingest"),
-        if INGEST_JITTER {
-            "the manifest's dark frame, flat field and sweep bin times; jitter, laser power, saturation"
-        } else {
-            "the manifest's dark frame, flat field and sweep bin times; laser power, saturation (jitter left in)"
-        },
-        || ingest_capture(&capture_dir, &cube_path),
-    )?;
-    files.push(cube_path.clone());
-
-    // 3. Calibrate: the calibrate stage, as `femto calibrate` runs it, on the markers
-    //    "detected" in the high-resolution image (module doc), written in capture pixels.
-    let truth = Calibration::load(&capture_dir.join(crate::simulate::capture::CALIBRATION_FILE))?;
-    let mesh_path = capture_dir.join(crate::simulate::capture::GEOMETRY_FILE);
-    let bvh = Bvh::new(load_mesh(&mesh_path)?);
-    let calib_path = data_dir.join(CALIBRATION_FILE);
-    let points_path = data_dir.join(POINTS_FILE);
-    let options = calibrate_options();
-    let errors = stages.run(
-        &format!("{label}calibrate"),
-        &format!(
-            "camera from fiducials ({}x{} image, {FIDUCIAL_NOISE_PX} px noise), t0 from the direct light",
-            sizes.fiducial_nx, sizes.fiducial_ny
-        ),
-        || {
-            let hi = scene.with_resolution(sizes.fiducial_nx, sizes.fiducial_ny, sizes.nt, sizes.dt_ps);
-            let truth_bvh = Bvh::new(hi.mesh.clone());
-            let points = crate::simulate::fiducials::fiducials(
-                &hi,
-                &truth_bvh,
-                crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
-            );
-            let noisy = add_pixel_noise(&points, FIDUCIAL_NOISE_PX, DEMO_SEED);
-            let in_capture_px = scale_points(
-                &noisy,
-                sizes.capture_nx as f64 / sizes.fiducial_nx as f64,
-                sizes.capture_ny as f64 / sizes.fiducial_ny as f64,
-            );
-            save_points_toml(&points_path, &in_capture_px)?;
-            let fitted =
-                calibrate_cube(&cube_path, &bvh, &in_capture_px, truth.laser_m, &options, &Quiet)?;
-            write_calibration(
-                &cube_path,
-                &fitted,
-                in_capture_px.len(),
-                &mesh_path.display().to_string(),
-                &calib_path,
-                &[&mesh_path, &points_path],
-                "# made by: femto demo\n",
-            )?;
-            // The temporal stage alone: the same fit through the true camera.
-            let cube = read_cube(&cube_path)?;
-            let true_reg = register(&truth, &bvh, cube.nx, cube.ny)?;
-            let arrival = ArrivalOptions {
-                min_peak: fitted.time.floor,
-                ..ArrivalOptions::default()
-            };
-            let (true_time, _) =
-                calibrate_time(&cube, &true_reg, &truth.laser_m, truth.eta, false, &arrival)?;
-            Ok(calibration_errors(
-                &scene.name,
-                sizes,
-                &points,
-                &fitted,
-                &truth,
-                true_time.t0_ps,
-            ))
-        },
-    )?;
-    files.push(points_path.clone());
-    files.push(calib_path.clone());
-
-    // 4. Unwarp: the unwarp stage with its defaults.
-    let world_path = data_dir.join(WORLD_FILE);
-    stages.run(
-        &format!("{label}unwarp"),
-        "camera time to world time, t_world = t_camera - eta |p - o| / c",
-        || {
-            let options = UnwarpOptions {
-                command_line: "femto demo".into(),
-                ..UnwarpOptions::default()
-            };
-            unwarp_file(
-                &cube_path,
-                &world_path,
-                Distances::Registration,
-                &options,
-                &Quiet,
-            )?;
-            Ok(())
-        },
-    )?;
-    files.push(world_path.clone());
-
-    // 5. Pyramid: the pyramid stage with its defaults, then the render stage's inputs.
-    let render = stages.run(&format!("{label}pyramid"), "temporal prefix sums", || {
-        pyramid_file(&world_path, &PyramidOptions::default(), &Quiet)?;
-        Ok(open_render_inputs(
-            &world_path,
-            None,
-            &calib_path,
-            &mesh_path,
-            None,
-        )?)
-    })?;
-
-    let commands = commands(
-        data_dir,
-        &ChainFiles {
-            capture: &capture_dir,
-            cube: &cube_path,
-            points: &points_path,
-            calibration: &calib_path,
-            world: &world_path,
-            mesh: &mesh_path,
-        },
-        truth.laser_m,
-        &options,
+/// The calibrate stage of [`run_chain`]: the fiducials "detected" in the high-resolution
+/// image (with noise, written in capture pixels to `files.points`), the calibration fitted
+/// and written to `files.calibration`, and its errors against `truth` (the temporal stage
+/// alone run through the true camera for the reference `t0`).
+fn calibrate_and_score(
+    scene: &Scene,
+    sizes: &DemoSizes,
+    files: &ChainFiles<'_>,
+    truth: &Calibration,
+    bvh: &Bvh,
+    options: &CalibrateOptions,
+) -> Result<CalibrationErrors, DemoError> {
+    let hi = scene.with_resolution(sizes.fiducial_nx, sizes.fiducial_ny, sizes.nt, sizes.dt_ps);
+    let truth_bvh = Bvh::new(hi.mesh.clone());
+    let points = crate::simulate::fiducials::fiducials(
+        &hi,
+        &truth_bvh,
+        crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
     );
-    Ok(Chain {
-        scene_name: scene.name.clone(),
-        render,
-        errors,
-        data_files: files,
-        commands,
-    })
+    let noisy = add_pixel_noise(&points, FIDUCIAL_NOISE_PX, DEMO_SEED);
+    let in_capture_px = scale_points(
+        &noisy,
+        sizes.capture_nx as f64 / sizes.fiducial_nx as f64,
+        sizes.capture_ny as f64 / sizes.fiducial_ny as f64,
+    );
+    save_points_toml(files.points, &in_capture_px)?;
+    let fitted = calibrate_cube(
+        files.cube,
+        bvh,
+        &in_capture_px,
+        truth.laser_m,
+        options,
+        &Quiet,
+    )?;
+    write_calibration(
+        files.cube,
+        &fitted,
+        in_capture_px.len(),
+        &files.mesh.display().to_string(),
+        files.calibration,
+        &[files.mesh, files.points],
+        "# made by: femto demo\n",
+    )?;
+    // The temporal stage alone: the same fit through the true camera.
+    let cube = read_cube(files.cube)?;
+    let true_reg = register(truth, bvh, cube.nx, cube.ny)?;
+    let arrival = ArrivalOptions {
+        min_peak: fitted.time.floor,
+        ..ArrivalOptions::default()
+    };
+    let (true_time, _) =
+        calibrate_time(&cube, &true_reg, &truth.laser_m, truth.eta, false, &arrival)?;
+    Ok(calibration_errors(
+        &scene.name,
+        sizes,
+        &points,
+        &fitted,
+        truth,
+        true_time.t0_ps,
+    ))
 }
 
 /// The spatial fit of the demo, as `femto calibrate --square-pixels

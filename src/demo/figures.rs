@@ -298,6 +298,9 @@ fn still_output(figure: &str, path: &str, caption: &str, pairs: &[(&str, String)
 /// through the target) shown naively (keeping the capture camera's time warp) and re-warped,
 /// and three isochrone images: the capture camera's time of arrival, world time, and the
 /// novel camera's time of arrival.
+///
+/// Long (about 140 lines) on purpose: the figure's five images one after another, each
+/// render beside its file name, caption and parameter list; most lines are those tables.
 pub fn fig4(
     scene: &RenderScene,
     sizes: &DemoSizes,

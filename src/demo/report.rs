@@ -69,6 +69,31 @@ pub fn markdown(summary: &DemoSummary) -> String {
         s.fps,
     );
 
+    calibration_section(&mut md, summary);
+    figure_sections(&mut md, summary);
+
+    let _ = writeln!(md, "## Stages\n\n| stage | seconds |\n|---|---|");
+    for st in &summary.stages {
+        let _ = writeln!(md, "| {} | {:.2} |", cell(&st.stage), st.seconds);
+    }
+    let _ = writeln!(md, "| *total* | {:.2} |\n", summary.total_seconds);
+
+    let _ = writeln!(md, "## Data\n");
+    for f in &summary.data_files {
+        let _ = writeln!(md, "- `{f}`");
+    }
+    let _ = writeln!(
+        md,
+        "\nMachine-readable: [`{}`]({}).",
+        summary.summary_json, summary.summary_json
+    );
+    md
+}
+
+/// The report's "Calibration errors" section: the table of errors against the tolerances
+/// and a line per scene on the fit.
+fn calibration_section(md: &mut String, summary: &DemoSummary) {
+    let s = &summary.sizes;
     let t = &summary.tolerances;
     let _ = writeln!(md, "## Calibration errors\n");
     let _ = writeln!(
@@ -129,7 +154,11 @@ pub fn markdown(summary: &DemoSummary) -> String {
         );
     }
     let _ = writeln!(md);
+}
 
+/// The report's section per figure ([`FIGURES`] order): each output with its caption and
+/// parameter table; a figure with no output is left out, but Fig. 7 says how to run it.
+fn figure_sections(md: &mut String, summary: &DemoSummary) {
     for (fig, heading) in FIGURES {
         let files: Vec<_> = summary.outputs.iter().filter(|o| o.figure == fig).collect();
         if files.is_empty() {
@@ -168,23 +197,6 @@ pub fn markdown(summary: &DemoSummary) -> String {
             }
         }
     }
-
-    let _ = writeln!(md, "## Stages\n\n| stage | seconds |\n|---|---|");
-    for st in &summary.stages {
-        let _ = writeln!(md, "| {} | {:.2} |", cell(&st.stage), st.seconds);
-    }
-    let _ = writeln!(md, "| *total* | {:.2} |\n", summary.total_seconds);
-
-    let _ = writeln!(md, "## Data\n");
-    for f in &summary.data_files {
-        let _ = writeln!(md, "- `{f}`");
-    }
-    let _ = writeln!(
-        md,
-        "\nMachine-readable: [`{}`]({}).",
-        summary.summary_json, summary.summary_json
-    );
-    md
 }
 
 #[cfg(test)]

@@ -38,10 +38,16 @@
 //! an uncalibrated X axis and `ScalingYType=2`, the per-row times in ps stored as a float32
 //! table after the pixels. Values are rounded to the nearest integer (half away from zero)
 //! and clamped to `0..=2^bits - 1`; the number clamped at the top is returned.
+//!
+//! The reader is here; the writer is in `hamamatsu/write.rs`, the unit tests in
+//! `hamamatsu/tests.rs`.
 
-use super::{write_file_atomically, AxisTable, FormatError, PixelType, StreakImage};
+use super::{AxisTable, FormatError, PixelType, StreakImage};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+mod write;
+pub use write::write_img;
 
 /// Length of the fixed header.
 pub const HEADER_LEN: usize = 64;
@@ -612,6 +618,72 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             offset,
             message,
         })?;
+    check_scaling_keys(path, &sections)?;
+    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, &bytes)?;
+    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, &bytes)?;
+
+    let pixels = &bytes[comment_end..data_end];
+    let mut data = decode_pixels(header.file_type, pixels);
+
+    // Make every calibrated axis increase with the index.
+    let mut x_vals = axis_values(&scaling_x, w);
+    let mut y_vals = axis_values(&scaling_y, h);
+    let (columns_reversed, rows_reversed) =
+        make_axes_increase(path, &mut data, w, &mut x_vals, &mut y_vals)?;
+
+    // Assign roles: rows are time unless transposed.
+    let (time_vals, time_axis_name, space_vals, nx, nt) = if transpose {
+        data = super::transpose_rows(&data, w, h);
+        (x_vals, 'X', y_vals, h, w)
+    } else {
+        (y_vals, 'Y', x_vals, w, h)
+    };
+    let time_axis_ps = match time_vals {
+        None => None,
+        Some((values, unit)) => {
+            let per = time_unit_to_ps(&unit).ok_or_else(|| FormatError::UnknownUnit {
+                path: path.to_path_buf(),
+                what: format!("the time axis (Scaling{time_axis_name}Unit)"),
+                unit: unit.clone(),
+            })?;
+            Some(values.iter().map(|v| v * per).collect())
+        }
+    };
+    let x_axis = space_vals.map(|(values, unit)| AxisTable { values, unit });
+
+    let settings = comment_meta(path, &sections)?;
+
+    Ok(StreakImage {
+        nx,
+        nt,
+        data,
+        pixel_type: header.file_type.pixel_type(),
+        time_axis_ps,
+        x_axis,
+        img_meta: Some(ImgMeta {
+            header,
+            comment,
+            sections,
+            scaling_x,
+            scaling_y,
+            columns_reversed,
+            rows_reversed,
+            mode: settings.mode,
+            time_range_ps: settings.time_range_ps,
+            mcp_gain: settings.mcp_gain,
+            n_exposures: settings.n_exposures,
+            exposure_time_s: settings.exposure_time_s,
+            total_exposure_s: settings.total_exposure_s,
+        }),
+    })
+}
+
+/// Refuse a key of the comment's `[Scaling]` section that is not one of [`SCALING_KEYS`] for
+/// the X or Y axis.
+fn check_scaling_keys(
+    path: &Path,
+    sections: &BTreeMap<String, BTreeMap<String, String>>,
+) -> Result<(), FormatError> {
     if let Some(scaling) = sections.get("Scaling") {
         for key in scaling.keys() {
             let known = ['X', 'Y'].iter().any(|a| {
@@ -628,11 +700,12 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             }
         }
     }
-    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, &bytes)?;
-    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, &bytes)?;
+    Ok(())
+}
 
-    let pixels = &bytes[comment_end..data_end];
-    let mut data: Vec<f32> = match header.file_type {
+/// The pixels of an image stored as `file_type` (little-endian), as floats.
+fn decode_pixels(file_type: ImgFileType, pixels: &[u8]) -> Vec<f32> {
+    match file_type {
         ImgFileType::U8 => pixels.iter().map(|&v| v as f32).collect(),
         ImgFileType::U16 => pixels
             .chunks_exact(2)
@@ -642,11 +715,19 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             .chunks_exact(4)
             .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")) as f32)
             .collect(),
-    };
+    }
+}
 
-    // Make every calibrated axis increase with the index.
-    let mut x_vals = axis_values(&scaling_x, w);
-    let mut y_vals = axis_values(&scaling_y, h);
+/// Reverse a decreasing X table (and the columns of `data`, `w` wide) or Y table (and its
+/// rows) so that every calibrated axis increases with the index; returns whether the
+/// columns and the rows were reversed. A table that is not monotonic is an error.
+fn make_axes_increase(
+    path: &Path,
+    data: &mut Vec<f32>,
+    w: usize,
+    x_vals: &mut Option<(Vec<f64>, String)>,
+    y_vals: &mut Option<(Vec<f64>, String)>,
+) -> Result<(bool, bool), FormatError> {
     let mut columns_reversed = false;
     let mut rows_reversed = false;
     if let Some((v, _)) = x_vals.as_mut() {
@@ -672,7 +753,7 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             Ok(_) => {
                 v.reverse();
                 let flipped: Vec<f32> = data.chunks_exact(w).rev().flatten().copied().collect();
-                data = flipped;
+                *data = flipped;
                 rows_reversed = true;
             }
             Err(index) => {
@@ -684,27 +765,25 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             }
         }
     }
+    Ok((columns_reversed, rows_reversed))
+}
 
-    // Assign roles: rows are time unless transposed.
-    let (time_vals, time_axis_name, space_vals, nx, nt) = if transpose {
-        data = super::transpose_rows(&data, w, h);
-        (x_vals, 'X', y_vals, h, w)
-    } else {
-        (y_vals, 'Y', x_vals, w, h)
-    };
-    let time_axis_ps = match time_vals {
-        None => None,
-        Some((values, unit)) => {
-            let per = time_unit_to_ps(&unit).ok_or_else(|| FormatError::UnknownUnit {
-                path: path.to_path_buf(),
-                what: format!("the time axis (Scaling{time_axis_name}Unit)"),
-                unit: unit.clone(),
-            })?;
-            Some(values.iter().map(|v| v * per).collect())
-        }
-    };
-    let x_axis = space_vals.map(|(values, unit)| AxisTable { values, unit });
+/// The acquisition settings read from the comment (see [`ImgMeta`]).
+struct CommentMeta {
+    mode: Option<String>,
+    time_range_ps: Option<f64>,
+    mcp_gain: Option<f64>,
+    n_exposures: Option<u32>,
+    exposure_time_s: Option<f64>,
+    total_exposure_s: Option<f64>,
+}
 
+/// The `[Streak camera]` and `[Acquisition]` settings of the comment's `sections`; a value
+/// that does not parse (or a gain that is not finite) is an error naming its key.
+fn comment_meta(
+    path: &Path,
+    sections: &BTreeMap<String, BTreeMap<String, String>>,
+) -> Result<CommentMeta, FormatError> {
     let streak = sections.get("Streak camera");
     let acquisition = sections.get("Acquisition");
     let mode = streak.and_then(|s| s.get("Mode")).cloned();
@@ -748,256 +827,15 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         (Some(n), Some(t)) => Some(n as f64 * t),
         _ => None,
     };
-
-    Ok(StreakImage {
-        nx,
-        nt,
-        data,
-        pixel_type: header.file_type.pixel_type(),
-        time_axis_ps,
-        x_axis,
-        img_meta: Some(ImgMeta {
-            header,
-            comment,
-            sections,
-            scaling_x,
-            scaling_y,
-            columns_reversed,
-            rows_reversed,
-            mode,
-            time_range_ps,
-            mcp_gain,
-            n_exposures,
-            exposure_time_s,
-            total_exposure_s,
-        }),
+    Ok(CommentMeta {
+        mode,
+        time_range_ps,
+        mcp_gain,
+        n_exposures,
+        exposure_time_s,
+        total_exposure_s,
     })
 }
 
-/// A duration in the largest of ps, ns, us that keeps the number at least 1, with six
-/// significant digits (`"1.9 ns"`, `"640 ps"`).
-fn format_time_range(span_ps: f64) -> String {
-    let (value, unit) = if span_ps.abs() >= 1e6 {
-        (span_ps / 1e6, "us")
-    } else if span_ps.abs() >= 1e3 {
-        (span_ps / 1e3, "ns")
-    } else {
-        (span_ps, "ps")
-    };
-    let rounded: f64 = format!("{value:.5e}")
-        .parse()
-        .expect("formatted float parses");
-    format!("{rounded} {unit}")
-}
-
-/// The comment [`write_img`] stores, for a table at `table_offset`.
-fn writer_comment(
-    bytes_per_pixel: usize,
-    nt: usize,
-    time_range: &str,
-    table_offset: usize,
-) -> String {
-    format!(
-        "[Application],Software=\"femto\",SoftwareVersion=\"{version}\",\
-         ApplicationTitle=\"femto streak-camera simulator\"\r\n\
-         [Acquisition],BytesPerPixel={bytes_per_pixel},IsLineData=0,ZAxisLabel=Intensity,ZAxisUnit=Count\r\n\
-         [Streak camera],Time Range=\"{time_range}\",Mode=\"Operate\"\r\n\
-         [Scaling],ScalingXType=1,ScalingXScale=1,ScalingXUnit=\"\",ScalingXScalingFile=\"\",\
-         ScalingYType=2,ScalingYScale=1,ScalingYUnit=\"ps\",ScalingYScalingFile=\"#{table_offset},{nt:04}\"\r\n\
-         [Comment],UserComment=\"\"",
-        version = env!("CARGO_PKG_VERSION"),
-    )
-}
-
-/// Write `img` as an HPD-TA `.img` file with `bits` = 16 or 32 per pixel and the per-row
-/// times `time_axis_ps` (one per row, strictly increasing) as a float32 table in ps. The
-/// reader hands the table back unchanged; femto's simulator passes the start of each row's
-/// bin, `t0_ps + i * dt_ps` (the [`crate::cube::TimeAxis`] convention), and the
-/// `[Streak camera] Time Range` it records is `nt` times the mean row spacing.
-///
-/// Values are rounded to the nearest integer (half away from zero) and clamped to
-/// `0..=2^bits - 1`; returns how many were clamped at the top (saturated). Negative values
-/// become 0 (a real sensor cannot report less than zero counts). Non-finite values are an
-/// error. The file is written atomically.
-pub fn write_img(
-    path: &Path,
-    img: &StreakImage,
-    bits: u32,
-    time_axis_ps: &[f64],
-) -> Result<usize, FormatError> {
-    let invalid = |message: String| FormatError::InvalidArgument {
-        path: path.to_path_buf(),
-        message,
-    };
-    let file_type = match bits {
-        16 => ImgFileType::U16,
-        32 => ImgFileType::U32,
-        _ => {
-            return Err(invalid(format!(
-                "HPD-TA bit depth {bits} (the writer supports 16 and 32)"
-            )))
-        }
-    };
-    let (nx, nt) = (img.nx, img.nt);
-    if img.data.len() != nx * nt {
-        return Err(FormatError::SizeMismatch {
-            path: path.to_path_buf(),
-            what: "image data length (nx * nt)".into(),
-            expected: nx * nt,
-            found: img.data.len(),
-        });
-    }
-    let max_dim = i16::MAX as usize;
-    if nx == 0 || nt == 0 || nx > max_dim || nt > max_dim {
-        return Err(invalid(format!(
-            "HPD-TA image size {nx} x {nt} (each side must be 1..={max_dim})"
-        )));
-    }
-    if time_axis_ps.len() != nt {
-        return Err(FormatError::SizeMismatch {
-            path: path.to_path_buf(),
-            what: "time axis length (one time per row)".into(),
-            expected: nt,
-            found: time_axis_ps.len(),
-        });
-    }
-    if let Some(i) = time_axis_ps.iter().position(|t| !t.is_finite()) {
-        return Err(invalid(format!(
-            "time axis value {} at row {i} is not finite",
-            time_axis_ps[i]
-        )));
-    }
-    if let Some(i) = time_axis_ps.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(invalid(format!(
-            "time axis is not strictly increasing at row {}",
-            i + 1
-        )));
-    }
-    if let Some(i) = img.data.iter().position(|v| !v.is_finite()) {
-        return Err(FormatError::NonFinite {
-            path: path.to_path_buf(),
-            x: i % nx,
-            t: i / nx,
-            value: img.data[i],
-        });
-    }
-
-    let span_ps = if nt > 1 {
-        (time_axis_ps[nt - 1] - time_axis_ps[0]) * nt as f64 / (nt - 1) as f64
-    } else {
-        0.0
-    };
-    let time_range = format_time_range(span_ps);
-    let bpp = file_type.bytes();
-    let pixel_bytes = nx * nt * bpp;
-    // The table offset is written inside the comment, whose length moves the offset: iterate
-    // to the fixed point (at most a couple of rounds, as the offset only grows in digits).
-    let mut comment = writer_comment(bpp, nt, &time_range, 0);
-    loop {
-        let offset = HEADER_LEN + comment.len() + pixel_bytes;
-        let next = writer_comment(bpp, nt, &time_range, offset);
-        if next.len() == comment.len() {
-            comment = next;
-            break;
-        }
-        comment = next;
-    }
-    if comment.len() > i16::MAX as usize {
-        return Err(invalid("HPD-TA comment longer than 32767 bytes".into()));
-    }
-
-    let mut out = Vec::with_capacity(HEADER_LEN + comment.len() + pixel_bytes + 4 * nt);
-    out.extend_from_slice(b"IM");
-    out.extend_from_slice(&(comment.len() as i16).to_le_bytes());
-    out.extend_from_slice(&(nx as i16).to_le_bytes());
-    out.extend_from_slice(&(nt as i16).to_le_bytes());
-    out.extend_from_slice(&0i16.to_le_bytes()); // x offset
-    out.extend_from_slice(&0i16.to_le_bytes()); // y offset
-    out.extend_from_slice(&file_type.code().to_le_bytes());
-    out.extend_from_slice(&0i32.to_le_bytes()); // number of images, as HPD-TA writes it
-    out.extend_from_slice(&0i16.to_le_bytes()); // additional channels
-    out.extend_from_slice(&0i16.to_le_bytes()); // channel number
-    out.extend_from_slice(&0f64.to_le_bytes()); // time stamp
-    out.resize(HEADER_LEN, 0); // marker and additional information
-    out.extend_from_slice(comment.as_bytes());
-    let max = if bits == 16 {
-        u16::MAX as f64
-    } else {
-        u32::MAX as f64
-    };
-    let mut saturated = 0;
-    for &v in &img.data {
-        let r = (v as f64).round();
-        if r > max {
-            saturated += 1;
-        }
-        let stored = r.clamp(0.0, max);
-        if bits == 16 {
-            out.extend_from_slice(&(stored as u16).to_le_bytes());
-        } else {
-            out.extend_from_slice(&(stored as u32).to_le_bytes());
-        }
-    }
-    debug_assert_eq!(out.len(), HEADER_LEN + comment.len() + pixel_bytes);
-    for &t in time_axis_ps {
-        out.extend_from_slice(&(t as f32).to_le_bytes());
-    }
-    write_file_atomically(path, |tmp| {
-        std::fs::write(tmp, &out).map_err(|source| FormatError::Io {
-            path: PathBuf::from(path),
-            source,
-        })
-    })?;
-    Ok(saturated)
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn comment_sections_follow_values_directly() {
-        let s =
-            parse_comment("[A],k=1,q=\"x, y\"\r\n[B],Type=5,SubType=0[C],ExposureTime=5 s,E=\"\"")
-                .unwrap();
-        assert_eq!(s["A"]["k"], "1");
-        assert_eq!(s["A"]["q"], "x, y");
-        assert_eq!(s["B"]["SubType"], "0");
-        assert_eq!(s["C"]["ExposureTime"], "5 s");
-        assert_eq!(s["C"]["E"], "");
-    }
-
-    #[test]
-    fn comment_errors_give_offsets() {
-        assert_eq!(parse_comment("k=1").unwrap_err().0, 0);
-        assert_eq!(parse_comment("[A],k=1,lonely").unwrap_err().0, 8);
-        assert!(parse_comment("[A],k=\"open").is_err());
-        assert!(parse_comment("[A],k=1,k=2")
-            .unwrap_err()
-            .1
-            .contains("duplicate"));
-    }
-
-    #[test]
-    fn time_values_must_be_finite_in_ps() {
-        let p = Path::new("x.img");
-        let t = |v: &str| parse_time_value(p, "Streak camera", "Time Range", v);
-        assert_eq!(t("20 us").unwrap(), 2e7);
-        for v in ["inf ps", "nan ns", "1e300 s", "-inf fs"] {
-            let e = t(v).unwrap_err().to_string();
-            assert!(e.contains("finite") && e.contains("Time Range"), "{v}: {e}");
-        }
-    }
-
-    #[test]
-    fn time_units() {
-        assert_eq!(time_unit_to_ps("us"), Some(1e6));
-        assert_eq!(time_unit_to_ps("\u{b5}s"), Some(1e6));
-        assert_eq!(time_unit_to_ps("fs"), Some(1e-3));
-        assert_eq!(time_unit_to_ps("s"), Some(1e12));
-        assert_eq!(time_unit_to_ps("nm"), None);
-        assert_eq!(format_time_range(1900.0), "1.9 ns");
-        assert_eq!(format_time_range(640.0), "640 ps");
-        assert_eq!(format_time_range(2.0e7), "20 us");
-    }
-}
+mod tests;

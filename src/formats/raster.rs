@@ -167,7 +167,6 @@ pub fn read_png_grey16_into(
 /// sample type, RGB(A) integer with equal channels, or RGB(A) float (mean of R, G, B).
 pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     use tiff::decoder::{Decoder, DecodingResult as R};
-    use tiff::ColorType;
     let mut file = std::fs::File::open(path).map_err(io_err(path))?;
     let file_bytes = file.metadata().map_err(io_err(path))?.len();
     check_tiff_directory(path, &mut file, file_bytes)?;
@@ -176,22 +175,7 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     let (w, h) = decoder.dimensions().map_err(|e| decode_err(path, e))?;
     let (width, height) = (w as usize, h as usize);
     let colour = decoder.colortype().map_err(|e| decode_err(path, e))?;
-    let (channels, has_alpha) = match colour {
-        ColorType::Gray(_) => (1, false),
-        ColorType::GrayA(_) => (2, true),
-        ColorType::RGB(_) => (3, false),
-        ColorType::RGBA(_) => (4, true),
-        other => {
-            return Err(FormatError::ChannelLayout {
-                path: path.to_path_buf(),
-                message: format!("TIFF colour type {other:?} (expected grey or RGB)"),
-            })
-        }
-    };
-    let bits: u8 = match colour {
-        ColorType::Gray(b) | ColorType::GrayA(b) | ColorType::RGB(b) | ColorType::RGBA(b) => b,
-        _ => 8,
-    };
+    let (channels, has_alpha, bits) = tiff_layout(path, colour)?;
     let declared_bytes = width as f64 * height as f64 * channels as f64 * bits as f64 / 8.0;
     let image = format!("an image of {width} x {height} pixels");
     check_declared_bytes(path, &image, declared_bytes, file_bytes)?;
@@ -221,7 +205,51 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
         });
     }
     let expected = width * height * channels;
-    let n = match &result {
+    let n = sample_count(&result);
+    if n != expected {
+        return Err(FormatError::SizeMismatch {
+            path: path.to_path_buf(),
+            what: "TIFF samples (planar colour TIFFs are not read)".into(),
+            expected,
+            found: n,
+        });
+    }
+    let (data, pixel_type) = tiff_grey(path, result, width, channels, has_alpha)?;
+    Ok(RasterPixels {
+        width,
+        height,
+        data,
+        pixel_type,
+    })
+}
+
+/// The channels of a TIFF colour type (grey, grey+alpha, RGB or RGBA; anything else is an
+/// error), whether the last is alpha, and the bits of a sample.
+fn tiff_layout(path: &Path, colour: tiff::ColorType) -> Result<(usize, bool, u8), FormatError> {
+    use tiff::ColorType;
+    let (channels, has_alpha) = match colour {
+        ColorType::Gray(_) => (1, false),
+        ColorType::GrayA(_) => (2, true),
+        ColorType::RGB(_) => (3, false),
+        ColorType::RGBA(_) => (4, true),
+        other => {
+            return Err(FormatError::ChannelLayout {
+                path: path.to_path_buf(),
+                message: format!("TIFF colour type {other:?} (expected grey or RGB)"),
+            })
+        }
+    };
+    let bits: u8 = match colour {
+        ColorType::Gray(b) | ColorType::GrayA(b) | ColorType::RGB(b) | ColorType::RGBA(b) => b,
+        _ => 8,
+    };
+    Ok((channels, has_alpha, bits))
+}
+
+/// How many samples a decoded TIFF holds.
+fn sample_count(result: &tiff::decoder::DecodingResult) -> usize {
+    use tiff::decoder::DecodingResult as R;
+    match result {
         R::U8(v) => v.len(),
         R::U16(v) => v.len(),
         R::U32(v) => v.len(),
@@ -233,15 +261,20 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
         R::I16(v) => v.len(),
         R::I32(v) => v.len(),
         R::I64(v) => v.len(),
-    };
-    if n != expected {
-        return Err(FormatError::SizeMismatch {
-            path: path.to_path_buf(),
-            what: "TIFF samples (planar colour TIFFs are not read)".into(),
-            expected,
-            found: n,
-        });
     }
+}
+
+/// One grey value a pixel from the `channels` interleaved samples of a decoded TIFF
+/// `width` pixels wide, and how the file stored them: integer colour must have equal
+/// channels, float colour is averaged; sample types with no grey reading are errors.
+fn tiff_grey(
+    path: &Path,
+    result: tiff::decoder::DecodingResult,
+    width: usize,
+    channels: usize,
+    has_alpha: bool,
+) -> Result<(Vec<f32>, PixelType), FormatError> {
+    use tiff::decoder::DecodingResult as R;
     let integer = |samples: Result<Vec<f32>, FormatError>, grey: PixelType, rgb: PixelType| {
         samples.map(|d| (d, if channels <= 2 { grey } else { rgb }))
     };
@@ -256,7 +289,7 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
         path: path.to_path_buf(),
         message: format!("TIFF sample type {what}"),
     };
-    let (data, pixel_type) = match result {
+    Ok(match result {
         R::U8(v) => integer(
             grey_from_interleaved(path, &v, width, channels, has_alpha),
             PixelType::U8,
@@ -296,12 +329,6 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
         R::U64(_) => return Err(unsupported("u64")),
         R::I8(_) => return Err(unsupported("i8")),
         R::I64(_) => return Err(unsupported("i64")),
-    };
-    Ok(RasterPixels {
-        width,
-        height,
-        data,
-        pixel_type,
     })
 }
 
@@ -649,5 +676,42 @@ mod tests {
         std::fs::write(&bad, b"not a png").unwrap();
         let e = read_png_grey16_into(&bad, &mut samples).unwrap_err();
         assert!(e.to_string().contains("c.png"), "{e}");
+    }
+
+    #[test]
+    fn tiff_colour_types_give_channels_alpha_and_bits() {
+        use tiff::ColorType;
+        let p = Path::new("t.tif");
+        assert_eq!(tiff_layout(p, ColorType::Gray(16)).unwrap(), (1, false, 16));
+        assert_eq!(tiff_layout(p, ColorType::GrayA(8)).unwrap(), (2, true, 8));
+        assert_eq!(tiff_layout(p, ColorType::RGB(32)).unwrap(), (3, false, 32));
+        assert_eq!(tiff_layout(p, ColorType::RGBA(16)).unwrap(), (4, true, 16));
+        let e = tiff_layout(p, ColorType::CMYK(8)).unwrap_err().to_string();
+        assert!(
+            e.contains("expected grey or RGB") && e.contains("t.tif"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn tiff_samples_become_grey_by_type() {
+        use tiff::decoder::DecodingResult as R;
+        let p = Path::new("t.tif");
+        assert_eq!(sample_count(&R::I16(vec![0; 5])), 5);
+        // Grey+alpha u16: the alpha is dropped.
+        let (d, t) = tiff_grey(p, R::U16(vec![7, 65535, 9, 0]), 2, 2, true).unwrap();
+        assert_eq!((d, t), (vec![7.0, 9.0], PixelType::U16));
+        // RGB float: the mean of R, G, B.
+        let (d, t) = tiff_grey(p, R::F32(vec![1.0, 2.0, 6.0]), 1, 3, false).unwrap();
+        assert_eq!((d, t), (vec![3.0], PixelType::RgbF32));
+        // RGB u8 must have equal channels.
+        let (d, t) = tiff_grey(p, R::U8(vec![5, 5, 5]), 1, 3, false).unwrap();
+        assert_eq!((d, t), (vec![5.0], PixelType::RgbU8));
+        assert!(tiff_grey(p, R::U8(vec![5, 6, 5]), 1, 3, false).is_err());
+        // Colour of a grey-only sample type, and types with no grey reading.
+        let e = tiff_grey(p, R::I32(vec![1, 1, 1]), 1, 3, false).unwrap_err();
+        assert!(e.to_string().contains("grey only"), "{e}");
+        let e = tiff_grey(p, R::U64(vec![1]), 1, 1, false).unwrap_err();
+        assert!(e.to_string().contains("u64"), "{e}");
     }
 }

@@ -10,6 +10,7 @@
 //! `f32` VEC3 positions (with the `min`/`max` the specification requires) and `u32` indices.
 
 use super::TriangleMesh;
+use nalgebra::Point3;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -74,15 +75,7 @@ fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
             });
         }
     }
-    // Triangles grouped by material, in increasing material order.
-    let mut groups: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-    for (i, &m) in mesh.material.iter().enumerate().take(mesh.triangles.len()) {
-        groups.entry(m).or_default().push(i);
-    }
-    // Triangles beyond the material list (a malformed mesh) get material 0.
-    for i in mesh.material.len()..mesh.triangles.len() {
-        groups.entry(0).or_default().push(i);
-    }
+    let groups = material_groups(mesh);
 
     if let Some(&material) = groups.keys().next_back().filter(|&&m| m > MAX_MATERIAL) {
         return Err(GlbError::MaterialIndex {
@@ -96,20 +89,7 @@ fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
     let mut accessors = Vec::new();
     let mut primitives = Vec::new();
     for (&material, tris) in &groups {
-        // Compact the vertices this primitive uses, in order of first use.
-        let mut remap: BTreeMap<u32, u32> = BTreeMap::new();
-        let mut local_positions = Vec::new();
-        let mut indices = Vec::with_capacity(3 * tris.len());
-        for &t in tris {
-            for &v in &mesh.triangles[t] {
-                let next = remap.len() as u32;
-                let local = *remap.entry(v).or_insert_with(|| {
-                    local_positions.push(mesh.positions[v as usize]);
-                    next
-                });
-                indices.push(local);
-            }
-        }
+        let (local_positions, indices) = compact_vertices(mesh, tris);
         let mut min = [f32::INFINITY; 3];
         let mut max = [f32::NEG_INFINITY; 3];
         let pos_offset = bin.len();
@@ -201,4 +181,70 @@ fn encode_glb(mesh: &TriangleMesh, path: &Path) -> Result<Vec<u8>, GlbError> {
         out.extend_from_slice(&bin);
     }
     Ok(out)
+}
+
+/// The triangles of `mesh` grouped by material, in increasing material order; triangles
+/// beyond the material list (a malformed mesh) get material 0.
+fn material_groups(mesh: &TriangleMesh) -> BTreeMap<u32, Vec<usize>> {
+    let mut groups: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    for (i, &m) in mesh.material.iter().enumerate().take(mesh.triangles.len()) {
+        groups.entry(m).or_default().push(i);
+    }
+    // Triangles beyond the material list (a malformed mesh) get material 0.
+    for i in mesh.material.len()..mesh.triangles.len() {
+        groups.entry(0).or_default().push(i);
+    }
+    groups
+}
+
+/// The vertices the triangles `tris` of `mesh` use, compacted in order of first use, and
+/// the triangles' corners as indices into them.
+fn compact_vertices(mesh: &TriangleMesh, tris: &[usize]) -> (Vec<Point3<f32>>, Vec<u32>) {
+    let mut remap: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut local_positions = Vec::new();
+    let mut indices = Vec::with_capacity(3 * tris.len());
+    for &t in tris {
+        for &v in &mesh.triangles[t] {
+            let next = remap.len() as u32;
+            let local = *remap.entry(v).or_insert_with(|| {
+                local_positions.push(mesh.positions[v as usize]);
+                next
+            });
+            indices.push(local);
+        }
+    }
+    (local_positions, indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mesh() -> TriangleMesh {
+        TriangleMesh {
+            positions: (0..5).map(|i| Point3::new(i as f32, 0.0, 0.0)).collect(),
+            triangles: vec![[0, 1, 2], [2, 3, 4], [4, 1, 0]],
+            // The third triangle has no material: 0.
+            material: vec![3, 0],
+        }
+    }
+
+    #[test]
+    fn triangles_are_grouped_by_material_in_order() {
+        let g = material_groups(&mesh());
+        let groups: Vec<(u32, Vec<usize>)> = g.into_iter().collect();
+        assert_eq!(groups, [(0, vec![1, 2]), (3, vec![0])]);
+    }
+
+    #[test]
+    fn vertices_are_compacted_in_order_of_first_use() {
+        let m = mesh();
+        let (positions, indices) = compact_vertices(&m, &[1, 2]);
+        let xs: Vec<f32> = positions.iter().map(|p| p.x).collect();
+        assert_eq!(xs, [2.0, 3.0, 4.0, 1.0, 0.0]);
+        assert_eq!(indices, [0, 1, 2, 2, 3, 4]);
+        let (positions, indices) = compact_vertices(&m, &[0]);
+        assert_eq!(positions.len(), 3);
+        assert_eq!(indices, [0, 1, 2]);
+    }
 }

@@ -189,53 +189,10 @@ pub fn calibrate_cube(
     if meta.frame != TimeFrame::Camera {
         return Err(at(CalibrateError::WorldTimeCube));
     }
+    check_options(options)?;
     let t = options.threshold_fraction;
-    if !(t > 0.0 && t <= 1.0) {
-        return Err(StageError::Option {
-            name: StageOption::Threshold,
-            message: format!("must be in (0, 1], got {t}"),
-        });
-    }
-    if !(options.eta.is_finite() && options.eta >= 1.0) {
-        return Err(StageError::Option {
-            name: StageOption::Eta,
-            message: format!("must be a number >= 1, got {}", options.eta),
-        });
-    }
-    if let DetectionFloor::Level(v) = options.floor {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(StageError::Option {
-                name: StageOption::MinPeak,
-                message: format!("must be a finite number >= 0, got {v}"),
-            });
-        }
-    }
 
-    let mut spatial = match options.intrinsics {
-        Some(k) => {
-            if (k.width, k.height) != (meta.nx, meta.ny) {
-                return Err(StageError::Option {
-                    name: StageOption::Intrinsics,
-                    message: format!(
-                        "are for {} x {} pixels but {} is {} x {}",
-                        k.width,
-                        k.height,
-                        cube_path.display(),
-                        meta.nx,
-                        meta.ny
-                    ),
-                });
-            }
-            SpatialOptions::known_intrinsics(k)
-        }
-        None => SpatialOptions::unknown_intrinsics(meta.nx, meta.ny),
-    };
-    if options.intrinsics.is_none() {
-        spatial.square_pixels = options.square_pixels;
-        spatial.principal_point_at_centre = options.centred_principal_point;
-        spatial.fit_distortion = options.fit_distortion;
-    }
-    spatial.reject_outliers = !options.keep_outliers;
+    let spatial = spatial_options(options, cube_path, meta.nx, meta.ny)?;
     let fit = fit_camera(points, &spatial).map_err(|e| StageError::Points { source: e })?;
     let camera = fit.calibration(0.0, 1.0, laser_m, options.eta);
     let reg = register(&camera, mesh, meta.nx, meta.ny).map_err(at)?;
@@ -331,6 +288,70 @@ pub fn calibrate_cube(
     })
 }
 
+/// Refuse a threshold fraction outside (0, 1], an index of refraction below 1 and a
+/// detection floor that is not a finite level >= 0; the error names the option.
+fn check_options(options: &CalibrateOptions) -> Result<(), StageError> {
+    let t = options.threshold_fraction;
+    if !(t > 0.0 && t <= 1.0) {
+        return Err(StageError::Option {
+            name: StageOption::Threshold,
+            message: format!("must be in (0, 1], got {t}"),
+        });
+    }
+    if !(options.eta.is_finite() && options.eta >= 1.0) {
+        return Err(StageError::Option {
+            name: StageOption::Eta,
+            message: format!("must be a number >= 1, got {}", options.eta),
+        });
+    }
+    if let DetectionFloor::Level(v) = options.floor {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(StageError::Option {
+                name: StageOption::MinPeak,
+                message: format!("must be a finite number >= 0, got {v}"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The spatial fit's options for a cube of `nx` x `ny` pixels at `cube_path`: the given
+/// intrinsics (which must be for that size), or unknown ones with the shape constraints
+/// asked for.
+fn spatial_options(
+    options: &CalibrateOptions,
+    cube_path: &Path,
+    nx: usize,
+    ny: usize,
+) -> Result<SpatialOptions, StageError> {
+    let mut spatial = match options.intrinsics {
+        Some(k) => {
+            if (k.width, k.height) != (nx, ny) {
+                return Err(StageError::Option {
+                    name: StageOption::Intrinsics,
+                    message: format!(
+                        "are for {} x {} pixels but {} is {} x {}",
+                        k.width,
+                        k.height,
+                        cube_path.display(),
+                        nx,
+                        ny
+                    ),
+                });
+            }
+            SpatialOptions::known_intrinsics(k)
+        }
+        None => SpatialOptions::unknown_intrinsics(nx, ny),
+    };
+    if options.intrinsics.is_none() {
+        spatial.square_pixels = options.square_pixels;
+        spatial.principal_point_at_centre = options.centred_principal_point;
+        spatial.fit_distortion = options.fit_distortion;
+    }
+    spatial.reject_outliers = !options.keep_outliers;
+    Ok(spatial)
+}
+
 /// The cube read by row slabs, with what every pixel sees.
 struct Slabs<'a> {
     reader: &'a CubeReader,
@@ -424,4 +445,85 @@ pub fn write_calibration(
     let _commit = crate::interrupt::commit();
     cube.persist()?;
     staged.commit().map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_out_of_range_are_refused_by_name() {
+        assert!(check_options(&CalibrateOptions::default()).is_ok());
+        let cases = [
+            (
+                CalibrateOptions {
+                    threshold_fraction: 0.0,
+                    ..CalibrateOptions::default()
+                },
+                StageOption::Threshold,
+            ),
+            (
+                CalibrateOptions {
+                    threshold_fraction: 1.5,
+                    ..CalibrateOptions::default()
+                },
+                StageOption::Threshold,
+            ),
+            (
+                CalibrateOptions {
+                    eta: 0.9,
+                    ..CalibrateOptions::default()
+                },
+                StageOption::Eta,
+            ),
+            (
+                CalibrateOptions {
+                    eta: f64::INFINITY,
+                    ..CalibrateOptions::default()
+                },
+                StageOption::Eta,
+            ),
+            (
+                CalibrateOptions {
+                    floor: DetectionFloor::Level(-1.0),
+                    ..CalibrateOptions::default()
+                },
+                StageOption::MinPeak,
+            ),
+        ];
+        for (options, want) in cases {
+            match check_options(&options) {
+                Err(StageError::Option { name, .. }) => assert_eq!(name, want, "{options:?}"),
+                other => panic!("{options:?}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn given_intrinsics_must_match_the_cube_and_ignore_the_shape_flags() {
+        let path = Path::new("cube.h5");
+        let k = Intrinsics::from_vfov(64, 48, 40.0);
+        let options = CalibrateOptions {
+            intrinsics: Some(k),
+            square_pixels: true,
+            keep_outliers: true,
+            ..CalibrateOptions::default()
+        };
+        let s = spatial_options(&options, path, 64, 48).unwrap();
+        assert!(!s.square_pixels && !s.reject_outliers);
+        let e = spatial_options(&options, path, 32, 48)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("are for 64 x 48 pixels but cube.h5 is 32 x 48"),
+            "{e}"
+        );
+        let unknown = CalibrateOptions {
+            square_pixels: true,
+            centred_principal_point: true,
+            ..CalibrateOptions::default()
+        };
+        let s = spatial_options(&unknown, path, 32, 48).unwrap();
+        assert!(s.square_pixels && s.principal_point_at_centre && s.reject_outliers);
+    }
 }

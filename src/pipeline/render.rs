@@ -435,7 +435,53 @@ pub fn plan(
     options: &RenderOptions,
 ) -> Result<Plan, StageError> {
     check_options(options)?;
-    let (path, default_offset_ps) = match camera {
+    let (path, default_offset_ps) = camera_path(scene, camera, options)?;
+    check_frame_size(scene, &path.spec(), options.format)?;
+    let spec = path.spec();
+    check_path_clear(scene.bvh, &path).map_err(|e| {
+        let (name, value) = camera_flag(camera);
+        let message = if value.is_empty() {
+            e.to_string()
+        } else {
+            format!("{value}: {e}")
+        };
+        StageError::Option { name, message }
+    })?;
+    let frames = options.frames.clone().unwrap_or(0..spec.frames);
+    check_frames(&path, &frames).map_err(|e| StageError::Option {
+        name: StageOption::Frames,
+        message: format!("{}..{}: {e}", frames.start, frames.end),
+    })?;
+
+    let mut settings = RenderSettings::for_path(&path);
+    settings.effects = options.effects;
+    settings.radiometry = options.radiometry;
+    settings.time_offset_ps = options.time_offset_ps.unwrap_or(default_offset_ps);
+    settings.view = match options.view {
+        ViewKind::Transient => View::Transient,
+        ViewKind::Naive => View::Naive,
+        ViewKind::Integrated => View::Integrated,
+        ViewKind::Isochrones => {
+            View::Isochrones(isochrone_range(scene, &settings, &path, options.contour_ps))
+        }
+    };
+    settings.exposure = options.exposure * auto_exposure(scene, &settings.view);
+    Ok(Plan {
+        path,
+        settings,
+        frames,
+    })
+}
+
+/// The camera path of a render and the time offset it defaults to (a shortcut's own; 0 for
+/// a path file): a path file as loaded, with the frame size, count and spacing that
+/// `options` give instead of its own; a shortcut built for `scene` at `options`' size.
+fn camera_path(
+    scene: &RenderScene,
+    camera: &Camera,
+    options: &RenderOptions,
+) -> Result<(CameraPath, f64), StageError> {
+    Ok(match camera {
         Camera::PathFile(p) => {
             let loaded = CameraPath::load(p).map_err(|e| StageError::Option {
                 name: StageOption::Path,
@@ -474,8 +520,17 @@ pub fn plan(
             )?;
             (s.path, s.time_offset_ps)
         }
-    };
-    let spec = path.spec();
+    })
+}
+
+/// Refuse frames of `spec` larger than [`MAX_SIDE`] a side or more than [`MAX_FRAMES`], a
+/// render of `scene` that needs more memory than is available in `format`, and an MP4 of
+/// odd width or height.
+fn check_frame_size(
+    scene: &RenderScene,
+    spec: &FrameSpec,
+    format: VideoFormat,
+) -> Result<(), StageError> {
     if spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.frames > MAX_FRAMES {
         return Err(StageError::Option {
             name: StageOption::Size,
@@ -486,12 +541,12 @@ pub fn plan(
         });
     }
     let w = scene.world;
-    let in_memory = encoded_bytes_per_pixel(options.format) > 0.0;
+    let in_memory = encoded_bytes_per_pixel(format) > 0.0;
     check_memory(
         memory_estimate(
             (w.nx, w.ny, w.axis.nt),
             (spec.width, spec.height, spec.frames),
-            options.format,
+            format,
         ),
         format_args!(
             "rendering {} frames of {}x{} from a {} x {} x {} cube{}",
@@ -502,10 +557,7 @@ pub fn plan(
             w.ny,
             w.axis.nt,
             if in_memory {
-                format!(
-                    " into an {} held in memory until it is written",
-                    options.format
-                )
+                format!(" into an {} held in memory until it is written", format)
             } else {
                 String::new()
             }
@@ -516,7 +568,7 @@ pub fn plan(
             "lower --size"
         },
     )?;
-    if options.format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
+    if format == VideoFormat::Mp4 && (spec.width % 2 == 1 || spec.height % 2 == 1) {
         return Err(StageError::Option {
             name: StageOption::Size,
             message: format!(
@@ -528,39 +580,7 @@ pub fn plan(
             ),
         });
     }
-    check_path_clear(scene.bvh, &path).map_err(|e| {
-        let (name, value) = camera_flag(camera);
-        let message = if value.is_empty() {
-            e.to_string()
-        } else {
-            format!("{value}: {e}")
-        };
-        StageError::Option { name, message }
-    })?;
-    let frames = options.frames.clone().unwrap_or(0..spec.frames);
-    check_frames(&path, &frames).map_err(|e| StageError::Option {
-        name: StageOption::Frames,
-        message: format!("{}..{}: {e}", frames.start, frames.end),
-    })?;
-
-    let mut settings = RenderSettings::for_path(&path);
-    settings.effects = options.effects;
-    settings.radiometry = options.radiometry;
-    settings.time_offset_ps = options.time_offset_ps.unwrap_or(default_offset_ps);
-    settings.view = match options.view {
-        ViewKind::Transient => View::Transient,
-        ViewKind::Naive => View::Naive,
-        ViewKind::Integrated => View::Integrated,
-        ViewKind::Isochrones => {
-            View::Isochrones(isochrone_range(scene, &settings, &path, options.contour_ps))
-        }
-    };
-    settings.exposure = options.exposure * auto_exposure(scene, &settings.view);
-    Ok(Plan {
-        path,
-        settings,
-        frames,
-    })
+    Ok(())
 }
 
 /// The flag that chose `camera`, without dashes, and its value.

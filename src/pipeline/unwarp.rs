@@ -14,7 +14,7 @@
 use super::{refuse_same_file, Progress, StageError, StageOption};
 use crate::calibrate::register;
 use crate::camera::Calibration;
-use crate::container::{CubeCompression, CubeReader, CubeWriter, GroupData, Provenance};
+use crate::container::{CubeCompression, CubeMeta, CubeReader, CubeWriter, GroupData, Provenance};
 use crate::cube::{row_slabs, TimeAxis, TimeFrame};
 use crate::geometry::bvh::Bvh;
 use crate::limits::check_memory;
@@ -164,6 +164,83 @@ pub fn unwarp_file(
         });
     }
 
+    let (stored, group) = load_registration(&reader, input, &meta, distances)?;
+    let eta = stored.calibration.eta;
+    let mask = reader.read_mask()?;
+    let reg = &stored.registration;
+    let dist = masked_distances(nx * ny, &reg.mask, &reg.dist_m, mask.as_deref());
+    let dist_range_m = finite_range_m(&dist);
+    let axis = output_axis(
+        input,
+        &meta.axis,
+        options.axis,
+        dist_range_m,
+        eta,
+        direction,
+    )?;
+    check_unwarp_memory(input, shape, axis.nt, options.axis.is_some())?;
+
+    let provenance = Provenance {
+        command_line: options.command_line.clone(),
+        notes: unwarp_notes(
+            &meta.notes,
+            meta.frame,
+            direction,
+            input,
+            distances,
+            &stored.mesh,
+        ),
+    };
+    let compression = options
+        .compression
+        .unwrap_or_else(|| reader.stored_compression());
+    let mut writer = CubeWriter::create_with(
+        output,
+        nx,
+        ny,
+        axis,
+        direction.target_frame(),
+        &meta.units,
+        &provenance,
+        compression,
+    )?;
+    let slabs = Slabs {
+        meta: &meta,
+        dist: &dist,
+        mask: mask.as_deref(),
+        eta,
+        direction,
+        axis: &axis,
+    };
+    let out_mask = stream_slabs(&reader, &mut writer, &slabs, progress)?;
+    drop(reader);
+    writer.write_mask(&out_mask)?;
+    writer.write_group(registration::GROUP, &group)?;
+    writer.finish()?;
+    Ok(Unwarped {
+        nx,
+        ny,
+        from: meta.frame,
+        to: direction.target_frame(),
+        input_axis: meta.axis,
+        output_axis: axis,
+        eta,
+        valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
+        dist_range_m,
+        compression,
+    })
+}
+
+/// The registration [`unwarp_file`] uses and the group it stores in the output: cast anew
+/// through a calibration into a mesh, or read from the cube's own group. Refuses a cube with
+/// no group to read, and a registration whose size is not the cube's.
+fn load_registration(
+    reader: &CubeReader,
+    input: &Path,
+    meta: &CubeMeta,
+    distances: Distances<'_>,
+) -> Result<(StoredRegistration, GroupData), StageError> {
+    let (nx, ny) = (meta.nx, meta.ny);
     let (stored, group): (StoredRegistration, GroupData) = match distances {
         Distances::Cast {
             calibration,
@@ -210,27 +287,51 @@ pub fn unwarp_file(
             ),
         });
     }
-    let eta = stored.calibration.eta;
-    let mask = reader.read_mask()?;
-    // Pixels the registration marks as seeing nothing get no shift, whatever dist_m says.
-    let dist: Vec<f32> = (0..nx * ny)
+    Ok((stored, group))
+}
+
+/// The distance of each of the `n_pixels` pixels, metres, NaN where the registration's mask (`reg_mask`) or the
+/// cube's (`cube_mask`) marks it as seeing nothing: such pixels get no shift, whatever
+/// `dist_m` says.
+fn masked_distances(
+    n_pixels: usize,
+    reg_mask: &[u8],
+    dist_m: &[f32],
+    cube_mask: Option<&[u8]>,
+) -> Vec<f32> {
+    (0..n_pixels)
         .map(|p| {
-            let valid = reg.mask[p] != 0 && mask.as_ref().is_none_or(|m| m[p] != 0);
+            let valid = reg_mask[p] != 0 && cube_mask.is_none_or(|m| m[p] != 0);
             if valid {
-                reg.dist_m[p]
+                dist_m[p]
             } else {
                 f32::NAN
             }
         })
-        .collect();
-    let dist_range_m = dist
-        .iter()
+        .collect()
+}
+
+/// Smallest and largest finite distance, metres; None when no pixel has one.
+fn finite_range_m(dist: &[f32]) -> Option<(f64, f64)> {
+    dist.iter()
         .filter(|d| d.is_finite())
         .map(|&d| d as f64)
         .fold(None, |r: Option<(f64, f64)>, d| {
             Some(r.map_or((d, d), |(a, b)| (a.min(d), b.max(d))))
-        });
-    let axis = match options.axis {
+        })
+}
+
+/// The output's time axis: the one `given` (checked), else one covering every sample of
+/// `input_axis` shifted by distances in `dist_range_m`, else (no pixel shifted) the input's.
+fn output_axis(
+    input: &Path,
+    input_axis: &TimeAxis,
+    given: Option<TimeAxis>,
+    dist_range_m: Option<(f64, f64)>,
+    eta: f64,
+    direction: Direction,
+) -> Result<TimeAxis, StageError> {
+    Ok(match given {
         Some(a) => {
             if !(a.t0_ps.is_finite() && a.dt_ps.is_finite() && a.dt_ps > 0.0 && a.nt > 0) {
                 return Err(StageError::Option {
@@ -245,26 +346,35 @@ pub fn unwarp_file(
             a
         }
         None => match dist_range_m {
-            Some((lo, hi)) => covering_axis(&meta.axis, lo, hi, eta, direction).map_err(|e| {
+            Some((lo, hi)) => covering_axis(input_axis, lo, hi, eta, direction).map_err(|e| {
                 StageError::Input {
                     path: input.display().to_string(),
                     message: e.to_string(),
                 }
             })?,
-            None => meta.axis,
+            None => *input_axis,
         },
-    };
-    check_unwarp_memory(input, shape, axis.nt, options.axis.is_some())?;
+    })
+}
 
-    let mut notes: Vec<(String, String)> = meta
-        .notes
+/// The output's provenance notes: the input's, less its own `unwarp.*` notes, and this
+/// unwarp's direction, source and where its distances came from.
+fn unwarp_notes(
+    input_notes: &[(String, String)],
+    from: TimeFrame,
+    direction: Direction,
+    input: &Path,
+    distances: Distances<'_>,
+    mesh: &str,
+) -> Vec<(String, String)> {
+    let mut notes: Vec<(String, String)> = input_notes
         .iter()
         .filter(|(k, _)| !k.starts_with("unwarp."))
         .cloned()
         .collect();
     notes.push((
         "unwarp.direction".into(),
-        format!("{} -> {}", meta.frame, direction.target_frame()),
+        format!("{} -> {}", from, direction.target_frame()),
     ));
     notes.push(("unwarp.source".into(), input.display().to_string()));
     notes.push((
@@ -272,29 +382,34 @@ pub fn unwarp_file(
         match distances {
             Distances::Cast {
                 calibration_name, ..
-            } => format!("cast through {calibration_name} into {}", stored.mesh),
+            } => format!("cast through {calibration_name} into {mesh}"),
             Distances::Registration => format!("/{} group of the source", registration::GROUP),
         },
     ));
-    let provenance = Provenance {
-        command_line: options.command_line.clone(),
-        notes,
-    };
-    let compression = options
-        .compression
-        .unwrap_or_else(|| reader.stored_compression());
-    let mut writer = CubeWriter::create_with(
-        output,
-        nx,
-        ny,
-        axis,
-        direction.target_frame(),
-        &meta.units,
-        &provenance,
-        compression,
-    )?;
+    notes
+}
 
-    let (nt_in, nt_out) = (meta.axis.nt, axis.nt);
+/// What each slab of [`stream_slabs`] is unwarped with.
+struct Slabs<'a> {
+    meta: &'a CubeMeta,
+    /// Per-pixel distances, metres (NaN: no shift).
+    dist: &'a [f32],
+    mask: Option<&'a [u8]>,
+    eta: f64,
+    direction: Direction,
+    /// The output's time axis.
+    axis: &'a TimeAxis,
+}
+
+/// Read the cube by row slabs, unwarp each and write it; returns the output's mask.
+fn stream_slabs(
+    reader: &CubeReader,
+    writer: &mut CubeWriter,
+    s: &Slabs<'_>,
+    progress: &dyn Progress,
+) -> Result<Vec<u8>, StageError> {
+    let (nx, ny) = (s.meta.nx, s.meta.ny);
+    let (nt_in, nt_out) = (s.meta.axis.nt, s.axis.nt);
     let mut out_mask = vec![0u8; nx * ny];
     progress.start("unwarp", ny as u64);
     let mut src = Vec::new();
@@ -309,12 +424,12 @@ pub fn unwarp_file(
             &src,
             nx,
             n,
-            &meta.axis,
-            &dist[a..b],
-            mask.as_ref().map(|m| &m[a..b]),
-            eta,
-            direction,
-            &axis,
+            &s.meta.axis,
+            &s.dist[a..b],
+            s.mask.map(|m| &m[a..b]),
+            s.eta,
+            s.direction,
+            s.axis,
             &mut dst,
             &mut out_mask[a..b],
         );
@@ -322,20 +437,107 @@ pub fn unwarp_file(
         progress.set(rows.end as u64);
     }
     progress.finish();
-    drop(reader);
-    writer.write_mask(&out_mask)?;
-    writer.write_group(registration::GROUP, &group)?;
-    writer.finish()?;
-    Ok(Unwarped {
-        nx,
-        ny,
-        from: meta.frame,
-        to: direction.target_frame(),
-        input_axis: meta.axis,
-        output_axis: axis,
-        eta,
-        valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
-        dist_range_m,
-        compression,
-    })
+    Ok(out_mask)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pixel_either_mask_rejects_has_no_distance() {
+        let reg_mask = [1, 0, 1, 1];
+        let dist_m = [1.0f32, 2.0, 3.0, 4.0];
+        let d = masked_distances(4, &reg_mask, &dist_m, Some(&[1, 1, 0, 1]));
+        assert_eq!(d[0], 1.0);
+        assert!(d[1].is_nan() && d[2].is_nan());
+        assert_eq!(d[3], 4.0);
+        let d = masked_distances(4, &reg_mask, &dist_m, None);
+        assert_eq!((d[2], d[3]), (3.0, 4.0));
+        assert!(d[1].is_nan());
+    }
+
+    #[test]
+    fn the_range_skips_pixels_without_distance() {
+        assert_eq!(finite_range_m(&[f32::NAN, f32::NAN]), None);
+        assert_eq!(finite_range_m(&[]), None);
+        assert_eq!(
+            finite_range_m(&[3.0, f32::NAN, 1.5, f32::INFINITY, 2.0]),
+            Some((1.5, 3.0))
+        );
+    }
+
+    #[test]
+    fn a_given_axis_must_be_finite_positive_and_not_empty() {
+        let input = Path::new("in.h5");
+        let cube = TimeAxis {
+            t0_ps: 0.0,
+            dt_ps: 2.0,
+            nt: 10,
+        };
+        let dir = Direction::CameraToWorld;
+        let good = TimeAxis {
+            t0_ps: -5.0,
+            dt_ps: 1.0,
+            nt: 3,
+        };
+        let a = output_axis(input, &cube, Some(good), Some((1.0, 2.0)), 1.0, dir);
+        assert_eq!(a.ok(), Some(good));
+        for bad in [
+            TimeAxis {
+                t0_ps: f64::NAN,
+                dt_ps: 1.0,
+                nt: 3,
+            },
+            TimeAxis {
+                t0_ps: 0.0,
+                dt_ps: 0.0,
+                nt: 3,
+            },
+            TimeAxis {
+                t0_ps: 0.0,
+                dt_ps: 1.0,
+                nt: 0,
+            },
+        ] {
+            let e = output_axis(input, &cube, Some(bad), None, 1.0, dir).unwrap_err();
+            assert!(e.to_string().contains("positive bin width"), "{e}");
+        }
+        // No pixel shifted and no axis given: the input's own axis.
+        assert_eq!(
+            output_axis(input, &cube, None, None, 1.0, dir).ok(),
+            Some(cube)
+        );
+    }
+
+    #[test]
+    fn the_notes_replace_an_earlier_unwarp_and_name_the_source() {
+        let old = vec![
+            ("laser_nm".to_string(), "532".to_string()),
+            ("unwarp.source".to_string(), "older.h5".to_string()),
+        ];
+        let n = unwarp_notes(
+            &old,
+            TimeFrame::Camera,
+            Direction::CameraToWorld,
+            Path::new("cam.h5"),
+            Distances::Registration,
+            "mesh.obj",
+        );
+        let keys: Vec<&str> = n.iter().map(|(k, _)| k.as_str()).collect();
+        assert_eq!(
+            keys,
+            [
+                "laser_nm",
+                "unwarp.direction",
+                "unwarp.source",
+                "unwarp.distances"
+            ]
+        );
+        assert_eq!(n[2].1, "cam.h5");
+        assert_eq!(
+            n[3].1,
+            format!("/{} group of the source", registration::GROUP)
+        );
+    }
 }

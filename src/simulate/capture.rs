@@ -275,135 +275,13 @@ pub fn simulate_capture(
     let tmp = crate::atomic::temp_dir_beside(out_dir).map_err(io_err(&parent))?;
     // Everything is written into the temporary folder; an error names the file by its place
     // in `out_dir`, where the user looks for it, not by the temporary folder's name.
-    let staged = (|| -> Result<_, SimulateError> {
-
-        let bvh = Bvh::new(scene.mesh.clone());
-        let trace_opts = TraceOptions {
-            spp: opts.spp,
-            max_bounces: opts.max_bounces,
-            seed: opts.seed,
-            split_bounces: true,
-            world_time: true,
-            ..TraceOptions::default()
-        };
-        let dir = tmp.path();
-        let provenance = Provenance::new(opts.created_by.clone())
-            .with_note("scene", scene.name.clone())
-            .with_note("seed", opts.seed.to_string())
-            .with_note("spp", opts.spp.to_string())
-            .with_note("max_bounces", opts.max_bounces.to_string())
-            .with_note(
-                "values",
-                "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
-            );
-        let (nx, ny, axis) = (
-            scene.camera.intrinsics.width,
-            scene.camera.intrinsics.height,
-            scene.camera.axis,
-        );
-        let shape = CaptureModel::unscaled(&opts.flaws, nx, ny, axis, opts.seed)?;
-        let (peaks, stats) =
-            render_truths(scene, &bvh, &trace_opts, &shape, dir, &provenance, progress)?;
-        let model = shape.scaled(&peaks);
-
-        let (mut written, values_at_top_count) = write_scanlines(
-            tmp.path(),
-            &dir.join(TRUTH_CAMERA_FILE),
-            &model,
-            &opts.formats,
-            progress,
-        )?;
-        written.extend(
-            [TRUTH_CAMERA_FILE, TRUTH_WORLD_FILE, TRUTH_DIRECT_FILE]
-                .into_iter()
-                .map(PathBuf::from),
-        );
-        let scanlines = scanline_entries(ny, &opts.formats);
-
-        write_glb(&scene.mesh, &dir.join(GEOMETRY_FILE))?;
-        written.push(GEOMETRY_FILE.into());
-
-        let calibration = scene.calibration();
-        let calib_path = dir.join(CALIBRATION_FILE);
-        write_atomically(&calib_path, |t| std::fs::write(t, calibration.to_toml()))
-            .map_err(io_err(&calib_path))?;
-        written.push(CALIBRATION_FILE.into());
-
-        let points = fiducials(scene, &bvh, opts.marker_spacing_m);
-        save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
-        written.push(FIDUCIALS_FILE.into());
-
-        let mut capture_files = CaptureFiles {
-            geometry: Some(GEOMETRY_FILE.into()),
-            calibration: Some(CALIBRATION_FILE.into()),
-            fiducials: Some(FIDUCIALS_FILE.into()),
-            truth_camera: Some(TRUTH_CAMERA_FILE.into()),
-            truth_world: Some(TRUTH_WORLD_FILE.into()),
-            truth_direct: Some(TRUTH_DIRECT_FILE.into()),
-            flat: None,
-            dark: None,
-        };
-        if opts.flaws.vignetting.is_some() {
-            let flat = StreakImage::new(nx, ny, model.flat_field());
-            write_exr_f32(&dir.join(FLAT_FILE), &flat)?;
-            written.push(FLAT_FILE.into());
-            capture_files.flat = Some(FLAT_FILE.into());
-        }
-        if let Some(counts) = model.dark_frame_counts() {
-            let frame = transpose_to_streak(&counts, axis.nt, nx, model.value_per_count);
-            write_exr_f32(&dir.join(DARK_FILE), &frame)?;
-            written.push(DARK_FILE.into());
-            capture_files.dark = Some(DARK_FILE.into());
-        }
-
-        let manifest = Manifest {
-            capture: CaptureInfo {
-                scene: scene.name.clone(),
-                nx,
-                ny,
-                nt: axis.nt,
-                dt_ps: axis.dt_ps,
-                t0_ps: axis.t0_ps,
-                exposure_s: None,
-                exposure_note: Some(format!(
-                    "simulated: one laser pulse of energy {} per scanline, {} paths per pixel, at \
-                     most {} bounces; signal = counts x png_value_per_count (the .png and .img \
-                     files hold counts, the .exr files signal), in the units of {TRUTH_CAMERA_FILE}",
-                    scene.laser.energy, opts.spp, opts.max_bounces
-                )),
-                sensor_fwhm_ps: None,
-                png_value_per_count: Some(model.value_per_count),
-                eta: scene.eta,
-                laser_wavelength_nm: scene.laser.wavelength_nm,
-                pulse_width_fs: scene.laser.pulse_width_fs,
-                formats: opts.formats.clone(),
-                seed: Some(opts.seed),
-                spp: Some(opts.spp),
-                created_by: Some(opts.created_by.clone()),
-            },
-            files: capture_files,
-            imperfections: model.imperfections(),
-            scanlines,
-        };
-        manifest.save(&dir.join(MANIFEST_FILE))?;
-        written.push(MANIFEST_FILE.into());
-
-        // Outputs are ordinary folders, not tempfile's owner-only ones.
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            for d in [dir.to_path_buf(), dir.join("scanlines")] {
-                std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755))
-                    .map_err(io_err(&d))?;
-            }
-        }
-        Ok((stats, written, points.len(), values_at_top_count))
-    })()
-    .map_err(|e| SimulateError::Staged {
-        message: e
-            .to_string()
-            .replace(&tmp.path().display().to_string(), &out_dir.display().to_string()),
-    })?;
+    let staged =
+        stage_capture(scene, opts, tmp.path(), progress).map_err(|e| SimulateError::Staged {
+            message: e.to_string().replace(
+                &tmp.path().display().to_string(),
+                &out_dir.display().to_string(),
+            ),
+        })?;
     let (stats, written, fiducials, values_at_top_count) = staged;
     install(tmp, out_dir, opts.force)?;
 
@@ -418,6 +296,168 @@ pub fn simulate_capture(
         fiducials,
         values_at_top_count,
     })
+}
+
+/// Everything [`simulate_capture`] writes, written into the folder `dir` (the temporary
+/// folder beside the output): the truth cubes, the scanlines, the side files and the
+/// manifest. Returns the render's counters, the files written (relative to `dir`), the
+/// number of fiducial markers and of streak-image values at the top count.
+fn stage_capture(
+    scene: &Scene,
+    opts: &SimulateOptions,
+    dir: &Path,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<(TraceStats, Vec<PathBuf>, usize, usize), SimulateError> {
+    let bvh = Bvh::new(scene.mesh.clone());
+    let trace_opts = TraceOptions {
+        spp: opts.spp,
+        max_bounces: opts.max_bounces,
+        seed: opts.seed,
+        split_bounces: true,
+        world_time: true,
+        ..TraceOptions::default()
+    };
+    let provenance = Provenance::new(opts.created_by.clone())
+        .with_note("scene", scene.name.clone())
+        .with_note("seed", opts.seed.to_string())
+        .with_note("spp", opts.spp.to_string())
+        .with_note("max_bounces", opts.max_bounces.to_string())
+        .with_note(
+            "values",
+            "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
+        );
+    let (nx, ny, axis) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+        scene.camera.axis,
+    );
+    let shape = CaptureModel::unscaled(&opts.flaws, nx, ny, axis, opts.seed)?;
+    let (peaks, stats) =
+        render_truths(scene, &bvh, &trace_opts, &shape, dir, &provenance, progress)?;
+    let model = shape.scaled(&peaks);
+
+    let (mut written, values_at_top_count) = write_scanlines(
+        dir,
+        &dir.join(TRUTH_CAMERA_FILE),
+        &model,
+        &opts.formats,
+        progress,
+    )?;
+    written.extend(
+        [TRUTH_CAMERA_FILE, TRUTH_WORLD_FILE, TRUTH_DIRECT_FILE]
+            .into_iter()
+            .map(PathBuf::from),
+    );
+    let scanlines = scanline_entries(ny, &opts.formats);
+
+    let (capture_files, n_points) = write_side_files(scene, opts, &bvh, &model, dir, &mut written)?;
+
+    let manifest = Manifest {
+        capture: capture_info(scene, opts, &model),
+        files: capture_files,
+        imperfections: model.imperfections(),
+        scanlines,
+    };
+    manifest.save(&dir.join(MANIFEST_FILE))?;
+    written.push(MANIFEST_FILE.into());
+
+    // Outputs are ordinary folders, not tempfile's owner-only ones.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        for d in [dir.to_path_buf(), dir.join("scanlines")] {
+            std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755))
+                .map_err(io_err(&d))?;
+        }
+    }
+    Ok((stats, written, n_points, values_at_top_count))
+}
+/// The files of the capture folder `dir` but the truth cubes and the scanlines (written in
+/// `dir` by the time this runs): the scene as glTF, the true calibration, the fiducial
+/// markers, and the flat field and dark frame when the flaws have them. Each file written is
+/// added to `written`; returns the manifest's `[files]` and how many markers were written.
+fn write_side_files(
+    scene: &Scene,
+    opts: &SimulateOptions,
+    bvh: &Bvh,
+    model: &CaptureModel,
+    dir: &Path,
+    written: &mut Vec<PathBuf>,
+) -> Result<(CaptureFiles, usize), SimulateError> {
+    let (nx, ny, axis) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+        scene.camera.axis,
+    );
+    write_glb(&scene.mesh, &dir.join(GEOMETRY_FILE))?;
+    written.push(GEOMETRY_FILE.into());
+
+    let calibration = scene.calibration();
+    let calib_path = dir.join(CALIBRATION_FILE);
+    write_atomically(&calib_path, |t| std::fs::write(t, calibration.to_toml()))
+        .map_err(io_err(&calib_path))?;
+    written.push(CALIBRATION_FILE.into());
+
+    let points = fiducials(scene, bvh, opts.marker_spacing_m);
+    save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
+    written.push(FIDUCIALS_FILE.into());
+
+    let mut capture_files = CaptureFiles {
+        geometry: Some(GEOMETRY_FILE.into()),
+        calibration: Some(CALIBRATION_FILE.into()),
+        fiducials: Some(FIDUCIALS_FILE.into()),
+        truth_camera: Some(TRUTH_CAMERA_FILE.into()),
+        truth_world: Some(TRUTH_WORLD_FILE.into()),
+        truth_direct: Some(TRUTH_DIRECT_FILE.into()),
+        flat: None,
+        dark: None,
+    };
+    if opts.flaws.vignetting.is_some() {
+        let flat = StreakImage::new(nx, ny, model.flat_field());
+        write_exr_f32(&dir.join(FLAT_FILE), &flat)?;
+        written.push(FLAT_FILE.into());
+        capture_files.flat = Some(FLAT_FILE.into());
+    }
+    if let Some(counts) = model.dark_frame_counts() {
+        let frame = transpose_to_streak(&counts, axis.nt, nx, model.value_per_count);
+        write_exr_f32(&dir.join(DARK_FILE), &frame)?;
+        written.push(DARK_FILE.into());
+        capture_files.dark = Some(DARK_FILE.into());
+    }
+    Ok((capture_files, points.len()))
+}
+
+/// The manifest's `[capture]` table of a capture of `scene` made with `opts` and `model`.
+fn capture_info(scene: &Scene, opts: &SimulateOptions, model: &CaptureModel) -> CaptureInfo {
+    let axis = scene.camera.axis;
+    let (nx, ny) = (
+        scene.camera.intrinsics.width,
+        scene.camera.intrinsics.height,
+    );
+    CaptureInfo {
+        scene: scene.name.clone(),
+        nx,
+        ny,
+        nt: axis.nt,
+        dt_ps: axis.dt_ps,
+        t0_ps: axis.t0_ps,
+        exposure_s: None,
+        exposure_note: Some(format!(
+            "simulated: one laser pulse of energy {} per scanline, {} paths per pixel, at \
+             most {} bounces; signal = counts x png_value_per_count (the .png and .img \
+             files hold counts, the .exr files signal), in the units of {TRUTH_CAMERA_FILE}",
+            scene.laser.energy, opts.spp, opts.max_bounces
+        )),
+        sensor_fwhm_ps: None,
+        png_value_per_count: Some(model.value_per_count),
+        eta: scene.eta,
+        laser_wavelength_nm: scene.laser.wavelength_nm,
+        pulse_width_fs: scene.laser.pulse_width_fs,
+        formats: opts.formats.clone(),
+        seed: Some(opts.seed),
+        spp: Some(opts.spp),
+        created_by: Some(opts.created_by.clone()),
+    }
 }
 
 /// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
