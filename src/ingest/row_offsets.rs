@@ -340,26 +340,9 @@ fn cubic_misfit_coeffs(d: &[f64; 4]) -> [f64; 4] {
     c.map(|v| v / norm)
 }
 
-/// The offset common to each row of per-pixel measurements `values` (`ny x nx`, `[y][x]`,
-/// `None` = not measured), relative to the median row (module doc). A row that its centred
-/// window does not explain (an edge of the scene inside it) is predicted from the window
-/// of 5 rows holding it that agrees best with the other rows' offsets. Rows with fewer than
-/// `fit.min_pixels` predicted pixels get `None`; with fewer than 5 rows, every row does.
-pub fn estimate_row_offsets(
-    values: &[Option<f64>],
-    nx: usize,
-    fit: &RowOffsetFit,
-) -> Vec<Option<f64>> {
-    let ny = values.len().checked_div(nx).unwrap_or(0);
-    if ny < 5 {
-        return vec![None; ny];
-    }
-    let min = fit.min_pixels.max(3);
-    // Steps 1 and 2, for every 5-row window holding each row; the centred one first. Per
-    // pixel, a window is left out where its four other rows do not lie on a quadratic (an
-    // edge of the scene runs between them); where the windows left disagree by far more than
-    // usual (an edge between the row and one side), only the one closest to the measured
-    // value (the pixel's own side) is kept.
+/// Every 5-row window holding each of `ny` rows, the centred one first, with the
+/// coefficients of its four other rows' cubic misfit (steps 1 and 2 of the module doc).
+fn candidate_windows(ny: usize) -> (Vec<Vec<Window>>, Vec<Vec<[f64; 4]>>) {
     let mut windows: Vec<Vec<Window>> = Vec::with_capacity(ny);
     let mut misfit_coeffs: Vec<Vec<[f64; 4]>> = Vec::with_capacity(ny);
     for y in 0..ny {
@@ -380,6 +363,67 @@ pub fn estimate_row_offsets(
         windows.push(row_windows);
         misfit_coeffs.push(row_coeffs);
     }
+    (windows, misfit_coeffs)
+}
+
+/// Step 3 of the module doc: the offsets of `ny` rows by re-weighted Tikhonov least squares
+/// (prior variance `sigma2`, Huber weights) over the rows' windows and residuals.
+fn solve_offsets(rows: &[(usize, Window)], ny: usize, sigma2: f64, fit: &RowOffsetFit) -> Vec<f64> {
+    let mut weight: Vec<f64> = rows.iter().map(|(_, w)| 1.0 / w.s2).collect();
+    let mut offsets = vec![0.0f64; ny];
+    let mut band = vec![0.0f64; ny * (BAND + 1)];
+    let mut rhs = vec![0.0f64; ny];
+    for _ in 0..fit.iterations.max(1) {
+        band.iter_mut().for_each(|v| *v = 0.0);
+        rhs.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..ny {
+            band[i * (BAND + 1) + BAND] = 1.0 / sigma2;
+        }
+        for (&(y, ref w), &wt) in rows.iter().zip(&weight) {
+            let c = w.coeffs(y);
+            for &(i, ci) in &c {
+                rhs[i] += wt * ci * w.r;
+                for &(j, cj) in c.iter().filter(|(j, _)| *j <= i) {
+                    band[i * (BAND + 1) + (j + BAND - i)] += wt * ci * cj;
+                }
+            }
+        }
+        offsets = solve_banded(&mut band, &rhs);
+        for (&(y, ref w), wt) in rows.iter().zip(weight.iter_mut()) {
+            let z = w.misfit(y, &offsets);
+            *wt = if z > fit.huber_k {
+                fit.huber_k / z
+            } else {
+                1.0
+            } / w.s2;
+        }
+    }
+    offsets
+}
+
+/// The offset common to each row of per-pixel measurements `values` (`ny x nx`, `[y][x]`,
+/// `None` = not measured), relative to the median row (module doc). A row that its centred
+/// window does not explain (an edge of the scene inside it) is predicted from the window
+/// of 5 rows holding it that agrees best with the other rows' offsets. Rows with fewer than
+/// `fit.min_pixels` predicted pixels get `None`; with fewer than 5 rows, every row does.
+/// (About 145 lines: the residuals of every candidate window and the choice among them
+/// share the per-pixel closures `pixel` and `misfit`, which a split would pass around.)
+pub fn estimate_row_offsets(
+    values: &[Option<f64>],
+    nx: usize,
+    fit: &RowOffsetFit,
+) -> Vec<Option<f64>> {
+    let ny = values.len().checked_div(nx).unwrap_or(0);
+    if ny < 5 {
+        return vec![None; ny];
+    }
+    let min = fit.min_pixels.max(3);
+    // Steps 1 and 2, for every 5-row window holding each row; the centred one first. Per
+    // pixel, a window is left out where its four other rows do not lie on a quadratic (an
+    // edge of the scene runs between them); where the windows left disagree by far more than
+    // usual (an edge between the row and one side), only the one closest to the measured
+    // value (the pixel's own side) is kept.
+    let (windows, misfit_coeffs) = candidate_windows(ny);
     // Per (y, x): each window's residual and the signed third divided difference of its
     // four other rows, NaN where a row is not measured.
     let pixel = |y: usize, x: usize, k: usize| -> (f64, f64) {
@@ -501,36 +545,7 @@ pub fn estimate_row_offsets(
         // Nothing the scene does not explain: no offsets.
         return known.iter().map(|&k| k.then_some(0.0)).collect();
     }
-    // Step 3: re-weighted Tikhonov least squares (Huber weights).
-    let mut weight: Vec<f64> = rows.iter().map(|(_, w)| 1.0 / w.s2).collect();
-    let mut offsets = vec![0.0f64; ny];
-    let mut band = vec![0.0f64; ny * (BAND + 1)];
-    let mut rhs = vec![0.0f64; ny];
-    for _ in 0..fit.iterations.max(1) {
-        band.iter_mut().for_each(|v| *v = 0.0);
-        rhs.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..ny {
-            band[i * (BAND + 1) + BAND] = 1.0 / sigma2;
-        }
-        for (&(y, ref w), &wt) in rows.iter().zip(&weight) {
-            let c = w.coeffs(y);
-            for &(i, ci) in &c {
-                rhs[i] += wt * ci * w.r;
-                for &(j, cj) in c.iter().filter(|(j, _)| *j <= i) {
-                    band[i * (BAND + 1) + (j + BAND - i)] += wt * ci * cj;
-                }
-            }
-        }
-        offsets = solve_banded(&mut band, &rhs);
-        for (&(y, ref w), wt) in rows.iter().zip(weight.iter_mut()) {
-            let z = w.misfit(y, &offsets);
-            *wt = if z > fit.huber_k {
-                fit.huber_k / z
-            } else {
-                1.0
-            } / w.s2;
-        }
-    }
+    let offsets = solve_offsets(&rows, ny, sigma2, fit);
     let mut present: Vec<f64> = (0..ny).filter(|&y| known[y]).map(|y| offsets[y]).collect();
     let centre = median(&mut present);
     (0..ny)
