@@ -365,7 +365,7 @@ fn first_pass(
 
 /// Decode every scanline file of `plan` and nothing else (no corrections, no output), with
 /// the same decoder (16-bit grey PNG into integer samples, other files through
-/// [`read_streak`]) and the same parallel, bounded streaming as [`ingest`]: the baseline of
+/// [`read_streak`](crate::formats::read_streak)) and the same parallel, bounded streaming as [`ingest`]: the baseline of
 /// the benchmark.
 pub fn decode_only(
     plan: &IngestPlan,

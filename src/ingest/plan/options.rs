@@ -23,7 +23,7 @@ pub enum PowerRef {
     /// reference fibre): rows are scaled to the median of its integral.
     Region(RefRegion),
     /// No reference in view: each row's pixel integrals against the same pixels in the
-    /// neighbouring rows ([`super::row_offsets`]).
+    /// neighbouring rows ([`crate::ingest::row_offsets`]).
     Auto,
 }
 
