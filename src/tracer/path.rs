@@ -60,7 +60,7 @@ pub(super) struct PathKernel<'a> {
     pub(super) laser_m: Point3<f32>,
     pub(super) laser_normal: Vector3<f32>,
     /// Radiant intensity towards `w` (unit, away from the spot): `intensity_scale`, times
-    /// `max(0, laser_normal . w)` for cosine emission (scene.rs `Laser::intensity`).
+    /// `max(0, laser_normal . w)` for cosine emission (`scene::Laser::intensity`).
     pub(super) intensity_scale: f32,
     pub(super) cosine_emission: bool,
     /// Albedo and normal's basis of each triangle of the mesh (one load per hit).
