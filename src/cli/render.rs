@@ -187,6 +187,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow!("--threads {n}: {e}"))?;
     }
     let (camera, options) = options(&args)?;
+    femto::pipeline::render::check_options(&options)?;
     let inputs = open_render_inputs(
         &args.cube,
         args.pyramid.as_deref(),

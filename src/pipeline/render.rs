@@ -371,7 +371,10 @@ pub struct Plan {
     pub frames: Range<usize>,
 }
 
-fn check_options(options: &RenderOptions) -> Result<(), StageError> {
+/// Refuse render options out of range (frame count, size, interval, exposure, ...), naming
+/// the option. [`plan`] checks them; the CLI checks them first as well, so that a bad flag is
+/// refused before the inputs (gigabytes, at times) are opened.
+pub fn check_options(options: &RenderOptions) -> Result<(), StageError> {
     let bad = |name, message: String| Err(StageError::Option { name, message });
     if let Some(n) = options.frame_count {
         if n == 0 || n > MAX_FRAMES {

@@ -518,3 +518,21 @@ fn render_counts_the_frames_an_mp4_holds_in_memory() {
     let err = cli::refused_unchanged(dir.path(), &flags("file"), &env, &["file"]);
     assert!(!err.contains("memory"), "a frame sequence streams: {err}");
 }
+
+/// A render's options are refused before its inputs are opened: with no cube at all, a
+/// `--size` beyond the cap is what the message names (the inputs, gigabytes at times, were
+/// read first, 0.4 s on this fixture).
+#[test]
+fn render_options_are_refused_before_the_inputs_are_opened() {
+    let dir = case(&[]);
+    let err = cli::refused_unchanged(
+        dir.path(),
+        &render_args(
+            "absent.toml",
+            &["--capture-view", "--size", "99999x10", "--out", "r.gif"],
+        ),
+        &[],
+        &["--size", "99999x10", "16384"],
+    );
+    assert!(!err.contains("world.h5"), "{err}");
+}
