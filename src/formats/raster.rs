@@ -183,7 +183,6 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
     // claims before reading (266 MB for a 3 kB file).
     let mut limits = tiff::decoder::Limits::default();
     limits.intermediate_buffer_size = file_bytes as usize;
-    limits.decoding_buffer_size = (64e6 + 16.0 * file_bytes as f64) as usize;
     let mut decoder = decoder.with_limits(limits);
     let mut result = R::U8(Vec::new());
     decoder
