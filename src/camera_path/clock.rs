@@ -8,6 +8,7 @@
 use super::keyframes::KeyTrack;
 use super::Clock;
 use crate::units::C_M_PER_PS;
+use nalgebra::Vector3;
 
 /// Sub-intervals per keyframe segment of the clock table (5-point Gauss-Legendre each).
 const SUB: usize = 32;
@@ -154,7 +155,17 @@ impl KeyTrack {
     /// (path-clock time, world time) at proper time `tau`.
     pub(super) fn times_at_tau(&self, tau: f64) -> (f64, f64) {
         if self.n() == 1 {
-            return (tau, tau);
+            // World time equals proper time at the keyframe; a moving keyframe's clock runs
+            // slow by gamma (dt = gamma dtau), and the path clock is proper or world time.
+            let beta = self.beta_from_derivative(&self.tangents[0]);
+            if beta == Vector3::zeros() || tau == self.knots[0] {
+                return (tau, tau);
+            }
+            let t = self.knots[0] + crate::relativity::gamma(beta.norm()) * (tau - self.knots[0]);
+            return match self.clock {
+                Clock::Proper => (tau, t),
+                Clock::World => (t, t),
+            };
         }
         match self.clock {
             Clock::Proper => (tau, self.other_at(tau)),

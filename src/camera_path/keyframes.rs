@@ -20,6 +20,8 @@ pub(super) struct KeyTrack {
     pub(super) points: Vec<Vector3<f64>>,
     /// dx/ds at each keyframe (m per ps of the path's clock), cubic only.
     pub(super) tangents: Vec<Vector3<f64>>,
+    /// Each keyframe's given `beta`, returned as it is at the keyframe's own time.
+    pub(super) betas: Vec<Option<Vector3<f64>>>,
     pub(super) rotations: Vec<UnitQuaternion<f64>>,
     pub(super) vfovs: Vec<f64>,
     /// The other clock (tau for clock = world, t for clock = proper) at the table's nodes
@@ -70,7 +72,12 @@ impl KeyTrack {
     /// Position and derivative dx/ds (m per ps of the path clock) at `s`.
     pub(super) fn position_velocity(&self, s: f64) -> (Vector3<f64>, Vector3<f64>) {
         if self.n() == 1 {
-            return (self.points[0], Vector3::zeros());
+            // At rest, or moving uniformly at the keyframe's velocity.
+            let v = self.tangents[0];
+            if v == Vector3::zeros() {
+                return (self.points[0], v);
+            }
+            return (self.points[0] + v * (s - self.knots[0]), v);
         }
         let (i, u) = self.locate(s);
         let h = self.knots[i + 1] - self.knots[i];
@@ -94,6 +101,16 @@ impl KeyTrack {
         }
     }
 
+    /// World-frame beta at path-clock time `s` where the path's derivative is `vel`: a
+    /// keyframe's given `beta` at that keyframe's own time (exactly as given), else from the
+    /// derivative.
+    pub(super) fn beta_at(&self, s: f64, vel: &Vector3<f64>) -> Vector3<f64> {
+        match self.knots.iter().position(|&k| k == s) {
+            Some(i) if self.betas[i].is_some() => self.betas[i].unwrap_or_default(),
+            _ => self.beta_from_derivative(vel),
+        }
+    }
+
     /// World-frame beta from the path derivative.
     pub(super) fn beta_from_derivative(&self, vel: &Vector3<f64>) -> Vector3<f64> {
         match self.clock {
@@ -108,6 +125,10 @@ impl KeyTrack {
     pub(super) fn orientation_at(&self, s: f64) -> (Rotation3<f64>, f64) {
         if self.n() == 1 {
             return (self.rotations[0].to_rotation_matrix(), self.vfovs[0]);
+        }
+        if let Some(i) = self.knots.iter().position(|&k| k == s) {
+            // At a keyframe's own time: its orientation and field of view as given.
+            return (self.rotations[i].to_rotation_matrix(), self.vfovs[i]);
         }
         let (i, u) = self.locate(s);
         let q = slerp(&self.rotations[i], &self.rotations[i + 1], u);
@@ -168,6 +189,7 @@ pub(super) fn resolve_keyframes(
         knots,
         points,
         tangents,
+        betas: keyframes.iter().map(|k| k.beta).collect(),
         rotations,
         vfovs: keyframes.iter().map(|k| k.vfov_deg).collect(),
         cum: Vec::new(),
@@ -215,11 +237,6 @@ fn check_keyframe(
                 "{name}: beta is given, but interpolation = \"linear\" takes the velocity from the positions; use interpolation = \"cubic\""
             )));
         }
-        if n == 1 && speed > 0.0 {
-            return Err(bad(format!(
-                "{name}: a single keyframe is a camera at rest, but beta is not zero"
-            )));
-        }
     }
     let rot = match kf.orientation {
         Orientation::Fixed(r) => r,
@@ -239,7 +256,8 @@ fn check_keyframe(
 /// Tangents dx/ds at each keyframe, on the path's clock (m per ps): the keyframe's `beta`
 /// converted to the clock (`beta c` for world time, the proper velocity `gamma beta c` for
 /// proper time), else the one-sided difference at the ends and the non-uniform Catmull-Rom
-/// estimate inside. Zero for a single keyframe.
+/// estimate inside. A single keyframe's tangent is its `beta` converted likewise (uniform
+/// motion), zero without one (at rest).
 pub(super) fn tangents(
     clock: Clock,
     keyframes: &[Keyframe],
@@ -248,14 +266,17 @@ pub(super) fn tangents(
 ) -> Vec<Vector3<f64>> {
     let n = keyframes.len();
     let mut tangents = vec![Vector3::zeros(); n];
-    if n > 1 {
+    let from_beta = |b: Vector3<f64>| match clock {
+        Clock::World => b * C_M_PER_PS,
+        Clock::Proper => b * (crate::relativity::gamma(b.norm()) * C_M_PER_PS),
+    };
+    if n == 1 {
+        tangents[0] = keyframes[0].beta.map_or(Vector3::zeros(), from_beta);
+    } else {
         let d = |i: usize| (points[i + 1] - points[i]) / (knots[i + 1] - knots[i]);
         for (i, kf) in keyframes.iter().enumerate() {
             tangents[i] = match kf.beta {
-                Some(b) => match clock {
-                    Clock::World => b * C_M_PER_PS,
-                    Clock::Proper => b * (crate::relativity::gamma(b.norm()) * C_M_PER_PS),
-                },
+                Some(b) => from_beta(b),
                 None if i == 0 => d(0),
                 None if i == n - 1 => d(n - 2),
                 None => {

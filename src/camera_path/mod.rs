@@ -22,7 +22,10 @@
 //!   Positions are interpolated linearly or with a cubic Hermite spline whose tangent at each
 //!   keyframe is its given `beta` (converted to `dx/dtime` on the path's clock) or, when absent,
 //!   the Catmull-Rom (three-point, non-uniform) estimate; orientations are slerped, the field
-//!   of view interpolated linearly. A single keyframe is a camera at rest.
+//!   of view interpolated linearly. At a keyframe's own time the camera is exactly in that
+//!   keyframe's state (position, orientation, field of view and, when given, `beta`). A
+//!   single keyframe is a camera at rest, or, with `beta`, one moving uniformly at that
+//!   velocity (its world time runs `gamma` times as fast as its proper time).
 //! - an **orbit**: a circle about an axis at constant speed (so `t_world = gamma * tau`
 //!   exactly), looking at a point.
 //!

@@ -305,7 +305,7 @@ impl CameraPath {
                     position_m: Point3::from(pos),
                     world_from_camera,
                     vfov_deg,
-                    beta: k.beta_from_derivative(&vel),
+                    beta: k.beta_at(s, &vel),
                     rotation: self.rotation,
                 }
             }

@@ -746,3 +746,59 @@ fn tangents_are_one_sided_at_the_ends_catmull_rom_inside_and_beta_when_given() {
     let one = tangents(Clock::Proper, &kfs[..1], &knots[..1], &points[..1]);
     assert_eq!(one, vec![Vector3::zeros()]);
 }
+
+#[test]
+fn a_single_keyframe_with_beta_moves_uniformly_and_its_clock_runs_slow() {
+    let beta = Vector3::new(0.0, 0.0, -0.6);
+    for clock in [Clock::World, Clock::Proper] {
+        let mut k = kf(100.0, [0.0, 0.2, 1.0]);
+        k.beta = Some(beta);
+        let motion = Motion::Keyframes {
+            clock,
+            interpolation: Interpolation::Cubic,
+            keyframes: vec![k],
+        };
+        let path = CameraPath::new(spec(5, 10.0), Some(100.0), None, motion, "t").unwrap();
+        // Frame 0 is the keyframe itself, bit for bit.
+        let f0 = path.frame(0);
+        assert_eq!(f0.beta, beta);
+        assert_eq!(f0.position_m, Point3::new(0.0, 0.2, 1.0));
+        assert_eq!((f0.tau_ps, f0.t_world_ps), (100.0, 100.0));
+        // Frame 4, 40 ps of proper time later: gamma = 1.25, so 50 ps of world time, and
+        // 0.6 c x 50 ps along -z.
+        let f4 = path.frame(4);
+        assert!((f4.t_world_ps - 150.0).abs() < 1e-9, "{clock:?} {}", f4.t_world_ps);
+        let moved = f4.position_m - f0.position_m;
+        let want = beta * C_M_PER_PS * 50.0;
+        assert!((moved - want).norm() < 1e-12, "{clock:?} {moved}");
+        assert!((f4.beta - beta).norm() < 1e-15);
+    }
+}
+
+#[test]
+fn at_a_keyframes_own_time_the_camera_is_exactly_in_its_state() {
+    // A cubic path whose keyframes carry beta and rotations: frame 0 sits on the first
+    // keyframe, and must give back its numbers unchanged (no slerp renormalisation, no
+    // tangent round trip), as the viewer's still of that keyframe does.
+    let r = Rotation3::from_euler_angles(0.1, -0.7, 0.3);
+    let beta = Vector3::new(0.123456789, -0.01, 0.3);
+    let mut a = kf(1000.0, [0.1, 0.2, 0.9]);
+    a.orientation = Orientation::Fixed(r);
+    a.beta = Some(beta);
+    a.vfov_deg = 33.3;
+    let mut b = kf(4000.0, [0.1, 0.25, 0.8]);
+    b.orientation = Orientation::Fixed(Rotation3::from_euler_angles(0.0, -0.5, 0.0));
+    let path = |keyframes: Vec<Keyframe>| {
+        let motion = Motion::Keyframes {
+            clock: Clock::World,
+            interpolation: Interpolation::Cubic,
+            keyframes,
+        };
+        CameraPath::new(spec(3, 10.0), Some(1000.0), None, motion, "t").unwrap()
+    };
+    let two = path(vec![a.clone(), b]).frame(0);
+    let one = path(vec![a]).frame(0);
+    assert_eq!(two, one);
+    assert_eq!(two.beta, beta);
+    assert_eq!(two.vfov_deg, 33.3);
+}
