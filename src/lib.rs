@@ -49,3 +49,4 @@ pub mod tracer;
 pub mod units;
 pub mod unwarp;
 pub mod video;
+pub mod view;

@@ -710,6 +710,16 @@ impl VideoError {
     }
 }
 
+/// Encode an 8-bit sRGB frame as PNG into `out`: the bytes of a frame of a PNG sequence.
+pub fn encode_png(
+    srgb8: &[u8],
+    width: usize,
+    height: usize,
+    out: &mut impl Write,
+) -> Result<(), image::ImageError> {
+    PngEncoder::new(out).write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
+}
+
 fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
     write_file_atomically(dest, |tmp| {
         let image_err = |source| VideoError::Image {
@@ -721,9 +731,7 @@ fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(
             source,
         })?;
         let mut out = BufWriter::new(file);
-        PngEncoder::new(&mut out)
-            .write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
-            .map_err(image_err)?;
+        encode_png(srgb8, width, height, &mut out).map_err(image_err)?;
         out.flush().map_err(|source| VideoError::Io {
             path: dest.to_path_buf(),
             source,

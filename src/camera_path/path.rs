@@ -259,6 +259,14 @@ impl CameraPath {
         self.spec
     }
 
+    /// Proper times of the first and last keyframe, ps (None for an orbit).
+    pub fn keyframe_tau_span_ps(&self) -> Option<(f64, f64)> {
+        match &self.resolved {
+            Resolved::Keyframes(k) => Some(k.tau_span()),
+            Resolved::Orbit(_) => None,
+        }
+    }
+
     /// Proper time of frame 0, ps.
     pub fn tau0_ps(&self) -> f64 {
         self.tau0_ps

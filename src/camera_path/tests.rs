@@ -767,7 +767,11 @@ fn a_single_keyframe_with_beta_moves_uniformly_and_its_clock_runs_slow() {
         // Frame 4, 40 ps of proper time later: gamma = 1.25, so 50 ps of world time, and
         // 0.6 c x 50 ps along -z.
         let f4 = path.frame(4);
-        assert!((f4.t_world_ps - 150.0).abs() < 1e-9, "{clock:?} {}", f4.t_world_ps);
+        assert!(
+            (f4.t_world_ps - 150.0).abs() < 1e-9,
+            "{clock:?} {}",
+            f4.t_world_ps
+        );
         let moved = f4.position_m - f0.position_m;
         let want = beta * C_M_PER_PS * 50.0;
         assert!((moved - want).norm() < 1e-12, "{clock:?} {moved}");

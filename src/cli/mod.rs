@@ -13,6 +13,7 @@ pub mod render;
 pub mod simulate;
 pub mod unwarp;
 pub mod values;
+pub mod view;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -52,6 +53,9 @@ pub enum Command {
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
     Ingest(ingest::IngestArgs),
+    /// Explore a world-time cube interactively in the browser: fly a relativistic camera
+    /// through the scene, scrub time, record keyframes and export them as a camera path.
+    View(view::ViewArgs),
 }
 
 /// Run one parsed command line.
@@ -65,6 +69,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate::run(*args),
         Command::Render(args) => render::run(*args),
         Command::Ingest(args) => ingest::run(args),
+        Command::View(args) => view::run(args),
     }
 }
 

@@ -284,10 +284,14 @@ pub fn open_render_inputs(
 }
 
 /// Which camera moves through the scene.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum Camera {
     /// A camera-path TOML file.
     PathFile(std::path::PathBuf),
+    /// A camera path already resolved (from text that is not a file: `femto view`'s states);
+    /// `name` stands for the file in messages. Rendered as [`Camera::PathFile`] renders the
+    /// same path read from a file.
+    Path { path: CameraPath, name: String },
     /// A shortcut derived from the capture camera ([`crate::render::paths`]).
     Shortcut(Shortcut),
 }
@@ -490,27 +494,12 @@ fn camera_path(
                 name: StageOption::Path,
                 message: e.to_string(),
             })?;
-            let spec = loaded.spec();
-            let (width, height) = options.size.unwrap_or((spec.width, spec.height));
-            let spec = FrameSpec {
-                width,
-                height,
-                frames: options.frame_count.unwrap_or(spec.frames),
-                dtau_ps: options.dtau_ps.unwrap_or(spec.dtau_ps),
-            };
-            let path = if spec == loaded.spec() {
-                loaded
-            } else {
-                CameraPath::new(
-                    spec,
-                    Some(loaded.tau0_ps()),
-                    loaded.rotation(),
-                    loaded.motion().clone(),
-                    &p.display().to_string(),
-                )?
-            };
-            (path, 0.0)
+            (
+                with_frame_spec(loaded, options, &p.display().to_string())?,
+                0.0,
+            )
         }
+        Camera::Path { path, name } => (with_frame_spec(path.clone(), options, name)?, 0.0),
         Camera::Shortcut(shortcut) => {
             let (width, height) = options.size.unwrap_or((640, 480));
             let s = shortcut_path(
@@ -523,6 +512,34 @@ fn camera_path(
             )?;
             (s.path, s.time_offset_ps)
         }
+    })
+}
+
+/// A path as loaded, with the frame size, count and spacing that `options` give instead of
+/// its own (`name` names it in messages).
+fn with_frame_spec(
+    loaded: CameraPath,
+    options: &RenderOptions,
+    name: &str,
+) -> Result<CameraPath, StageError> {
+    let spec = loaded.spec();
+    let (width, height) = options.size.unwrap_or((spec.width, spec.height));
+    let spec = FrameSpec {
+        width,
+        height,
+        frames: options.frame_count.unwrap_or(spec.frames),
+        dtau_ps: options.dtau_ps.unwrap_or(spec.dtau_ps),
+    };
+    Ok(if spec == loaded.spec() {
+        loaded
+    } else {
+        CameraPath::new(
+            spec,
+            Some(loaded.tau0_ps()),
+            loaded.rotation(),
+            loaded.motion().clone(),
+            name,
+        )?
     })
 }
 
@@ -590,6 +607,7 @@ fn check_frame_size(
 fn camera_flag(camera: &Camera) -> (StageOption, String) {
     match camera {
         Camera::PathFile(p) => (StageOption::Path, p.display().to_string()),
+        Camera::Path { name, .. } => (StageOption::Path, name.clone()),
         Camera::Shortcut(Shortcut::Dolly { beta }) => (StageOption::Dolly, beta.to_string()),
         Camera::Shortcut(Shortcut::Orbit { beta }) => (StageOption::Orbit, beta.to_string()),
         Camera::Shortcut(Shortcut::CaptureView) => (StageOption::CaptureView, String::new()),

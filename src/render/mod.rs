@@ -452,6 +452,9 @@ pub struct RenderScene<'a> {
     prefix: Vec<f64>,
     /// `1 / dt` of the cube's axis, per ps.
     inv_dt_per_ps: f64,
+    /// [`auto_exposure`] of the transient and naive views, and of the integrated view, once
+    /// computed (they depend on the cube only; `femto view` asks for every frame).
+    auto_exposures: [std::sync::OnceLock<f64>; 2],
 }
 
 impl<'a> RenderScene<'a> {
@@ -527,6 +530,7 @@ impl<'a> RenderScene<'a> {
             hits,
             prefix,
             inv_dt_per_ps: 1.0 / world.axis.dt_ps,
+            auto_exposures: Default::default(),
         })
     }
 
@@ -699,6 +703,15 @@ pub fn render_sequence<E: From<RenderError>>(
 /// Integrated view: the pixels' time integrals. Isochrones: 1. Depends on the cube only, so
 /// every part of a split render gets the same exposure. Falls back to 1 for an all-zero cube.
 pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
+    let slot = match view {
+        View::Isochrones(_) => return 1.0,
+        View::Integrated => &scene.auto_exposures[1],
+        View::Transient | View::Naive => &scene.auto_exposures[0],
+    };
+    *slot.get_or_init(|| auto_exposure_uncached(scene, view))
+}
+
+fn auto_exposure_uncached(scene: &RenderScene, view: &View) -> f64 {
     let w = scene.world;
     let nt = w.axis.nt;
     let values: Vec<f64> = match view {

@@ -1,0 +1,136 @@
+//! `femto view`: the interactive explorer of a world-time cube, in the browser (the
+//! library's [`femto::view`]; API and page in docs/view.md).
+//!
+//! ```text
+//! femto view --cube world.h5 --calibration capture.toml --mesh scene.glb --open
+//! ssh -L 8765:127.0.0.1:8765 lab-workstation   # then open http://127.0.0.1:8765/ here
+//! ```
+//!
+//! Opens the inputs as `femto render` does ([`femto::pipeline::render::open_render_inputs`]),
+//! binds the server, prints its URL as the first line of stdout, and serves until Ctrl-C.
+
+use anyhow::anyhow;
+use clap::Args;
+use femto::pipeline::render::open_render_inputs;
+use femto::view::{server, ViewSession};
+use std::io::Write;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::path::PathBuf;
+
+/// Port `femto view` listens on unless told otherwise.
+pub const DEFAULT_PORT: u16 = 8765;
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// World-time cube (HDF5, e.g. from the unwarp step).
+    #[arg(long, value_name = "WORLD.h5")]
+    pub cube: PathBuf,
+    /// Pyramid side file of the cube (default: the cube's own `pyramid` group, else prefix
+    /// sums built in memory).
+    #[arg(long, value_name = "PYRAMID.h5")]
+    pub pyramid: Option<PathBuf>,
+    /// Calibration of the capture camera, laser spot and time origin (TOML).
+    #[arg(long, value_name = "CAL.toml")]
+    pub calibration: PathBuf,
+    /// Scene geometry in world metres (.glb, .gltf or .obj).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Laser wavelength in nm [default: the cube's `laser_nm` attribute, else 670 nm, with a
+    /// warning]. The page can change it.
+    #[arg(long, value_name = "NM")]
+    pub laser_nm: Option<f64>,
+    /// Port to listen on; 0 takes a free one (the URL on stdout says which).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_PORT)]
+    pub port: u16,
+    /// Address to listen on. The default serves this machine only (reach it from elsewhere
+    /// through an SSH tunnel); any other address serves everyone who can reach it, with a
+    /// warning.
+    #[arg(long, value_name = "ADDR", default_value_t = IpAddr::V4(Ipv4Addr::LOCALHOST))]
+    pub bind: IpAddr,
+    /// Open the page in the desktop's browser (xdg-open, or open on macOS).
+    #[arg(long)]
+    pub open: bool,
+    /// Worker threads for rendering, 1 to 1024 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub threads: Option<u16>,
+}
+
+fn shell_quote(p: &std::path::Path) -> String {
+    let s = p.display().to_string();
+    if s.chars()
+        .all(|c| c.is_ascii_alphanumeric() || "/._-+,:=@".contains(c))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+pub fn run(args: ViewArgs) -> anyhow::Result<()> {
+    if let Some(n) = args.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.into())
+            .build_global()
+            .map_err(|e| anyhow!("--threads {n}: {e}"))?;
+    }
+    let inputs = open_render_inputs(
+        &args.cube,
+        args.pyramid.as_deref(),
+        &args.calibration,
+        &args.mesh,
+        args.laser_nm,
+    )?;
+    let mut render_inputs = format!(
+        "--cube {} --calibration {} --mesh {}",
+        shell_quote(&args.cube),
+        shell_quote(&args.calibration),
+        shell_quote(&args.mesh)
+    );
+    if let Some(p) = &args.pyramid {
+        render_inputs.push_str(&format!(" --pyramid {}", shell_quote(p)));
+    }
+    let session = ViewSession::new(&inputs, render_inputs)?;
+    let (http, bound) = server::bind(SocketAddr::new(args.bind, args.port))
+        .map_err(|e| anyhow!("--port {} --bind {}: {e}", args.port, args.bind))?;
+    let url = format!("http://{bound}/");
+    // The URL first, alone on its line, for scripts (`--port 0`).
+    let mut out = std::io::stdout();
+    writeln!(out, "{url}")?;
+    out.flush()?;
+    for note in &inputs.notes {
+        eprintln!("femto view: note: {note}");
+    }
+    if !args.bind.is_loopback() {
+        eprintln!(
+            "femto view: warning: serving on {} to anyone who can reach this machine; the \
+             page has no login. Prefer the default 127.0.0.1 and an SSH tunnel",
+            args.bind
+        );
+    }
+    let cube = &session.info().cube;
+    eprintln!(
+        "femto view: {} x {} x {} cube; open {url} (Ctrl-C stops)",
+        cube.nx, cube.ny, cube.nt
+    );
+    if args.open {
+        open_browser(&url);
+    }
+    server::serve(&http, &session);
+    Ok(())
+}
+
+fn open_browser(url: &str) {
+    let opener = if cfg!(target_os = "macos") {
+        "open"
+    } else {
+        "xdg-open"
+    };
+    if let Err(e) = std::process::Command::new(opener)
+        .arg(url)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+    {
+        eprintln!("femto view: warning: --open: {opener} {url}: {e}; open the URL by hand");
+    }
+}

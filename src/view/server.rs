@@ -1,0 +1,191 @@
+//! The viewer's web server: HTTP with tiny_http, the interactive frame stream as a
+//! WebSocket with tungstenite (docs/view.md, "Frame stream").
+//!
+//! Both crates are synchronous and small (no async runtime): the work of a request is
+//! rendering, which rayon already spreads over the cores, so a thread per request or per
+//! WebSocket is all the concurrency the server needs. Several tabs each get their own
+//! socket and thread; each socket renders one state at a time, and the page sends its
+//! newest state only when the frame before has arrived, so frames never queue up behind a
+//! moving camera.
+
+use super::api::{self, Reply, MAX_BODY_BYTES};
+use super::session::ViewSession;
+use super::state::ViewState;
+use serde::{Deserialize, Serialize};
+use std::io::Read;
+use std::net::SocketAddr;
+use tungstenite::protocol::Role;
+use tungstenite::{Message, WebSocket};
+
+/// Bind the server to `addr` (port 0: a free port); returns it and the address bound.
+pub fn bind(addr: SocketAddr) -> Result<(tiny_http::Server, SocketAddr), String> {
+    let server = tiny_http::Server::http(addr).map_err(|e| format!("{addr}: {e}"))?;
+    let bound = server
+        .server_addr()
+        .to_ip()
+        .ok_or_else(|| format!("{addr}: not an IP address"))?;
+    Ok((server, bound))
+}
+
+/// Serve `session` on `server` until the process ends (the binary's interrupt handler
+/// ends it on Ctrl-C). A thread per request; requests never touch the file system.
+pub fn serve(server: &tiny_http::Server, session: &ViewSession) {
+    std::thread::scope(|scope| {
+        for request in server.incoming_requests() {
+            scope.spawn(move || answer(session, request));
+        }
+    });
+}
+
+fn header_is(request: &tiny_http::Request, name: &'static str, value: &str) -> bool {
+    request.headers().iter().any(|h| {
+        h.field.equiv(name)
+            && h.value
+                .as_str()
+                .split(',')
+                .any(|v| v.trim().eq_ignore_ascii_case(value))
+    })
+}
+
+fn answer(session: &ViewSession, mut request: tiny_http::Request) {
+    let url = request.url().to_string();
+    let path = url.split('?').next().unwrap_or("");
+    if path == "/ws" && header_is(&request, "Upgrade", "websocket") {
+        return frame_stream(session, request);
+    }
+    let method = request.method().as_str().to_ascii_uppercase();
+    let mut body = Vec::new();
+    let reply = match request
+        .as_reader()
+        .take(MAX_BODY_BYTES as u64 + 1)
+        .read_to_end(&mut body)
+    {
+        Ok(_) => api::handle(session, &method, &url, &body),
+        Err(e) => Reply::error(400, format!("reading the request body: {e}")),
+    };
+    let _ = request.respond(to_response(reply));
+}
+
+fn header(name: &str, value: &str) -> tiny_http::Header {
+    tiny_http::Header::from_bytes(name.as_bytes(), value.as_bytes())
+        .expect("header names and values are ASCII")
+}
+
+fn to_response(reply: Reply) -> tiny_http::Response<std::io::Cursor<Vec<u8>>> {
+    let mut response = tiny_http::Response::from_data(reply.body)
+        .with_status_code(reply.status)
+        .with_header(header("Content-Type", reply.content_type))
+        .with_header(header("Cache-Control", "no-store"))
+        .with_header(header("X-Content-Type-Options", "nosniff"));
+    for (name, value) in reply.headers {
+        response.add_header(header(name, &value));
+    }
+    response
+}
+
+/// A frame request on the WebSocket: a state, its sequence number and the frame's scale
+/// and JPEG quality.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrameRequest {
+    pub seq: u64,
+    #[serde(default = "full_scale")]
+    pub scale: f64,
+    #[serde(default = "default_quality")]
+    pub quality: u8,
+    pub state: ViewState,
+}
+
+fn full_scale() -> f64 {
+    1.0
+}
+
+fn default_quality() -> u8 {
+    api::DEFAULT_JPEG_QUALITY
+}
+
+/// The header of a frame sent on the WebSocket.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct FrameHeader {
+    pub seq: u64,
+    pub hud: super::session::Hud,
+}
+
+/// A refusal sent on the WebSocket (as text) instead of a frame.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct FrameRefusal {
+    pub seq: Option<u64>,
+    pub error: String,
+}
+
+/// Answer frame requests on one WebSocket until the page closes it: each binary reply is a
+/// 4-byte little-endian header length, the header as JSON ([`FrameHeader`]) and the JPEG.
+fn frame_stream(session: &ViewSession, request: tiny_http::Request) {
+    let Some(key) = request
+        .headers()
+        .iter()
+        .find(|h| h.field.equiv("Sec-WebSocket-Key"))
+        .map(|h| h.value.as_str().to_string())
+    else {
+        let _ = request.respond(to_response(Reply::error(
+            400,
+            "/ws: a WebSocket upgrade needs Sec-WebSocket-Key",
+        )));
+        return;
+    };
+    let accept = tungstenite::handshake::derive_accept_key(key.as_bytes());
+    let response = tiny_http::Response::empty(101)
+        .with_header(header("Upgrade", "websocket"))
+        .with_header(header("Connection", "Upgrade"))
+        .with_header(header("Sec-WebSocket-Accept", &accept));
+    let stream = request.upgrade("websocket", response);
+    let mut socket = WebSocket::from_raw_socket(stream, Role::Server, None);
+    loop {
+        let reply = match socket.read() {
+            Ok(Message::Text(text)) => frame_reply(session, text.as_bytes()),
+            Ok(Message::Binary(bytes)) => frame_reply(session, &bytes),
+            Ok(Message::Close(_)) | Err(_) => break,
+            Ok(_) => continue,
+        };
+        if socket.send(reply).is_err() {
+            break;
+        }
+    }
+}
+
+/// The reply to one frame request: the frame, or a refusal naming why.
+pub fn frame_reply(session: &ViewSession, request: &[u8]) -> Message {
+    let refuse = |seq, error: String| {
+        Message::text(
+            serde_json::to_string(&FrameRefusal { seq, error }).expect("refusals serialise"),
+        )
+    };
+    if request.len() > MAX_BODY_BYTES {
+        return refuse(
+            None,
+            format!(
+                "the request is {} bytes; at most {MAX_BODY_BYTES}",
+                request.len()
+            ),
+        );
+    }
+    let req: FrameRequest = match serde_json::from_slice(request) {
+        Ok(r) => r,
+        Err(e) => return refuse(None, format!("frame request: {e}")),
+    };
+    if let Err(e) = req.state.check() {
+        return refuse(Some(req.seq), e.to_string());
+    }
+    match session.frame_jpeg(&req.state, req.scale, req.quality) {
+        Ok((jpeg, hud)) => {
+            let header =
+                serde_json::to_vec(&FrameHeader { seq: req.seq, hud }).expect("headers serialise");
+            let mut out = Vec::with_capacity(4 + header.len() + jpeg.len());
+            out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+            out.extend_from_slice(&header);
+            out.extend_from_slice(&jpeg);
+            Message::binary(out)
+        }
+        Err(e) => refuse(Some(req.seq), e.to_string()),
+    }
+}

@@ -1,0 +1,401 @@
+//! One viewer session: the opened inputs, the renderer's scene, the keyframes, and the
+//! frames of camera states (stills as PNG, interactive frames as JPEG) with their heads-up
+//! numbers. Every frame goes through the render stage's own [`plan`] and
+//! [`render_sequence`], on the state's one-frame path ([`ViewState::path`]): the code and
+//! defaults of `femto render`.
+
+use super::keyframes::{export_path, frames_of_path, LoadedPath};
+use super::state::{BadState, EffectSwitches, ViewName, ViewState};
+use crate::camera_path::CameraPath;
+use crate::pipeline::render::{plan, Camera, Plan, RenderInputs};
+use crate::pipeline::StageError;
+use crate::render::paths::{shortcut_path, Shortcut};
+use crate::render::{encode_srgb8, probe_pixel, render_sequence, RenderScene};
+use crate::units::flight_time_ps;
+use serde::Serialize;
+use std::sync::{Mutex, RwLock};
+
+/// Why a request for a frame was refused: a bad state (the client's fault, HTTP 400) or a
+/// render the stage refuses for this state (also 400: the path passes through the geometry,
+/// say), or an encoder failure (500).
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error(transparent)]
+    State(#[from] BadState),
+    #[error("{0}")]
+    Render(String),
+    #[error("encoding the frame: {0}")]
+    Encode(String),
+}
+
+impl From<StageError> for ViewError {
+    fn from(e: StageError) -> ViewError {
+        ViewError::Render(e.to_string())
+    }
+}
+
+impl From<crate::render::RenderError> for ViewError {
+    fn from(e: crate::render::RenderError) -> ViewError {
+        ViewError::Render(e.to_string())
+    }
+}
+
+/// The heads-up numbers of a frame.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct Hud {
+    /// `|beta|` of the camera.
+    pub beta: f64,
+    pub gamma: f64,
+    /// Smallest and largest Doppler factor `D` (received over emitted wavelength) over the
+    /// frame's pixels (a 16 x 12 grid of them, and the corners).
+    pub doppler_min: f64,
+    pub doppler_max: f64,
+    /// World time of reception, ps.
+    pub t_world_ps: f64,
+    pub width: usize,
+    pub height: usize,
+    /// Milliseconds spent rendering and encoding the frame.
+    pub render_ms: f64,
+}
+
+/// What the page needs to start: the capture's numbers, the time range of its light and the
+/// capture view as the first state.
+#[derive(Clone, Debug, Serialize)]
+pub struct SessionInfo {
+    pub cube: CubeInfo,
+    /// World times of reception over which the slider runs, ps: from the cube's first light
+    /// at the nearest point to its last light at the farthest, as the capture camera sees them.
+    pub time_range_ps: [f64; 2],
+    /// The capture camera's view at rest, at the time its first light arrives.
+    pub capture_state: ViewState,
+    /// The world's up direction at the capture camera (the image's up).
+    pub up: [f64; 3],
+    /// A step of the page's movement keys: a fiftieth of the farthest distance from the
+    /// capture camera to the mesh's bounds, m.
+    pub move_step_m: f64,
+    /// Where the laser wavelength came from.
+    pub laser: String,
+    /// The `femto render` flags that name the session's inputs.
+    pub render_inputs: String,
+    pub max_side: usize,
+    pub notes: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CubeInfo {
+    pub nx: usize,
+    pub ny: usize,
+    pub nt: usize,
+    pub dt_ps: f64,
+}
+
+/// A viewer session over opened render inputs.
+pub struct ViewSession<'a> {
+    /// The renderer's scene. Its laser wavelength is the one state field that lives in the
+    /// scene: a state with another one takes the write lock and renders alone.
+    scene: RwLock<RenderScene<'a>>,
+    info: SessionInfo,
+    keyframes: Mutex<Vec<ViewState>>,
+    latest: Mutex<ViewState>,
+}
+
+/// World times tried for the first picture ([`ViewSession::brightest_time_ps`]).
+const TIME_PROBES: usize = 32;
+
+/// Default frame size of the viewer, pixels.
+pub const DEFAULT_SIZE: (usize, usize) = (640, 480);
+
+impl<'a> ViewSession<'a> {
+    /// A session over `inputs`; `render_inputs` are the `femto render` flags naming them.
+    pub fn new(inputs: &'a RenderInputs, render_inputs: String) -> Result<Self, StageError> {
+        let scene = inputs.scene()?;
+        let (width, height) = DEFAULT_SIZE;
+        let capture = shortcut_path(&scene, Shortcut::CaptureView, width, height, 100, None)?;
+        let frame = capture.path.frame(0);
+        let spec = capture.path.spec();
+        let rows = frame.world_from_camera.matrix();
+        let capture_state = ViewState {
+            position_m: frame.position_m.coords.into(),
+            world_from_camera: std::array::from_fn(|i| std::array::from_fn(|j| rows[(i, j)])),
+            vfov_deg: frame.vfov_deg,
+            beta: [0.0; 3],
+            t_world_ps: capture.time_offset_ps,
+            dtau_ps: spec.dtau_ps,
+            width,
+            height,
+            rotation: None,
+            effects: EffectSwitches::from(crate::render::Effects::ALL),
+            view: ViewName::Transient,
+            radiometry: crate::relativity::Radiometry::Consistent,
+            exposure: 1.0,
+            laser_nm: inputs.laser.nm,
+        };
+        let w = scene.world;
+        let (t_a, t_b) = scene.world_span_ps();
+        let (near_m, far_m) = distance_range_m(&scene);
+        let eta = scene.capture.eta;
+        let info = SessionInfo {
+            cube: CubeInfo {
+                nx: w.nx,
+                ny: w.ny,
+                nt: w.axis.nt,
+                dt_ps: w.axis.dt_ps,
+            },
+            time_range_ps: [
+                t_a + flight_time_ps(eta, near_m),
+                t_b + flight_time_ps(eta, far_m),
+            ],
+            move_step_m: far_m / 50.0,
+            up: (frame.world_from_camera * nalgebra::Vector3::new(0.0, -1.0, 0.0)).into(),
+            capture_state: capture_state.clone(),
+            laser: inputs.laser.to_string(),
+            render_inputs,
+            max_side: super::state::MAX_VIEW_SIDE,
+            notes: inputs.notes.clone(),
+        };
+        let mut session = ViewSession {
+            scene: RwLock::new(scene),
+            info,
+            keyframes: Mutex::new(Vec::new()),
+            latest: Mutex::new(capture_state),
+        };
+        let t = session.brightest_time_ps()?;
+        session.info.capture_state.t_world_ps = t;
+        *session.latest.get_mut().unwrap_or_else(|p| p.into_inner()) =
+            session.info.capture_state.clone();
+        Ok(session)
+    }
+
+    /// The world time, among [`TIME_PROBES`] evenly spaced over the slider's range, at
+    /// which the capture view at rest shows the most light (mean display value of a small
+    /// frame): the page's first picture shows light in flight, not the dark before it.
+    fn brightest_time_ps(&self) -> Result<f64, StageError> {
+        let mut probe = self.info.capture_state.scaled(0.125);
+        let [t0, t1] = self.info.time_range_ps;
+        let mut best = (f64::NEG_INFINITY, probe.t_world_ps);
+        for k in 0..TIME_PROBES {
+            probe.t_world_ps = t0 + (t1 - t0) * (k as f64 + 0.5) / TIME_PROBES as f64;
+            let (srgb8, _) = self.render_srgb8(&probe).map_err(|e| {
+                StageError::Render(crate::render::RenderError::Setting {
+                    name: "view",
+                    message: e.to_string(),
+                })
+            })?;
+            let mean = srgb8.iter().map(|&v| v as f64).sum::<f64>() / srgb8.len() as f64;
+            if mean > best.0 {
+                best = (mean, probe.t_world_ps);
+            }
+        }
+        Ok(best.1)
+    }
+
+    pub fn info(&self) -> &SessionInfo {
+        &self.info
+    }
+
+    /// The state most recently rendered by any client (the capture view at first).
+    pub fn latest_state(&self) -> ViewState {
+        self.latest
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// Render `state`'s frame: 8-bit sRGB pixels and the heads-up numbers, through the
+    /// render stage's plan of the state's one-frame path.
+    pub fn render_srgb8(&self, state: &ViewState) -> Result<(Vec<u8>, Hud), ViewError> {
+        state.check()?;
+        let started = std::time::Instant::now();
+        let path = state.path()?;
+        let render = |scene: &RenderScene| -> Result<(Vec<u8>, Hud), ViewError> {
+            let camera = Camera::Path {
+                path,
+                name: "state".into(),
+            };
+            let Plan {
+                path,
+                settings,
+                frames,
+            } = plan(scene, &camera, &state.render_options())?;
+            let mut srgb8 = vec![0u8; 3 * settings.width * settings.height];
+            render_sequence::<ViewError>(scene, &settings, &path, frames, |_, pixels| {
+                encode_srgb8(&settings, pixels, &mut srgb8);
+                Ok(())
+            })?;
+            let (doppler_min, doppler_max) = doppler_range(scene, &settings, &path);
+            let hud = Hud {
+                beta: state.beta.iter().map(|b| b * b).sum::<f64>().sqrt(),
+                gamma: state.gamma(),
+                doppler_min,
+                doppler_max,
+                t_world_ps: path.frame(0).t_world_ps + settings.time_offset_ps,
+                width: settings.width,
+                height: settings.height,
+                render_ms: 0.0,
+            };
+            Ok((srgb8, hud))
+        };
+        let (srgb8, mut hud) = self.with_scene(state.laser_nm, render)?;
+        hud.render_ms = started.elapsed().as_secs_f64() * 1e3;
+        *self.latest.lock().unwrap_or_else(|p| p.into_inner()) = state.clone();
+        Ok((srgb8, hud))
+    }
+
+    /// The still of `state`: the PNG that `femto render --path` writes for the state's
+    /// one-frame path with the state's flags ([`ViewState::path_toml`]), byte for byte.
+    pub fn still_png(&self, state: &ViewState) -> Result<Vec<u8>, ViewError> {
+        let (srgb8, _) = self.render_srgb8(state)?;
+        let mut png = Vec::new();
+        crate::video::encode_png(&srgb8, state.width, state.height, &mut png)
+            .map_err(|e| ViewError::Encode(e.to_string()))?;
+        Ok(png)
+    }
+
+    /// An interactive frame: `state` at `scale` of its size, as JPEG of `quality` (1-100),
+    /// with its heads-up numbers.
+    pub fn frame_jpeg(
+        &self,
+        state: &ViewState,
+        scale: f64,
+        quality: u8,
+    ) -> Result<(Vec<u8>, Hud), ViewError> {
+        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+            return Err(BadState {
+                field: "scale".into(),
+                message: format!("{scale}: must be in (0, 1]"),
+            }
+            .into());
+        }
+        state.check()?;
+        let started = std::time::Instant::now();
+        let scaled = state.scaled(scale);
+        let (srgb8, mut hud) = self.render_srgb8(&scaled)?;
+        let mut jpeg = Vec::with_capacity(srgb8.len() / 8);
+        jpeg_encoder::Encoder::new(&mut jpeg, quality.clamp(1, 100))
+            .encode(
+                &srgb8,
+                scaled.width as u16,
+                scaled.height as u16,
+                jpeg_encoder::ColorType::Rgb,
+            )
+            .map_err(|e| ViewError::Encode(e.to_string()))?;
+        hud.render_ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok((jpeg, hud))
+    }
+
+    /// Run `f` on the scene with laser wavelength `laser_nm`: under the shared lock when the
+    /// scene has it, else alone under the write lock after setting it.
+    fn with_scene<T>(&self, laser_nm: f64, f: impl FnOnce(&RenderScene) -> T) -> T {
+        {
+            let scene = self.scene.read().unwrap_or_else(|p| p.into_inner());
+            if scene.laser_nm == laser_nm {
+                return f(&scene);
+            }
+        }
+        let mut scene = self.scene.write().unwrap_or_else(|p| p.into_inner());
+        scene.laser_nm = laser_nm;
+        f(&scene)
+    }
+
+    /// The keyframes recorded so far, in the order they were added.
+    pub fn keyframes(&self) -> Vec<ViewState> {
+        self.keyframes
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// Record `state` as a keyframe; returns the keyframes.
+    pub fn add_keyframe(&self, state: ViewState) -> Result<Vec<ViewState>, BadState> {
+        state.check()?;
+        let mut k = self.keyframes.lock().unwrap_or_else(|p| p.into_inner());
+        if k.len() >= super::keyframes::MAX_KEYFRAMES {
+            return Err(BadState {
+                field: "keyframes".into(),
+                message: format!("at most {} keyframes", super::keyframes::MAX_KEYFRAMES),
+            });
+        }
+        k.push(state);
+        Ok(k.clone())
+    }
+
+    /// Delete keyframe `index` (0-based); returns the keyframes.
+    pub fn delete_keyframe(&self, index: usize) -> Result<Vec<ViewState>, BadState> {
+        let mut k = self.keyframes.lock().unwrap_or_else(|p| p.into_inner());
+        if index >= k.len() {
+            return Err(BadState {
+                field: "keyframes".into(),
+                message: format!("no keyframe {index}: there are {}", k.len()),
+            });
+        }
+        k.remove(index);
+        Ok(k.clone())
+    }
+
+    /// Delete every keyframe.
+    pub fn clear_keyframes(&self) {
+        self.keyframes
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clear();
+    }
+
+    /// The keyframes as a camera-path TOML that `femto render --path` renders.
+    pub fn path_toml(&self) -> Result<String, BadState> {
+        export_path(&self.keyframes(), &self.info.render_inputs)
+    }
+
+    /// Load a camera-path TOML: its frames as states, with the render settings of `like`.
+    pub fn load_path(text: &str, like: &ViewState) -> Result<LoadedPath, BadState> {
+        let path = CameraPath::from_toml(text, "path").map_err(|e| BadState {
+            field: "path".into(),
+            message: e.to_string(),
+        })?;
+        frames_of_path(&path, like)
+    }
+}
+
+/// The smallest and largest Doppler factor over a grid of the frame's pixels.
+fn doppler_range(
+    scene: &RenderScene,
+    settings: &crate::render::RenderSettings,
+    path: &CameraPath,
+) -> (f64, f64) {
+    let state = path.frame(0);
+    let (w, h) = (settings.width, settings.height);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for gj in 0..=12 {
+        for gi in 0..=16 {
+            let i = (gi * (w - 1)) / 16;
+            let j = (gj * (h - 1)) / 12;
+            let d = probe_pixel(scene, settings, &state, i, j).doppler;
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+    }
+    (lo, hi)
+}
+
+/// Nearest and farthest distance from the capture camera to the corners of the mesh's
+/// bounds (the nearest clamped at 0), m.
+fn distance_range_m(scene: &RenderScene) -> (f64, f64) {
+    let b = scene.bvh.bounds();
+    let o = scene.capture.pose.position_m;
+    let mut far = 0.0f64;
+    for k in 0..8 {
+        let c = nalgebra::Point3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x } as f64,
+            if k & 2 == 0 { b.min.y } else { b.max.y } as f64,
+            if k & 4 == 0 { b.min.z } else { b.max.z } as f64,
+        );
+        far = far.max((c - o).norm());
+    }
+    // The nearest point of the box.
+    let clamp = |v: f64, a: f32, b: f32| v.clamp(a as f64, b as f64);
+    let near = nalgebra::Point3::new(
+        clamp(o.x, b.min.x, b.max.x),
+        clamp(o.y, b.min.y, b.max.y),
+        clamp(o.z, b.min.z, b.max.z),
+    );
+    ((near - o).norm(), far)
+}

@@ -1,0 +1,289 @@
+//! The page in a real browser: headless Chromium from the distribution's packages, driven
+//! over the W3C WebDriver protocol (plain HTTP to chromedriver). `.ci/run` installs
+//! `chromium` and `chromium-driver` when they are absent; without them this test says it
+//! skipped, and fails under `CI=true`.
+
+use super::api::render_path;
+use super::{agent, fixture, request, required, Server};
+use base64::Engine;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
+
+fn find_program(names: &[&str]) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    names.iter().find_map(|name| {
+        std::env::split_paths(&path)
+            .map(|dir| dir.join(name))
+            .find(|p| p.is_file())
+    })
+}
+
+/// A chromedriver process and one headless Chromium session.
+struct Browser {
+    driver: Child,
+    base: String,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    /// Start chromedriver and a session, or None (with the reason) when either program is
+    /// missing.
+    fn start() -> Result<Browser, String> {
+        let driver = find_program(&["chromedriver"]).ok_or("chromedriver is not installed")?;
+        let chromium = find_program(&["chromium", "chromium-browser", "google-chrome"])
+            .ok_or("chromium is not installed")?;
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map_err(|e| e.to_string())?
+            .port();
+        let child = Command::new(driver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("chromedriver: {e}"))?;
+        let profile = tempfile::tempdir().map_err(|e| e.to_string())?;
+        let mut browser = Browser {
+            driver: child,
+            base: format!("http://127.0.0.1:{port}"),
+            _profile: profile,
+        };
+        let started = Instant::now();
+        while agent()
+            .get(format!("{}/status", browser.base))
+            .call()
+            .is_err()
+        {
+            if started.elapsed() > Duration::from_secs(20) {
+                return Err("chromedriver did not answer within 20 s".into());
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {
+                "binary": chromium,
+                "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                         "--no-first-run", "--disable-background-networking",
+                         "--disable-component-update", "--disable-sync",
+                         "--window-size=1100,700",
+                         format!("--user-data-dir={}", browser._profile.path().display())]
+            }
+        }}});
+        let session = browser.call("POST", "/session", Some(caps))?;
+        let id = session["sessionId"]
+            .as_str()
+            .ok_or_else(|| format!("no session: {session}"))?;
+        browser.base = format!("{}/session/{id}", browser.base);
+        Ok(browser)
+    }
+
+    fn call(&self, method: &str, path: &str, body: Option<Value>) -> Result<Value, String> {
+        let url = format!("{}{path}", self.base);
+        let agent = agent();
+        let reply = match method {
+            "GET" => agent.get(&url).call(),
+            "DELETE" => agent.delete(&url).call(),
+            _ => agent
+                .post(&url)
+                .header("Content-Type", "application/json")
+                .send(&serde_json::to_vec(&body.unwrap_or(json!({}))).expect("JSON")[..]),
+        };
+        let mut reply = reply.map_err(|e| format!("{method} {path}: {e}"))?;
+        let bytes = reply
+            .body_mut()
+            .with_config()
+            .limit(64 << 20)
+            .read_to_vec()
+            .map_err(|e| format!("{method} {path}: {e}"))?;
+        let value: Value =
+            serde_json::from_slice(&bytes).map_err(|e| format!("{method} {path}: {e}"))?;
+        if reply.status().as_u16() != 200 {
+            return Err(format!("{method} {path}: {}", value["value"]));
+        }
+        Ok(value["value"].clone())
+    }
+
+    fn run(&self, script: &str) -> Value {
+        self.call(
+            "POST",
+            "/execute/sync",
+            Some(json!({"script": script, "args": []})),
+        )
+        .unwrap_or_else(|e| panic!("{script}: {e}"))
+    }
+
+    fn click(&self, css: &str) {
+        let found = self
+            .call(
+                "POST",
+                "/element",
+                Some(json!({"using": "css selector", "value": css})),
+            )
+            .unwrap_or_else(|e| panic!("{css}: {e}"));
+        let id = found[ELEMENT]
+            .as_str()
+            .unwrap_or_else(|| panic!("{css}: no element in {found}"))
+            .to_string();
+        self.call("POST", &format!("/element/{id}/click"), Some(json!({})))
+            .unwrap_or_else(|e| panic!("click {css}: {e}"));
+    }
+
+    /// Wait until `script` returns true, up to `seconds`.
+    fn wait_for(&self, script: &str, seconds: u64, what: &str) {
+        let started = Instant::now();
+        while self.run(script) != json!(true) {
+            if started.elapsed() > Duration::from_secs(seconds) {
+                let status = self.run("return document.getElementById('status').textContent");
+                panic!("{what}: not within {seconds} s (page status: {status})");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Wait until the page has shown a full-resolution frame of its current state and has
+    /// nothing more to send.
+    fn wait_settled(&self, what: &str) {
+        self.wait_for(
+            "const f = window.femto; return !!(f && f.hud && f.hud.width === f.state.width \
+             && f.settled);",
+            60,
+            what,
+        );
+    }
+
+    /// Mean and largest value of the canvas's RGB, and a hash of its pixels.
+    fn canvas(&self) -> (f64, f64, u64) {
+        let v = self.run(
+            "const c = document.getElementById('view'); \
+             const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; \
+             let s = 0, m = 0, h = 0; \
+             for (let i = 0; i < d.length; i += 4) { const v = d[i] + d[i+1] + d[i+2]; \
+               s += v; if (v > m) m = v; h = (h * 31 + d[i] * 7 + d[i+1] * 3 + d[i+2]) >>> 0; } \
+             return [s / (3 * d.length / 4), m / 3, h];",
+        );
+        (
+            v[0].as_f64().unwrap(),
+            v[1].as_f64().unwrap(),
+            v[2].as_u64().unwrap(),
+        )
+    }
+
+    fn screenshot(&self, to: &Path) {
+        let b64 = self.call("GET", "/screenshot", None).expect("a screenshot");
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(b64.as_str().unwrap())
+            .unwrap();
+        std::fs::write(to, png).unwrap();
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = self.call("DELETE", "", None);
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+#[test]
+fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render_renders() {
+    let browser = match Browser::start() {
+        Ok(b) => b,
+        Err(why) if !required() => {
+            eprintln!("SKIPPED the browser test: {why} (apt-get install chromium chromium-driver; .ci/run does)");
+            return;
+        }
+        Err(why) => panic!("CI=true and the browser test cannot run: {why}"),
+    };
+    let fx = fixture();
+    let server = Server::start(&fx.root);
+    browser
+        .call(
+            "POST",
+            "/url",
+            Some(json!({"url": format!("{}/", server.url)})),
+        )
+        .expect("the page loads");
+    browser.wait_settled("the first frame");
+    let (mean, max, before) = browser.canvas();
+    assert!(
+        max > 60.0 && mean > 2.0,
+        "the canvas is black: mean {mean}, max {max}"
+    );
+
+    // The beta slider (forward at 0.5 c): a new frame, another picture.
+    let seq = browser.run("return window.femto.shownSeq");
+    browser.run(
+        "const b = document.getElementById('beta'); b.value = '0.5'; \
+         b.dispatchEvent(new Event('input', {bubbles: true}));",
+    );
+    browser.wait_for(
+        &format!("return window.femto.shownSeq > {seq}"),
+        30,
+        "a frame after the beta slider moved",
+    );
+    browser.wait_settled("the frame at beta 0.5");
+    let (_, max_fast, after) = browser.canvas();
+    assert_ne!(before, after, "the picture did not change with beta");
+    assert!(max_fast > 30.0, "black at beta 0.5");
+    let hud = browser.run("return window.femto.hud");
+    assert!((hud["beta"].as_f64().unwrap() - 0.5).abs() < 1e-9, "{hud}");
+
+    // Two keyframes: here, and after a few frames of play.
+    browser.click("#add-keyframe");
+    browser.wait_for(
+        "return document.querySelectorAll('#keyframes li').length === 1",
+        10,
+        "the first keyframe",
+    );
+    let shown = browser
+        .run("return window.femto.framesShown")
+        .as_u64()
+        .unwrap();
+    browser.click("#play");
+    browser.wait_for(
+        &format!("return window.femto.framesShown >= {}", shown + 8),
+        60,
+        "eight frames of play",
+    );
+    browser.click("#play");
+    browser.wait_settled("the frame after pausing");
+    browser.click("#add-keyframe");
+    browser.wait_for(
+        "return document.querySelectorAll('#keyframes li').length === 2",
+        10,
+        "the second keyframe",
+    );
+    browser.click("#export-path");
+    browser.wait_for(
+        "return document.getElementById('path-toml').value.includes('[[keyframe]]')",
+        10,
+        "the exported path",
+    );
+    let toml = browser.run("return document.getElementById('path-toml').value");
+    let toml = toml.as_str().unwrap().to_string();
+
+    let shot = std::env::var_os("FEMTO_VIEW_SCREENSHOT")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| fx.root.join("view.png"));
+    browser.screenshot(&shot);
+    eprintln!("screenshot of the page: {}", shot.display());
+
+    // femto render renders the exported path; its frame 0 is the first keyframe's still.
+    let frames = render_path(&fx.root, &toml, "browser_path");
+    assert!(frames.len() >= 8, "{} frames", frames.len());
+    let (_, keyframes) = request("GET", &format!("{}/api/keyframes", server.url), None);
+    let keyframes: Vec<Value> = serde_json::from_slice(&keyframes).unwrap();
+    let body = serde_json::to_vec(&keyframes[0]).unwrap();
+    let (status, still) = request("POST", &format!("{}/api/still", server.url), Some(&body));
+    assert_eq!(status, 200);
+    assert!(
+        frames[0] == still,
+        "frame 0 of the exported path differs from the keyframe's still"
+    );
+}

@@ -1,0 +1,184 @@
+//! Hostile requests: malformed JSON, huge numbers, unknown fields, oversized bodies, wrong
+//! methods, path traversal. Each gets a one-line 4xx; the server never panics, never serves
+//! anything but its own assets and API, and goes on answering.
+
+use super::{fixture, request, Server};
+use rand::{Rng, SeedableRng};
+use serde_json::{json, Value};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+
+/// Send `raw` as it is (no client normalises the path) and return the status and body.
+fn raw_request(url: &str, raw: &str) -> (u16, String) {
+    let addr = url.trim_start_matches("http://");
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.write_all(raw.as_bytes()).unwrap();
+    let mut reply = String::new();
+    let _ = s.read_to_string(&mut reply);
+    let status = reply
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = reply.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
+    (status, body)
+}
+
+#[test]
+fn hostile_requests_get_one_line_refusals_and_the_server_goes_on() {
+    let fx = fixture();
+    let mut server = Server::start(&fx.root);
+    let url = server.url.clone();
+    let (_, info) = request("GET", &format!("{url}/api/info"), None);
+    let good: Value = serde_json::from_slice::<Value>(&info).unwrap()["capture_state"].clone();
+
+    // Path traversal in every spelling: 404, and nothing of the file system in the reply.
+    for target in [
+        "/../../../../etc/passwd",
+        "/%2e%2e/%2e%2e/etc/passwd",
+        "/api/../../Cargo.toml",
+        "//etc/passwd",
+        "/app.js/../../../etc/passwd",
+        "/..%2f..%2fetc%2fpasswd",
+        "/world.h5",
+        "/cube.calibration.toml",
+        "/api/keyframes/../../etc/passwd",
+        "/index.html%00.png",
+    ] {
+        let (status, body) = raw_request(
+            &url,
+            &format!("GET {target} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"),
+        );
+        assert!(matches!(status, 400 | 404 | 405), "{target}: {status}");
+        assert!(
+            !body.contains("root:") && !body.contains("[package]"),
+            "{target}: {body}"
+        );
+        assert_eq!(body.trim_end().lines().count(), 1, "{target}: {body}");
+    }
+
+    // Malformed and out-of-range states on every route that takes one.
+    let mut bodies: Vec<Vec<u8>> = vec![
+        b"".to_vec(),
+        b"{".to_vec(),
+        b"null".to_vec(),
+        b"[1, 2, 3]".to_vec(),
+        "\u{feff}{}".as_bytes().to_vec(),
+        vec![0xFF, 0xFE, 0x00],
+        "[".repeat(100_000).into_bytes(),
+    ];
+    let variant = |f: &dyn Fn(&mut Value)| {
+        let mut s = good.clone();
+        f(&mut s);
+        serde_json::to_vec(&s).unwrap()
+    };
+    bodies.push(variant(&|s| {
+        s["beta"] = json!([0.0, 0.0, 0.9999999999999999999])
+    }));
+    bodies.push(variant(&|s| s["beta"] = json!([1e308, 0, 0])));
+    bodies.push(variant(&|s| s["width"] = json!(1u64 << 40)));
+    bodies.push(variant(&|s| s["width"] = json!(4097)));
+    bodies.push(variant(&|s| s["width"] = json!(-1)));
+    bodies.push(variant(&|s| s["height"] = json!(0)));
+    bodies.push(variant(&|s| s["dtau_ps"] = json!(0)));
+    bodies.push(variant(&|s| s["t_world_ps"] = json!(1e300)));
+    bodies.push(variant(&|s| s["zoom"] = json!(2)));
+    bodies.push(variant(&|s| s["effects"]["warp"] = json!(true)));
+    bodies.push(variant(&|s| s["view"] = json!("../../etc/passwd")));
+    bodies.push(variant(&|s| s["laser_nm"] = json!("670")));
+    bodies.push(variant(&|s| {
+        s["world_from_camera"] = json!([[1, 0, 0], [0, 1, 0], [0, 0, 2]])
+    }));
+    bodies.push(variant(&|s| s["position_m"] = json!([0.0, 0.05, 0.0])));
+    bodies.push(br#"{"position_m": [1e999, 0, 0]}"#.to_vec());
+    // Random bytes and random JSON-looking text, seeded.
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(18);
+    for _ in 0..40 {
+        let n = rng.random_range(0..400);
+        bodies.push((0..n).map(|_| rng.random::<u8>()).collect());
+        let mut s = good.to_string().into_bytes();
+        for _ in 0..rng.random_range(1..6) {
+            let i = rng.random_range(0..s.len());
+            s[i] = b"{}[],:\"0123456789.eE-+ntrufals"[rng.random_range(0..30)];
+        }
+        bodies.push(s);
+    }
+    for body in &bodies {
+        for route in [
+            "/api/still",
+            "/api/frame?scale=0.5",
+            "/api/hud",
+            "/api/state.toml",
+            "/api/keyframes",
+        ] {
+            let (status, reply) = request("POST", &format!("{url}{route}"), Some(body));
+            if status == 200 {
+                // A random mutation may still be a valid state.
+                continue;
+            }
+            assert_eq!(
+                status,
+                400,
+                "{route} {:?}: {status}",
+                String::from_utf8_lossy(body)
+            );
+            let text = String::from_utf8(reply).unwrap();
+            assert_eq!(text.trim_end().lines().count(), 1, "{route}: {text}");
+        }
+    }
+    let (status, _) = request("POST", &format!("{url}/api/path"), Some(b"width = 1e999\n"));
+    assert_eq!(status, 400);
+    let (status, _) = request(
+        "POST",
+        &format!("{url}/api/frame?scale=9"),
+        Some(&serde_json::to_vec(&good).unwrap()),
+    );
+    assert_eq!(status, 400);
+    let (status, _) = request(
+        "POST",
+        &format!("{url}/api/still"),
+        Some(&vec![b' '; 5 << 20]),
+    );
+    assert_eq!(status, 413);
+    for (method, route) in [
+        ("DELETE", "/api/info"),
+        ("POST", "/app.js"),
+        ("GET", "/api/still"),
+        ("PUT", "/api/state"),
+    ] {
+        let (status, _) = request(method, &format!("{url}{route}"), Some(b"{}"));
+        assert_eq!(status, 405, "{method} {route}");
+    }
+    // Garbage on the WebSocket: refusals, then a frame.
+    let (mut socket, _) = tungstenite::connect(url.replace("http://", "ws://") + "/ws").unwrap();
+    for junk in [
+        "",
+        "{",
+        "{\"seq\": -1}",
+        "{\"seq\": 1, \"state\": {}}",
+        "[[[[[[[[[[[[",
+    ] {
+        socket.send(tungstenite::Message::text(junk)).unwrap();
+        assert!(
+            matches!(socket.read().unwrap(), tungstenite::Message::Text(_)),
+            "{junk}"
+        );
+    }
+    socket
+        .send(tungstenite::Message::text(
+            json!({"seq": 2, "scale": 0.25, "state": good}).to_string(),
+        ))
+        .unwrap();
+    assert!(matches!(
+        socket.read().unwrap(),
+        tungstenite::Message::Binary(_)
+    ));
+
+    // Still alive and answering; no panic on stderr.
+    assert!(server.alive());
+    let (status, _) = request("GET", &format!("{url}/api/info"), None);
+    assert_eq!(status, 200);
+    let (code, err) = server.stop();
+    assert_eq!(code, Some(130));
+    assert!(!err.contains("panicked"), "{err}");
+}
