@@ -21,6 +21,7 @@
 //! | Eqs. 5-7 | time dilation, `dt_world = gamma dtau` (the camera's proper-time clock) | [`camera_path::CameraPath::frame`], [`camera_path::CameraPath::at_proper_time`] (the clock table: `camera_path/clock.rs`) |
 //! | Sec. 4.3 | rotation: each sensor area moves with `omega x r` | [`relativity::SensorRotation`], [`relativity::sensor_velocity`], [`camera_path::FrameState::pixel_beta`] |
 //! | Sec. 4 | one frame: ray, aberration, hit, emission time, lookup, accumulation, colour | [`render::render_frame`] (the steps: [`render`] module doc) |
+//! | Sec. 1, 5 | the real-time, interactive explorer of a captured scene | [`view::ViewSession`] (frames: [`view::ViewSession::render_srgb8`], through [`pipeline::render::plan`]), [`view::server::serve`], [`view::api::handle`] |
 //! | capture | calibration of `t0` from the first arrivals (`physics.md`, two clocks) | [`calibrate::temporal::calibrate_time`], [`calibrate::temporal::fit_time_offset`] |
 
 pub mod atomic;

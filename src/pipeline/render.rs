@@ -291,7 +291,7 @@ pub enum Camera {
     /// A camera path already resolved (from text that is not a file: `femto view`'s states);
     /// `name` stands for the file in messages. Rendered as [`Camera::PathFile`] renders the
     /// same path read from a file.
-    Path { path: CameraPath, name: String },
+    Path { path: Box<CameraPath>, name: String },
     /// A shortcut derived from the capture camera ([`crate::render::paths`]).
     Shortcut(Shortcut),
 }
@@ -499,7 +499,7 @@ fn camera_path(
                 0.0,
             )
         }
-        Camera::Path { path, name } => (with_frame_spec(path.clone(), options, name)?, 0.0),
+        Camera::Path { path, name } => (with_frame_spec((**path).clone(), options, name)?, 0.0),
         Camera::Shortcut(shortcut) => {
             let (width, height) = options.size.unwrap_or((640, 480));
             let s = shortcut_path(

@@ -209,7 +209,7 @@ impl<'a> ViewSession<'a> {
         let path = state.path()?;
         let render = |scene: &RenderScene| -> Result<(Vec<u8>, Hud), ViewError> {
             let camera = Camera::Path {
-                path,
+                path: Box::new(path),
                 name: "state".into(),
             };
             let Plan {

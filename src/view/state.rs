@@ -339,7 +339,7 @@ impl ViewState {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     pub(crate) fn example() -> ViewState {
@@ -375,7 +375,8 @@ mod tests {
 
     #[test]
     fn bad_states_are_refused_naming_the_field() {
-        let cases: Vec<(&str, Box<dyn Fn(&mut ViewState)>)> = vec![
+        type Mutation = Box<dyn Fn(&mut ViewState)>;
+        let cases: Vec<(&str, Mutation)> = vec![
             ("beta", Box::new(|s| s.beta = [0.0, 0.0, 1.0])),
             ("beta", Box::new(|s| s.beta = [0.8, 0.8, 0.0])),
             ("width", Box::new(|s| s.width = 4097)),
