@@ -255,4 +255,26 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn f64_attributes_survive_the_index_bit_for_bit() {
+        // serde_json's default float parser may be an ulp off on numbers with many digits
+        // (its `float_roundtrip` feature, on, makes it exact): a registration's values
+        // written by one command and carried by the next must not drift.
+        let mut values = vec![0.1 + 0.2, 2.2250738585072014e-308, 5e-324, f64::MAX];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            x = (x * 7919.0 + 0.618_033_988_749_894_9).fract();
+            values.push(x * 1e3 - 500.0);
+            values.push(x.powi(7) * 1e-9);
+        }
+        let attrs = vec![("v".to_string(), AttrValue::F64Array(values.clone()))];
+        let back = attrs_from_json(&attrs_to_json(&attrs)).unwrap();
+        let AttrValue::F64Array(got) = &back[0].1 else {
+            panic!("an array")
+        };
+        for (a, b) in values.iter().zip(got) {
+            assert_eq!(a.to_bits(), b.to_bits(), "{a:e} came back as {b:e}");
+        }
+    }
 }
