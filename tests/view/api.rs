@@ -210,4 +210,19 @@ fn the_frame_stream_answers_each_request_with_its_sequence_number_or_a_reason() 
         .send(Message::text(json!({"seq": 9, "state": state}).to_string()))
         .unwrap();
     assert!(matches!(socket.read().unwrap(), Message::Binary(_)));
+    // A second tab: both sockets in flight at once, each answered.
+    let (mut other, _) = tungstenite::connect(&ws_url).expect("a second WebSocket");
+    for seq in 10..14 {
+        let small = json!({"seq": seq, "scale": 0.25, "state": state}).to_string();
+        socket.send(Message::text(small.clone())).unwrap();
+        other.send(Message::text(small)).unwrap();
+        for s in [&mut socket, &mut other] {
+            let Message::Binary(b) = s.read().unwrap() else {
+                panic!("a frame")
+            };
+            let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
+            let header: Value = serde_json::from_slice(&b[4..4 + n]).unwrap();
+            assert_eq!(header["seq"], seq);
+        }
+    }
 }

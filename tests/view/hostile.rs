@@ -7,6 +7,7 @@ use rand::{Rng, SeedableRng};
 use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::TcpStream;
+use std::path::Path;
 
 /// Send `raw` as it is (no client normalises the path) and return the status and body.
 fn raw_request(url: &str, raw: &str) -> (u16, String) {
@@ -181,4 +182,61 @@ fn hostile_requests_get_one_line_refusals_and_the_server_goes_on() {
     let (code, err) = server.stop();
     assert_eq!(code, Some(130));
     assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn the_servers_code_never_opens_a_file() {
+    // The page is embedded at compile time and the inputs are opened before the server
+    // starts (`femto::pipeline::render::open_render_inputs`); nothing under src/view may
+    // reach the file system, so no request can make it read one.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/view");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "rs") {
+            let text = std::fs::read_to_string(&path).unwrap();
+            for needle in [
+                "std::fs",
+                "fs::",
+                "File::",
+                "OpenOptions",
+                "read_dir",
+                "Path::new",
+            ] {
+                assert!(!text.contains(needle), "{} uses {needle}", path.display());
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "{checked} files under {}", dir.display());
+}
+
+#[test]
+fn bad_command_lines_are_refused_in_one_line_with_exit_2() {
+    let fx = fixture();
+    let inputs = super::input_args(&fx.root);
+    // A missing cube names its flag.
+    let mut args: Vec<String> = vec!["view".into()];
+    args.extend(inputs.iter().cloned());
+    args[2] = fx.root.join("missing.h5").display().to_string();
+    let err = super::cli::FemtoCmd::new().args(&args).refused();
+    assert!(
+        err.contains("--cube") && err.contains("missing.h5"),
+        "{err}"
+    );
+    // A port that is taken names --port.
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port().to_string();
+    let err = super::cli::FemtoCmd::new()
+        .arg("view")
+        .args(&inputs)
+        .args(["--port", &port])
+        .refused();
+    assert!(err.contains("--port"), "{err}");
+    let err = super::cli::FemtoCmd::new()
+        .arg("view")
+        .args(&inputs)
+        .args(["--bind", "the-lab"])
+        .refused();
+    assert!(err.contains("--bind"), "{err}");
 }
