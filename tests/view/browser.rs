@@ -274,6 +274,50 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
     browser.screenshot(&shot);
     eprintln!("screenshot of the page: {}", shot.display());
 
+    // The exported path loads back into the page (Load path) and plays to its last frame.
+    let path_file = fx.root.join("browser_loaded.toml");
+    std::fs::write(&path_file, &toml).unwrap();
+    let input = browser
+        .call(
+            "POST",
+            "/element",
+            Some(json!({"using": "css selector", "value": "#load-path"})),
+        )
+        .expect("the file input");
+    let id = input[ELEMENT].as_str().expect("an element id").to_string();
+    browser
+        .call(
+            "POST",
+            &format!("/element/{id}/value"),
+            Some(json!({"text": path_file.display().to_string()})),
+        )
+        .expect("a file chosen");
+    browser.wait_for(
+        "return document.getElementById('status').textContent.startsWith('loaded ')",
+        20,
+        "the path loaded",
+    );
+    let frames_in_path = browser.run("return document.getElementById('status').textContent");
+    browser.click("#play");
+    browser.wait_settled("the loaded path played to its end");
+    let played_to = browser
+        .run("return window.femto.state.t_world_ps")
+        .as_f64()
+        .unwrap();
+    let (_, loaded) = request(
+        "POST",
+        &format!("{}/api/path", server.url),
+        Some(toml.as_bytes()),
+    );
+    let loaded: Value = serde_json::from_slice(&loaded).unwrap();
+    let last = loaded["frames"].as_array().unwrap().last().unwrap()["t_world_ps"]
+        .as_f64()
+        .unwrap();
+    assert_eq!(
+        played_to, last,
+        "{frames_in_path}: play stopped before the last frame"
+    );
+
     // femto render renders the exported path; its frame 0 is the first keyframe's still.
     let frames = render_path(&fx.root, &toml, "browser_path");
     assert!(frames.len() >= 8, "{} frames", frames.len());
