@@ -22,6 +22,8 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 #[path = "common/cli.rs"]
 mod cli;
+#[path = "common/shared.rs"]
+mod shared;
 
 const C_M_PER_PS: f64 = 2.997_924_58e-4;
 
@@ -990,13 +992,6 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
 // ---------------------------------------------------------------------------------------
 // `femto info` on meshes and streak images.
 
-fn shared_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os("FEMTO_SHARED") {
-        Some(d) => PathBuf::from(d),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    };
-    dir.is_dir().then_some(dir)
-}
 
 #[test]
 fn info_describes_meshes() {
@@ -1031,8 +1026,8 @@ fn info_describes_meshes() {
         "{text}"
     );
 
-    match shared_dir().map(|d| d.join("data/stanford-bunny.obj")) {
-        Some(bunny) if bunny.is_file() => {
+    match shared::file("data/stanford-bunny.obj") {
+        Some(bunny) => {
             let j = info_json(&bunny);
             assert_eq!(j["kind"], "mesh");
             assert_eq!(j["format"], "obj");
@@ -1040,7 +1035,7 @@ fn info_describes_meshes() {
             let size = &j["bounds_m"]["size"];
             assert!((0..3).all(|a| size[a].as_f64().unwrap() > 0.0));
         }
-        _ => println!("skipped: ../shared not found"),
+        None => {} // `shared::file` said why
     }
 }
 

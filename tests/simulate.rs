@@ -19,6 +19,8 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 #[path = "common/cli.rs"]
 mod cli;
+#[path = "common/shared.rs"]
+mod shared;
 use cli::FemtoCmd;
 
 /// Small captures: 24 x 16 pixels, 64 bins of 16 ps (the cube scene's 1 ns window), 4 spp.
@@ -777,21 +779,12 @@ fn bad_flags_exit_2_naming_the_flag() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-size"));
 }
 
-/// `../shared` (or `$FEMTO_SHARED`), where the Stanford bunny lives.
-fn shared_dir() -> PathBuf {
-    match std::env::var_os("FEMTO_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    }
-}
 
 #[test]
 fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
-    let bunny = shared_dir().join("data/stanford-bunny.obj");
-    if !bunny.is_file() {
-        eprintln!("skipped: ../shared not found");
+    let Some(bunny) = shared::file("data/stanford-bunny.obj") else {
         return;
-    }
+    };
     let tmp = tempfile::tempdir().unwrap();
     let bunny = bunny.to_string_lossy().into_owned();
     let args = [
