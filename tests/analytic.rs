@@ -185,8 +185,11 @@ fn closed_sphere_lit_from_its_centre_matches_theory_bounce_by_bounce() {
             rr_start_bounce: u32::MAX,
             split_bounces: false,
             world_time: false,
-            light_vertex: true,
+            ..TraceOptions::default()
         };
+        // Both of the tracer's estimators (camera paths and light vertices, weighted by
+        // multiple importance sampling) are under test.
+        assert!(opts.light_vertex);
         let r = trace(&scene, &bvh, &opts, &|_| {});
         let total: f64 = r.camera_time.data.iter().map(|&v| v as f64).sum();
         assert!(

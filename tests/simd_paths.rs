@@ -15,13 +15,12 @@
 #[path = "common/cli.rs"]
 mod cli;
 
-use cli::FemtoCmd;
+use cli::{files_under, FemtoCmd};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::simd_level::{SimdError, SimdLevel};
 use femto::scene::Scene;
 use femto::tracer::{trace, TraceOptions, TransientRender};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The cornell scene at 12 x 8 pixels, 96 bins, 16 paths per pixel, every output cube, with
 /// the BVH (and so the tracer's rows) forced to `level`.
@@ -98,24 +97,6 @@ fn avx2_renders_the_scalar_cubes_bit_for_bit() {
 )]
 fn avx512_renders_the_scalar_cubes_bit_for_bit() {
     renders_the_scalar_cubes(SimdLevel::Avx512);
-}
-
-/// Every file under `root`, by relative path, with its bytes.
-fn files_under(root: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(root).unwrap().to_path_buf();
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
 }
 
 /// `femto simulate` of a small capture with `FEMTO_SIMD=value`, in its own folder under

@@ -14,6 +14,8 @@
 //! leaf); a vector's register is a private field too, so a vector exists only where its
 //! proof did, and every operation that executes the instructions is a method taking `self`,
 //! a vector made with the proof. [`Native`] is the four-lane proof of this architecture.
+//! Which proof the BVH uses is chosen at run time: the widest the CPU gives, or the one
+//! `FEMTO_SIMD` or `Bvh::with_simd` forces ([`super::simd_level`]).
 //!
 //! A vector's methods are `#[inline(always)]`: they are compiled into the caller, which must
 //! enable the instructions (`#[target_feature(enable = "avx")]` for [`Avx`]) for the
