@@ -16,6 +16,7 @@
 mod cli;
 
 use cli::{files_under, FemtoCmd};
+use femto::cube::Cube;
 use femto::geometry::bvh::Bvh;
 use femto::geometry::simd_level::{SimdError, SimdLevel};
 use femto::scene::Scene;
@@ -41,7 +42,7 @@ fn render(level: SimdLevel) -> TransientRender {
 /// scalar level's, bit for bit.
 fn renders_the_scalar_cubes(level: SimdLevel) {
     let (got, want) = (render(level), render(SimdLevel::Scalar));
-    let cubes = |r: &TransientRender| {
+    fn cubes(r: &TransientRender) -> [&Cube; 4] {
         [
             Some(&r.camera_time),
             r.direct.as_ref(),
@@ -49,7 +50,7 @@ fn renders_the_scalar_cubes(level: SimdLevel) {
             r.world_time.as_ref(),
         ]
         .map(|c| c.expect("every cube asked for"))
-    };
+    }
     for (name, (a, b)) in ["camera", "direct", "multi", "world"]
         .iter()
         .zip(cubes(&got).into_iter().zip(cubes(&want)))
@@ -182,4 +183,13 @@ fn a_level_this_cpu_lacks_is_refused() {
         assert!(line.contains("lacks") && line.contains(level.name()), "{line}");
         assert!(!tmp.path().join(level.name()).join("cap").exists());
     }
+}
+
+/// The library's own constructor reads `FEMTO_SIMD` (once per process: no other test of
+/// this file calls `Bvh::new`, and the `femto` runs above set it for their own process).
+#[test]
+fn bvh_new_follows_femto_simd() {
+    std::env::set_var("FEMTO_SIMD", "scalar");
+    let bvh = Bvh::new(Scene::builtin("cornell", None).unwrap().mesh);
+    assert_eq!(bvh.simd(), Some(SimdLevel::Scalar));
 }
