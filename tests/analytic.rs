@@ -111,7 +111,9 @@ fn tessellation(scene: &Scene) -> (f64, f64) {
     let m = &scene.mesh;
     let mut d_min = f64::INFINITY;
     for i in 0..m.triangle_count() {
-        let c = m.corners(i).map(|p| Vector3::new(p.x as f64, p.y as f64, p.z as f64));
+        let c = m
+            .corners(i)
+            .map(|p| Vector3::new(p.x as f64, p.y as f64, p.z as f64));
         let n = (c[1] - c[0]).cross(&(c[2] - c[0])).normalize();
         d_min = d_min.min(n.dot(&c[0]).abs());
     }
@@ -169,8 +171,14 @@ fn closed_sphere_lit_from_its_centre_matches_theory_bounce_by_bounce() {
     let bvh = Bvh::new(scene.mesh.clone());
     let (d_min, r_max) = tessellation(&scene);
     let eps = 1.0 - d_min / R_M;
-    assert!(eps > 0.0 && eps < 5e-4 && (r_max - R_M).abs() < 1e-6, "{d_min} {r_max}");
-    let (lo, hi) = (d_min * R_M * R_M / r_max.powi(3), R_M * R_M / (d_min * d_min));
+    assert!(
+        eps > 0.0 && eps < 5e-4 && (r_max - R_M).abs() < 1e-6,
+        "{d_min} {r_max}"
+    );
+    let (lo, hi) = (
+        d_min * R_M * R_M / r_max.powi(3),
+        R_M * R_M / (d_min * d_min),
+    );
     let nt = scene.camera.axis.nt;
     let npix = NX * NY;
 
@@ -205,7 +213,11 @@ fn closed_sphere_lit_from_its_centre_matches_theory_bounce_by_bounce() {
     let h = 2.0 * R_M / 2000.0;
     for k in 1..=K {
         // The light of exactly k bounces, per pixel and bin.
-        let d: Vec<f64> = cubes[k].iter().zip(&cubes[k - 1]).map(|(a, b)| a - b).collect();
+        let d: Vec<f64> = cubes[k]
+            .iter()
+            .zip(&cubes[k - 1])
+            .map(|(a, b)| a - b)
+            .collect();
         let pixel = |p: usize| &d[p * nt..(p + 1) * nt];
         let energy: Vec<f64> = (0..npix).map(|p| pixel(p).iter().sum()).collect();
         let (mean, se) = mean_se(&energy);
@@ -269,7 +281,9 @@ fn closed_sphere_lit_from_its_centre_matches_theory_bounce_by_bounce() {
             let expected: f64 = masses
                 .iter()
                 .enumerate()
-                .map(|(j, pm)| pm * window_weight(bins.clone(), 2.0 * R_M + (j as f64 + offset) * h))
+                .map(|(j, pm)| {
+                    pm * window_weight(bins.clone(), 2.0 * R_M + (j as f64 + offset) * h)
+                })
                 .sum();
             let y: Vec<f64> = (0..npix)
                 .map(|p| pixel(p)[bins.clone()].iter().sum::<f64>() - expected * energy[p])
@@ -277,10 +291,7 @@ fn closed_sphere_lit_from_its_centre_matches_theory_bounce_by_bounce() {
             let (my, sy) = mean_se(&y);
             let z = (my.abs() - allowance).max(0.0) / sy.max(1e-12 * theory);
             worst = worst.max(my.abs() / sy);
-            shares.push(format!(
-                "{:.4}/{expected:.4}",
-                expected + my / mean
-            ));
+            shares.push(format!("{:.4}/{expected:.4}", expected + my / mean));
             if z > SIGMAS {
                 failures.push(format!(
                     "bounce {k} window {w} (bins {bins:?}): share {:.5}, theory {expected:.5}, \

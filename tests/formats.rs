@@ -8,7 +8,7 @@
 use femto::formats::hamamatsu::{AxisScaling, ImgFileType};
 use femto::formats::{self, read_streak, FormatError, PixelType, StreakImage};
 use femto::manifest::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[path = "common/shared.rs"]
 mod shared;

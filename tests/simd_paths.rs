@@ -29,8 +29,8 @@ fn render(level: SimdLevel) -> TransientRender {
     let scene = Scene::builtin("cornell", None)
         .unwrap()
         .with_resolution(12, 8, 96, 8.0);
-    let bvh = Bvh::with_simd(scene.mesh.clone(), Some(level))
-        .unwrap_or_else(|e| panic!("{level}: {e}"));
+    let bvh =
+        Bvh::with_simd(scene.mesh.clone(), Some(level)).unwrap_or_else(|e| panic!("{level}: {e}"));
     let opts = TraceOptions {
         spp: 16,
         ..TraceOptions::default()
@@ -62,7 +62,10 @@ fn renders_the_scalar_cubes(level: SimdLevel) {
             .zip(&b.data)
             .filter(|(x, y)| x.to_bits() != y.to_bits())
             .count();
-        assert_eq!(differ, 0, "{level}: {differ} values of the {name} cube differ");
+        assert_eq!(
+            differ, 0,
+            "{level}: {differ} values of the {name} cube differ"
+        );
     }
     let (mut sa, mut sb) = (got.stats, want.stats);
     (sa.seconds, sb.seconds) = (0.0, 0.0);
@@ -109,8 +112,19 @@ fn simulate(tmp: &Path, value: &str) -> cli::Run {
         .current_dir(&dir)
         .env("FEMTO_SIMD", value)
         .args([
-            "simulate", "--out", "cap", "--size", "16x12", "--nt", "48", "--dt-ps", "20",
-            "--spp", "4", "--bounces", "3",
+            "simulate",
+            "--out",
+            "cap",
+            "--size",
+            "16x12",
+            "--nt",
+            "48",
+            "--dt-ps",
+            "20",
+            "--spp",
+            "4",
+            "--bounces",
+            "3",
         ])
         .run()
 }
@@ -131,7 +145,10 @@ fn femto_simd_forces_each_path_of_the_binary_and_the_files_are_identical() {
         let run = simulate(tmp.path(), level.name());
         assert_eq!(run.code, Some(0), "{level}: {}", run.stderr);
         let got = files_under(&tmp.path().join(level.name()).join("cap"));
-        assert_eq!(got.keys().collect::<Vec<_>>(), want.keys().collect::<Vec<_>>());
+        assert_eq!(
+            got.keys().collect::<Vec<_>>(),
+            want.keys().collect::<Vec<_>>()
+        );
         for (path, bytes) in &want {
             assert!(
                 bytes == &got[path],
@@ -171,7 +188,10 @@ fn a_level_this_cpu_lacks_is_refused() {
         .into_iter()
         .filter(|l| !l.is_supported())
         .collect();
-    assert!(!lacking.is_empty(), "built where a level was missing, run where none is");
+    assert!(
+        !lacking.is_empty(),
+        "built where a level was missing, run where none is"
+    );
     let tmp = tempfile::tempdir().unwrap();
     for level in lacking {
         let err = Bvh::with_simd(Default::default(), Some(level)).unwrap_err();
@@ -180,7 +200,10 @@ fn a_level_this_cpu_lacks_is_refused() {
         assert_eq!(run.code, Some(2), "{level}: {}", run.stderr);
         let line = run.stderr.trim();
         assert_eq!(line.lines().count(), 1, "{line}");
-        assert!(line.contains("lacks") && line.contains(level.name()), "{line}");
+        assert!(
+            line.contains("lacks") && line.contains(level.name()),
+            "{line}"
+        );
         assert!(!tmp.path().join(level.name()).join("cap").exists());
     }
 }

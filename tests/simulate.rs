@@ -760,7 +760,6 @@ fn bad_flags_exit_2_naming_the_flag() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-size"));
 }
 
-
 #[test]
 fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
     let Some(bunny) = shared::file("data/stanford-bunny.obj") else {

@@ -4,8 +4,8 @@
 //! (not from `common/mod.rs`, which examples and benches include too).
 #![allow(dead_code)]
 
-use std::ffi::OsStr;
 use std::collections::BTreeMap;
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -497,7 +497,10 @@ fn eight_wide_tree_agrees_with_brute_force_avx() {
 
 #[cfg(target_arch = "x86_64")]
 #[test]
-#[cfg_attr(not(femto_host_avx512), ignore = "needs AVX-512 F and VL (not on this CPU)")]
+#[cfg_attr(
+    not(femto_host_avx512),
+    ignore = "needs AVX-512 F and VL (not on this CPU)"
+)]
 fn eight_wide_tree_agrees_with_brute_force_avx512() {
     let proof = Avx512::new().expect("built on a CPU with AVX-512, run on one without");
     let isa = Some(Isa::Avx512(proof));
@@ -694,8 +697,8 @@ fn forced_level_gives_the_scalar_hits(level: SimdLevel) {
     let room_rays = room_rays(&mut rng, 1500);
     let mut hits = 0;
     for (mesh, rays) in [(soup, soup_rays), (room, room_rays)] {
-        let forced = Bvh::with_simd(mesh.clone(), Some(level))
-            .unwrap_or_else(|e| panic!("{level}: {e}"));
+        let forced =
+            Bvh::with_simd(mesh.clone(), Some(level)).unwrap_or_else(|e| panic!("{level}: {e}"));
         assert_eq!(forced.simd(), Some(level));
         let scalar = Bvh::with_simd(mesh.clone(), Some(SimdLevel::Scalar)).unwrap();
         assert!(matches!(scalar.tree, Tree::Four(_, FourLanes::Portable)));
