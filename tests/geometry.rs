@@ -13,17 +13,12 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::path::PathBuf;
 
-fn shared_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os("FEMTO_SHARED") {
-        Some(d) => PathBuf::from(d),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    };
-    dir.is_dir().then_some(dir)
-}
+#[path = "common/shared.rs"]
+mod shared;
 
+/// The Stanford bunny of `../shared` (skipped when absent; a failure under `CI=true`).
 fn bunny_path() -> Option<PathBuf> {
-    let p = shared_dir()?.join("data/stanford-bunny.obj");
-    p.is_file().then_some(p)
+    shared::file("data/stanford-bunny.obj")
 }
 
 fn p3(x: f64, y: f64, z: f64) -> Point3<f32> {
@@ -355,7 +350,7 @@ fn bunny_or_soup() -> TriangleMesh {
     if let Some(p) = bunny_path() {
         return load_mesh(&p).unwrap();
     }
-    println!("skipped bunny: ../shared not found; using a random triangle soup");
+    println!("using a random triangle soup instead of the bunny");
     let mut rng = Pcg64::seed_from_u64(4);
     let mut mesh = TriangleMesh::default();
     for t in 0..3000u32 {
@@ -377,7 +372,6 @@ fn bunny_or_soup() -> TriangleMesh {
 #[test]
 fn bunny_loads_with_all_triangles() {
     let Some(path) = bunny_path() else {
-        println!("skipped: ../shared not found");
         return;
     };
     let mesh = load_mesh(&path).unwrap();

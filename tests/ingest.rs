@@ -21,6 +21,8 @@ use rand_pcg::Pcg64;
 use std::path::{Path, PathBuf};
 #[path = "common/cli.rs"]
 mod cli;
+#[path = "common/shared.rs"]
+mod shared;
 use cli::FemtoCmd;
 
 const NX: usize = 32;
@@ -1813,12 +1815,9 @@ fn flags_that_contradict_an_img_time_table_are_refused_or_resampled_keeping_the_
 /// `--resample-time` onto 10 ns bins keeps every count.
 #[test]
 fn real_hpd_ta_time_table_refuses_contradicting_flags_and_resampling_keeps_every_count() {
-    let real =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/hamamatsu/operate_mode.img");
-    if !real.is_file() {
-        println!("skipped: {} not found", real.display());
+    let Some(real) = shared::file("data/hamamatsu/operate_mode.img") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let file = d.join("operate_mode.img");

@@ -22,6 +22,8 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 #[path = "common/cli.rs"]
 mod cli;
+#[path = "common/shared.rs"]
+mod shared;
 
 const C_M_PER_PS: f64 = 2.997_924_58e-4;
 
@@ -990,14 +992,6 @@ fn degenerate_calibrations_exit_2_with_the_library_message() {
 // ---------------------------------------------------------------------------------------
 // `femto info` on meshes and streak images.
 
-fn shared_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os("FEMTO_SHARED") {
-        Some(d) => PathBuf::from(d),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    };
-    dir.is_dir().then_some(dir)
-}
-
 #[test]
 fn info_describes_meshes() {
     let dir = tempfile::tempdir().unwrap();
@@ -1031,16 +1025,14 @@ fn info_describes_meshes() {
         "{text}"
     );
 
-    match shared_dir().map(|d| d.join("data/stanford-bunny.obj")) {
-        Some(bunny) if bunny.is_file() => {
-            let j = info_json(&bunny);
-            assert_eq!(j["kind"], "mesh");
-            assert_eq!(j["format"], "obj");
-            assert_eq!(j["triangles"], 69_451);
-            let size = &j["bounds_m"]["size"];
-            assert!((0..3).all(|a| size[a].as_f64().unwrap() > 0.0));
-        }
-        _ => println!("skipped: ../shared not found"),
+    // Without the bunny, `shared::file` says that this part skipped (fails under CI).
+    if let Some(bunny) = shared::file("data/stanford-bunny.obj") {
+        let j = info_json(&bunny);
+        assert_eq!(j["kind"], "mesh");
+        assert_eq!(j["format"], "obj");
+        assert_eq!(j["triangles"], 69_451);
+        let size = &j["bounds_m"]["size"];
+        assert!((0..3).all(|a| size[a].as_f64().unwrap() > 0.0));
     }
 }
 

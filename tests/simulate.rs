@@ -14,12 +14,13 @@ use femto::geometry::Ray;
 use femto::manifest::{Manifest, StreakFormat};
 use femto::resample::shift_into;
 use femto::units::C_M_PER_PS;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 #[path = "common/cli.rs"]
 mod cli;
-use cli::FemtoCmd;
+#[path = "common/shared.rs"]
+mod shared;
+use cli::{files_under, FemtoCmd};
 
 /// Small captures: 24 x 16 pixels, 64 bins of 16 ps (the cube scene's 1 ns window), 4 spp.
 const SMALL: [&str; 10] = [
@@ -59,24 +60,6 @@ fn simulate_threads(dir: &Path, name: &str, extra: &[&str], threads: Option<usiz
         String::from_utf8_lossy(&out.stderr)
     );
     dir.join(name)
-}
-
-/// Every file under `root`, by relative path, with its bytes.
-fn files_under(root: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(root).unwrap().to_path_buf();
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
 }
 
 fn manifest(cap: &Path) -> Manifest {
@@ -777,21 +760,11 @@ fn bad_flags_exit_2_naming_the_flag() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-size"));
 }
 
-/// `../shared` (or `$FEMTO_SHARED`), where the Stanford bunny lives.
-fn shared_dir() -> PathBuf {
-    match std::env::var_os("FEMTO_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    }
-}
-
 #[test]
 fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
-    let bunny = shared_dir().join("data/stanford-bunny.obj");
-    if !bunny.is_file() {
-        eprintln!("skipped: ../shared not found");
+    let Some(bunny) = shared::file("data/stanford-bunny.obj") else {
         return;
-    }
+    };
     let tmp = tempfile::tempdir().unwrap();
     let bunny = bunny.to_string_lossy().into_owned();
     let args = [

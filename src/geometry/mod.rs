@@ -4,7 +4,8 @@
 //! math converts to f64 where it needs to. The BVH lives in [`bvh`]; mesh loading (OBJ, glTF) in
 //! [`load`]; writing binary glTF in [`glb`]; built-in primitive meshes in [`primitives`]; point
 //! queries (inside a closed mesh, distance to the surface) in [`queries`]; welding and fitting
-//! of mesh files in [`normalize`]; fiducial candidates of primitives in [`fiducials`].
+//! of mesh files in [`normalize`]; fiducial candidates of primitives in [`fiducials`]; the run-time choice of SIMD path
+//! (`FEMTO_SIMD`) in [`simd_level`].
 
 pub mod bvh;
 pub mod fiducials;
@@ -14,6 +15,7 @@ pub mod normalize;
 pub mod primitives;
 pub mod queries;
 mod simd;
+pub mod simd_level;
 
 use nalgebra::{Point3, Vector3};
 

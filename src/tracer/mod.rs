@@ -55,7 +55,8 @@
 //! evaluated per sample (a sample whose pulse fits between two bin centres adds its two tent
 //! weights directly), and each pixel stores and clears only the bins it touched; where the CPU
 //! has AVX2, BMI and GFNI the row loop runs a copy compiled for them (bit-identical: no fused
-//! multiply-adds); the
+//! multiply-adds; it follows the BVH's SIMD level, so `FEMTO_SIMD=scalar` or `sse` forces the
+//! baseline rows, see [`crate::geometry::simd_level`]); the
 //! rest of the time is ray casting (figures in `benches/tracer_results.md`). Light that lands
 //! in no bin is not traced: a connection to the spot that would arrive before every window
 //! is not made, and a path ends as soon as its length so far plus the straight line to the
@@ -69,6 +70,8 @@ pub mod sampling;
 
 use crate::cube::{Cube, TimeAxis, TimeFrame};
 use crate::geometry::bvh::Bvh;
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::simd_level::SimdLevel;
 use crate::geometry::Ray;
 use crate::scene::{Emission, Scene};
 use crate::units::flight_time_ps;
@@ -270,7 +273,9 @@ pub struct Tracer<'a> {
     cam_resp: ResponseTable,
     /// `None` unless [`TraceOptions::world_time`].
     world_resp: Option<ResponseTable>,
-    /// Whether the CPU runs [`Tracer::render_row_wide`].
+    /// Whether the CPU runs [`Tracer::render_row_wide`] and the BVH's SIMD level
+    /// ([`Bvh::simd`]: `FEMTO_SIMD` or [`Bvh::with_simd`]) allows it (`avx2` and wider, or
+    /// `auto`).
     #[cfg(target_arch = "x86_64")]
     wide_isa: bool,
 }
@@ -288,7 +293,8 @@ impl<'a> Tracer<'a> {
                 .world_time
                 .then(|| ResponseTable::new(&TimeResponse::new(world_axis(scene, bvh), sigma_ps))),
             #[cfg(target_arch = "x86_64")]
-            wide_isa: is_x86_feature_detected!("avx")
+            wide_isa: bvh.simd().is_none_or(|l| l >= SimdLevel::Avx2)
+                && is_x86_feature_detected!("avx")
                 && is_x86_feature_detected!("avx2")
                 && is_x86_feature_detected!("bmi1")
                 && is_x86_feature_detected!("bmi2")

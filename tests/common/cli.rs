@@ -4,8 +4,9 @@
 //! (not from `common/mod.rs`, which examples and benches include too).
 #![allow(dead_code)]
 
+use std::collections::BTreeMap;
 use std::ffi::OsStr;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// What a finished `femto` run printed.
@@ -248,4 +249,22 @@ pub fn chain_after_capture(root: &Path, cap: &Path) {
     let world = root.join("world.h5");
     femto_ok(&["unwarp", arg(&cube), "--out", arg(&world)]);
     femto_ok(&["pyramid", arg(&world)]);
+}
+
+/// Every file under `root` (what a run left behind), by relative path, with its bytes.
+pub fn files_under(root: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_path_buf();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
 }

@@ -4,7 +4,8 @@
 //! Embree's layouts): four children per node (BVH4) with SSE2 on x86_64 and on other
 //! architectures, eight (BVH8) where the CPU has AVX (detected at run time with
 //! `is_x86_feature_detected!`; where it also has AVX-512, the same eight-lane code is compiled
-//! a second time for it, which gives it 32 vector registers instead of 16). It is built as a
+//! a second time for it, which gives it 32 vector registers instead of 16; `FEMTO_SIMD` or
+//! [`Bvh::with_simd`] forces any of these paths, see [`crate::geometry::simd_level`]). It is built as a
 //! binary tree with the binned surface area heuristic (SAH; Wald 2007, "On fast construction
 //! of SAH-based bounding volume hierarchies"), whose leaf cost counts triangles in blocks of
 //! four, with two rules for rays that start inside the scene (the SAH assumes they come from
@@ -57,6 +58,7 @@ mod traverse;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx, Avx512, Sse};
 use super::simd::{Lanes, Pairs, Portable, Simd, NATIVE};
+use super::simd_level::{SimdError, SimdLevel};
 use super::{Aabb, Hit, Ray, TriangleMesh};
 use build::build;
 use nalgebra::{Point3, Vector3};
@@ -166,12 +168,67 @@ struct Wide<const N: usize> {
 /// The tree a [`Bvh`] traverses.
 #[derive(Clone, Debug)]
 enum Tree {
-    /// Four children per node (SSE2, or plain arrays off x86_64).
-    Four(Wide<4>),
+    /// Four children per node, traversed with the lanes `FourLanes` names.
+    Four(Wide<4>, FourLanes),
     /// Eight children per node, traversed with the instruction set `Isa` holds the proof of
     /// (`Bvh::new` builds it only where the CPU has AVX); with none (tests on a CPU without
     /// AVX, other architectures), with plain arrays.
     Eight(Wide<8>, Option<Isa>),
+}
+
+/// The lanes of a four-wide tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FourLanes {
+    /// Plain arrays ([`SimdLevel::Scalar`]).
+    Portable,
+    /// [`NATIVE`]: SSE2 on x86_64 (which every such CPU runs), plain arrays elsewhere.
+    Native,
+}
+
+/// The tree and lanes of a [`Bvh`], before it is built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Layout {
+    Four(FourLanes),
+    Eight(Option<Isa>),
+}
+
+impl Layout {
+    /// What `auto` gives: the eight-wide tree where the CPU has AVX (with AVX-512 where it
+    /// has it), else the four-wide tree with the native lanes.
+    fn auto() -> Layout {
+        match eight_isa() {
+            Some(isa) => Layout::Eight(Some(isa)),
+            None => Layout::Four(FourLanes::Native),
+        }
+    }
+
+    /// The layout of `level` (`None`: [`Layout::auto`]), with the proofs of its instruction
+    /// set; an error where the CPU lacks it.
+    fn of(level: Option<SimdLevel>) -> Result<Layout, SimdError> {
+        let Some(level) = level else {
+            return Ok(Layout::auto());
+        };
+        let unsupported = || SimdError::Unsupported {
+            level,
+            missing: level.missing_features().join(", "),
+        };
+        level.check()?;
+        match level {
+            SimdLevel::Scalar => Ok(Layout::Four(FourLanes::Portable)),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Sse => Ok(Layout::Four(FourLanes::Native)),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => Avx::new()
+                .map(|p| Layout::Eight(Some(Isa::Avx(p))))
+                .ok_or_else(unsupported),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => Avx512::new()
+                .map(|p| Layout::Eight(Some(Isa::Avx512(p))))
+                .ok_or_else(unsupported),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => Err(unsupported()),
+        }
+    }
 }
 
 /// Values of the `INSTANCE` parameter of [`Wide::intersect`] and [`Wide::occluded`].
@@ -203,6 +260,8 @@ pub struct Bvh {
     mesh: TriangleMesh,
     bounds: Aabb,
     tree: Tree,
+    /// The level it was built for (`None`: `auto`), which the tracer's rows follow.
+    simd: Option<SimdLevel>,
     /// Unit geometric normal of each mesh triangle (zero for those of zero area).
     normals: Vec<Vector3<f32>>,
 }
@@ -224,23 +283,50 @@ fn eight_isa() -> Option<Isa> {
 }
 
 impl Bvh {
-    /// Build over `mesh` (takes ownership; read it back with [`Bvh::mesh`]).
+    /// Build over `mesh` (takes ownership; read it back with [`Bvh::mesh`]) for the SIMD
+    /// level `FEMTO_SIMD` asks for ([`SimdLevel::requested`]; `auto` when unset).
     ///
     /// Every index in `mesh.triangles` must be a valid position index (the loaders check this).
     pub fn new(mesh: TriangleMesh) -> Bvh {
-        Bvh::with_width(mesh, if eight_isa().is_some() { 8 } else { 4 })
+        let level = SimdLevel::requested();
+        match Layout::of(level) {
+            Ok(layout) => Bvh::build_with(mesh, layout, level),
+            // `requested` only gives levels this CPU runs; `auto` if it ever did not.
+            Err(_) => Bvh::build_with(mesh, Layout::auto(), None),
+        }
+    }
+
+    /// Build over `mesh` for the SIMD level `level` (`None`: `auto`; see
+    /// [`crate::geometry::simd_level`]), whatever `FEMTO_SIMD` says: an error where this CPU
+    /// lacks the level's instructions.
+    pub fn with_simd(mesh: TriangleMesh, level: Option<SimdLevel>) -> Result<Bvh, SimdError> {
+        Ok(Bvh::build_with(mesh, Layout::of(level)?, level))
+    }
+
+    /// The SIMD level the tree was built for (`None`: `auto`).
+    pub fn simd(&self) -> Option<SimdLevel> {
+        self.simd
     }
 
     /// Build with `width` (4 or 8) children per node (8 is traversed with plain arrays where
     /// [`eight_isa`] finds no instruction set).
+    #[cfg(test)]
     fn with_width(mesh: TriangleMesh, width: usize) -> Bvh {
+        let layout = if width == 8 {
+            Layout::Eight(eight_isa())
+        } else {
+            Layout::Four(FourLanes::Native)
+        };
+        Bvh::build_with(mesh, layout, None)
+    }
+
+    fn build_with(mesh: TriangleMesh, layout: Layout, simd: Option<SimdLevel>) -> Bvh {
         let bounds = mesh.bounds();
         let (binary, order) = build(&mesh);
         let corners = |i: u32| mesh.corners(i as usize).map(|p| [p.x, p.y, p.z]);
-        let tree = if width == 8 {
-            Tree::Eight(Wide::collapse(&binary, &order, &corners), eight_isa())
-        } else {
-            Tree::Four(Wide::collapse(&binary, &order, &corners))
+        let tree = match layout {
+            Layout::Eight(isa) => Tree::Eight(Wide::collapse(&binary, &order, &corners), isa),
+            Layout::Four(lanes) => Tree::Four(Wide::collapse(&binary, &order, &corners), lanes),
         };
         let normals = (0..mesh.triangle_count())
             .map(|i| {
@@ -257,6 +343,7 @@ impl Bvh {
             mesh,
             bounds,
             tree,
+            simd,
             normals,
         }
     }
@@ -278,8 +365,12 @@ impl Bvh {
     /// Nearest hit with `t_min < t < t_max` (both sides of every triangle count).
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let found = match &self.tree {
-            Tree::Four(w) => {
+            Tree::Four(w, FourLanes::Native) => {
                 w.intersect::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, ray, t_min, t_max)
+            }
+            Tree::Four(w, FourLanes::Portable) => {
+                let lanes = Portable::<4>::new();
+                w.intersect::<_, _, PORTABLE_OR_SSE>(lanes, lanes, ray, t_min, t_max)
             }
             Tree::Eight(w, isa) => intersect_eight(w, *isa, ray, t_min, t_max),
         };
@@ -295,7 +386,13 @@ impl Bvh {
     /// Whether anything lies on the ray with `t_min < t < t_max` (shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         match &self.tree {
-            Tree::Four(w) => w.occluded::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, ray, t_min, t_max),
+            Tree::Four(w, FourLanes::Native) => {
+                w.occluded::<_, _, PORTABLE_OR_SSE>(NATIVE, NATIVE, ray, t_min, t_max)
+            }
+            Tree::Four(w, FourLanes::Portable) => {
+                let lanes = Portable::<4>::new();
+                w.occluded::<_, _, PORTABLE_OR_SSE>(lanes, lanes, ray, t_min, t_max)
+            }
             Tree::Eight(w, isa) => occluded_eight(w, *isa, ray, t_min, t_max),
         }
     }

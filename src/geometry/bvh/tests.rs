@@ -106,7 +106,7 @@ fn many_identical_triangles_build_a_bounded_tree() {
     for width in [4, 8] {
         let bvh = Bvh::with_width(mesh.clone(), width);
         match &bvh.tree {
-            Tree::Four(w) => check_leaves(w, 1000),
+            Tree::Four(w, _) => check_leaves(w, 1000),
             Tree::Eight(w, _) => check_leaves(w, 1000),
         }
         if width == 4 || eight_isa().is_some() {
@@ -395,7 +395,7 @@ fn walls_of_a_room_are_leaves_of_their_own() {
     for width in [4, 8] {
         let bvh = Bvh::with_width(mesh.clone(), width);
         let leaves = match &bvh.tree {
-            Tree::Four(w) => leaf_triangles(w),
+            Tree::Four(w, _) => leaf_triangles(w),
             Tree::Eight(w, _) => leaf_triangles(w),
         };
         for leaf in leaves {
@@ -411,7 +411,7 @@ fn walls_of_a_room_are_leaves_of_their_own() {
 
 fn four(b: &Bvh) -> &Wide<4> {
     match &b.tree {
-        Tree::Four(w) => w,
+        Tree::Four(w, _) => w,
         Tree::Eight(..) => unreachable!("built with width 4"),
     }
 }
@@ -419,7 +419,7 @@ fn four(b: &Bvh) -> &Wide<4> {
 fn eight(b: &Bvh) -> &Wide<8> {
     match &b.tree {
         Tree::Eight(w, _) => w,
-        Tree::Four(_) => unreachable!("built with width 8"),
+        Tree::Four(..) => unreachable!("built with width 8"),
     }
 }
 
@@ -482,11 +482,9 @@ fn eight_wide_tree_agrees_with_brute_force_portable() {
 
 #[cfg(target_arch = "x86_64")]
 #[test]
+#[cfg_attr(not(femto_host_avx), ignore = "needs AVX (not on this CPU)")]
 fn eight_wide_tree_agrees_with_brute_force_avx() {
-    let Some(avx) = Avx::new() else {
-        println!("skipped: no AVX on this CPU");
-        return;
-    };
+    let avx = Avx::new().expect("built on a CPU with AVX, run on one without");
     let isa = Some(Isa::Avx(avx));
     agrees_with_brute_force(8, &move |b, r, t| {
         let w = eight(b);
@@ -499,11 +497,12 @@ fn eight_wide_tree_agrees_with_brute_force_avx() {
 
 #[cfg(target_arch = "x86_64")]
 #[test]
+#[cfg_attr(
+    not(femto_host_avx512),
+    ignore = "needs AVX-512 F and VL (not on this CPU)"
+)]
 fn eight_wide_tree_agrees_with_brute_force_avx512() {
-    let Some(proof) = Avx512::new() else {
-        println!("skipped: no AVX-512 on this CPU");
-        return;
-    };
+    let proof = Avx512::new().expect("built on a CPU with AVX-512, run on one without");
     let isa = Some(Isa::Avx512(proof));
     agrees_with_brute_force(8, &move |b, r, t| {
         let w = eight(b);
@@ -623,11 +622,9 @@ fn pair_lanes_are_the_scalar_test_portable() {
 
 #[cfg(target_arch = "x86_64")]
 #[test]
+#[cfg_attr(not(femto_host_avx), ignore = "needs AVX (not on this CPU)")]
 fn pair_lanes_are_the_scalar_test_avx() {
-    let Some(avx) = Avx::new() else {
-        println!("skipped: no AVX on this CPU");
-        return;
-    };
+    let avx = Avx::new().expect("built on a CPU with AVX, run on one without");
     // SAFETY: the proof `avx` says that the CPU runs AVX.
     unsafe { pair_lanes_avx(avx) }
 }
@@ -672,4 +669,141 @@ fn nan_and_zero_rays_do_not_hit_or_panic() {
         "t_min is exclusive"
     );
     assert!(bvh.intersect(&ray, 0.5, 2.0).is_some());
+}
+
+/// A hit as bits, so that two paths are compared bit for bit (`-0.0 != 0.0`, NaN == NaN).
+fn hit_bits(h: Option<Hit>) -> Option<(u32, [u32; 6])> {
+    h.map(|h| {
+        (
+            h.triangle,
+            [h.t, h.u, h.v, h.normal.x, h.normal.y, h.normal.z].map(f32::to_bits),
+        )
+    })
+}
+
+/// `level` forced with [`Bvh::with_simd`] builds its tree and lanes and gives the scalar
+/// level's hits through the public API, on the random soup and inside the room:
+/// - bit for bit (triangle, distance, barycentrics, normal) and the same occlusion against
+///   the scalar path of its own tree (the four-wide tree with plain arrays for `sse`, the
+///   eight-wide tree with plain arrays for `avx2` and `avx512`): the same lane operations
+///   visit the same nodes in the same order;
+/// - against `scalar` itself (the four-wide tree): the same distance bit for bit and the
+///   same triangle, or on a tie of distance one that hits at exactly that distance.
+fn forced_level_gives_the_scalar_hits(level: SimdLevel) {
+    let mut rng = Uniforms(21);
+    let soup = test_mesh(&mut rng);
+    let soup_rays = test_rays(&mut rng, 2000);
+    let room = room_mesh(&mut rng);
+    let room_rays = room_rays(&mut rng, 1500);
+    let mut hits = 0;
+    for (mesh, rays) in [(soup, soup_rays), (room, room_rays)] {
+        let forced =
+            Bvh::with_simd(mesh.clone(), Some(level)).unwrap_or_else(|e| panic!("{level}: {e}"));
+        assert_eq!(forced.simd(), Some(level));
+        let scalar = Bvh::with_simd(mesh.clone(), Some(SimdLevel::Scalar)).unwrap();
+        assert!(matches!(scalar.tree, Tree::Four(_, FourLanes::Portable)));
+        let same_tree = match (level, &forced.tree) {
+            (SimdLevel::Scalar, Tree::Four(_, FourLanes::Portable)) => scalar.clone(),
+            (SimdLevel::Sse, Tree::Four(_, FourLanes::Native)) => {
+                Bvh::build_with(mesh.clone(), Layout::Four(FourLanes::Portable), None)
+            }
+            #[cfg(target_arch = "x86_64")]
+            (SimdLevel::Avx2, Tree::Eight(_, Some(Isa::Avx(_))))
+            | (SimdLevel::Avx512, Tree::Eight(_, Some(Isa::Avx512(_)))) => {
+                Bvh::build_with(mesh.clone(), Layout::Eight(None), None)
+            }
+            (l, t) => panic!("{l} built {}", describe(t)),
+        };
+        for (k, (ray, t_max)) in rays.iter().enumerate() {
+            let got = forced.intersect(ray, 0.0, *t_max);
+            let occluded = forced.occluded(ray, 0.0, *t_max);
+            let reference = same_tree.intersect(ray, 0.0, *t_max);
+            assert_eq!(hit_bits(got), hit_bits(reference), "{level} ray {k}");
+            assert_eq!(occluded, same_tree.occluded(ray, 0.0, *t_max), "ray {k}");
+            let s = scalar.intersect(ray, 0.0, *t_max);
+            assert_eq!(occluded, scalar.occluded(ray, 0.0, *t_max), "ray {k}");
+            match (got, s) {
+                (None, None) => {}
+                (Some(g), Some(s)) => {
+                    hits += 1;
+                    assert_eq!(g.t.to_bits(), s.t.to_bits(), "{level} ray {k}");
+                    if g.triangle != s.triangle {
+                        let c = mesh.corners(g.triangle as usize).map(|p| [p.x, p.y, p.z]);
+                        let other = intersect_triangle(&c, &RayConsts::new(ray), 0.0, *t_max);
+                        assert_eq!(other.map(|h| h.t.to_bits()), Some(s.t.to_bits()));
+                    }
+                }
+                (g, s) => panic!("{level} ray {k}: {g:?}, scalar {s:?}"),
+            }
+        }
+    }
+    assert!(hits > 1000, "only {hits} hits");
+}
+
+fn describe(t: &Tree) -> String {
+    match t {
+        Tree::Four(_, lanes) => format!("a four-wide tree with {lanes:?} lanes"),
+        Tree::Eight(_, isa) => format!("an eight-wide tree with {isa:?}"),
+    }
+}
+
+#[test]
+fn forced_scalar_is_the_four_wide_tree_with_plain_arrays() {
+    forced_level_gives_the_scalar_hits(SimdLevel::Scalar);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn forced_sse_gives_the_scalar_hits_bit_for_bit() {
+    forced_level_gives_the_scalar_hits(SimdLevel::Sse);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+#[cfg_attr(
+    not(femto_host_avx2),
+    ignore = "needs AVX2, BMI1/2, LZCNT, POPCNT and GFNI (not on this CPU)"
+)]
+fn forced_avx2_gives_the_scalar_hits() {
+    forced_level_gives_the_scalar_hits(SimdLevel::Avx2);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+#[cfg_attr(
+    not(femto_host_avx512),
+    ignore = "needs AVX-512 F and VL with AVX2, BMI and GFNI (not on this CPU)"
+)]
+fn forced_avx512_gives_the_scalar_hits() {
+    forced_level_gives_the_scalar_hits(SimdLevel::Avx512);
+}
+
+#[test]
+fn a_level_is_built_exactly_where_the_cpu_runs_it() {
+    let mesh = test_mesh(&mut Uniforms(5));
+    for level in SimdLevel::ALL {
+        match Bvh::with_simd(mesh.clone(), Some(level)) {
+            Ok(b) => {
+                assert!(level.is_supported(), "{level}");
+                assert_eq!(b.simd(), Some(level));
+            }
+            Err(e) => {
+                assert!(!level.is_supported(), "{level}: {e}");
+                assert!(
+                    matches!(e, SimdError::Unsupported { level: l, .. } if l == level),
+                    "{e}"
+                );
+            }
+        }
+    }
+    // `auto` is what `Bvh::new` builds without FEMTO_SIMD: the widest tree the CPU runs.
+    let auto = Bvh::with_simd(mesh, None).unwrap();
+    assert_eq!(auto.simd(), None);
+    #[cfg(target_arch = "x86_64")]
+    assert_eq!(
+        matches!(auto.tree, Tree::Eight(_, Some(_))),
+        std::arch::is_x86_feature_detected!("avx")
+    );
+    #[cfg(not(target_arch = "x86_64"))]
+    assert!(matches!(auto.tree, Tree::Four(_, FourLanes::Native)));
 }
