@@ -28,12 +28,12 @@ enum Rows<'a> {
 
 /// Pixel `(x, t)` of the test images: distinct values that use the high bytes of each depth.
 fn pixel(file_type: i16, x: usize, t: usize) -> u32 {
-    let v = (x * 7 + t * 13) as u32;
-    match file_type {
+    let v = (x * 7 + t * 13) as u64;
+    (match file_type {
         0 => v % 251,
         2 => v * 257 % 65521,
         _ => v * 16_777_259 % 4_294_967_291,
-    }
+    }) as u32
 }
 
 /// An HPD-TA file of `w` x `h` pixels of `file_type` (0 = 8-bit, 2 = 16-bit, 3 = 32-bit)
@@ -351,4 +351,89 @@ fn real_files_read_as_before() {
             assert_eq!(cube.profile(669 + dx, 0)[509 + dt], v);
         }
     }
+}
+
+/// The comment split as rosettasciio's reader splits it (`rsciio/hamamatsu/_api.py`:
+/// sections at `[`, the body after `],`, entries `key=value` or `key="value"` separated by
+/// commas), written here independently of femto's parser.
+fn rsciio_sections(comment: &str) -> Vec<(String, Vec<(String, String)>)> {
+    let mut out = Vec::new();
+    for entry in comment[1..].split('[') {
+        let close = entry.find(']').expect("section name closes");
+        let body = entry[close + 1..].strip_prefix(',').unwrap_or("").trim_end();
+        let mut entries = Vec::new();
+        let mut rest = body;
+        while let Some(eq) = rest.find('=') {
+            let key = rest[..eq].to_string();
+            let after = &rest[eq + 1..];
+            let (value, next) = match after.strip_prefix('"') {
+                Some(q) => {
+                    let end = q.find('"').expect("quoted value closes");
+                    (&q[..end], q[end + 1..].strip_prefix(',').unwrap_or(""))
+                }
+                None => match after.find(',') {
+                    Some(c) => (&after[..c], &after[c + 1..]),
+                    None => (after, ""),
+                },
+            };
+            entries.push((key, value.to_string()));
+            rest = next;
+        }
+        out.push((entry[..close].to_string(), entries));
+    }
+    out
+}
+
+/// `femto simulate --format img16` writes files with every key rosettasciio's reader needs
+/// (its `file_reader` fails without `[Acquisition] AcqMode`, an integer, and without both
+/// axes' `Scaling?Type`), with values HPD-TA writes, and a table that the `[Scaling]`
+/// entries point at.
+#[test]
+fn femto_img_files_carry_the_keys_rosettasciio_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    let cap = dir.path().join("cap");
+    FemtoCmd::new()
+        .args(["simulate", "--scene", "cube", "--size", "8x4", "--spp", "1"])
+        .args(["--format", "img16", "--out", arg(&cap)])
+        .ok();
+    let bytes = std::fs::read(cap.join("scanlines/scanline_0000.img")).unwrap();
+    let comment_len = i16::from_le_bytes([bytes[2], bytes[3]]) as usize;
+    let (w, h) = (
+        i16::from_le_bytes([bytes[4], bytes[5]]) as usize,
+        i16::from_le_bytes([bytes[6], bytes[7]]) as usize,
+    );
+    let comment = std::str::from_utf8(&bytes[64..64 + comment_len]).unwrap();
+    let sections = rsciio_sections(comment);
+    let get = |section: &str, key: &str| -> Option<String> {
+        sections
+            .iter()
+            .find(|(s, _)| s == section)
+            .and_then(|(_, e)| e.iter().find(|(k, _)| k == key))
+            .map(|(_, v)| v.clone())
+    };
+    let int = |section: &str, key: &str| -> i64 {
+        get(section, key)
+            .unwrap_or_else(|| panic!("[{section}] {key} missing: {comment}"))
+            .parse()
+            .unwrap_or_else(|_| panic!("[{section}] {key} is not an integer: {comment}"))
+    };
+    // AcqMode: 1 live, 2 acquire, 3 photon counting, 4 analog integration.
+    assert!((1..=4).contains(&int("Acquisition", "AcqMode")), "{comment}");
+    assert_eq!(int("Acquisition", "NrExposure"), 1);
+    assert_eq!(int("Acquisition", "BytesPerPixel"), 2);
+    for key in ["BacksubCorr", "ShadingCorr", "CurveCorr", "DefectCorrection"] {
+        assert_eq!(int("Acquisition", key), 0, "{key}: femto applies no correction");
+    }
+    assert_eq!(get("Acquisition", "pntBinning").as_deref(), Some("1,1"));
+    assert_eq!(get("Streak camera", "Mode").as_deref(), Some("Operate"));
+    let range = get("Streak camera", "Time Range").unwrap();
+    assert_eq!(range.split(' ').count(), 2, "a number and a unit: {range}");
+    assert_eq!(int("Scaling", "ScalingXType"), 1);
+    assert_eq!(int("Scaling", "ScalingYType"), 2);
+    assert_eq!(get("Scaling", "ScalingYUnit").as_deref(), Some("ps"));
+    let file = get("Scaling", "ScalingYScalingFile").unwrap();
+    let (offset, count) = file[1..].split_once(',').unwrap();
+    let (offset, count): (usize, usize) = (offset.parse().unwrap(), count.parse().unwrap());
+    assert_eq!(offset, 64 + comment_len + 2 * w * h, "{file}");
+    assert_eq!((count, bytes.len()), (h, offset + 4 * h));
 }
