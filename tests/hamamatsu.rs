@@ -114,7 +114,12 @@ fn json(text: &str) -> serde_json::Value {
 }
 
 fn info_json(path: &Path) -> serde_json::Value {
-    json(&FemtoCmd::new().args(["info", arg(path), "--json"]).ok().stdout)
+    json(
+        &FemtoCmd::new()
+            .args(["info", arg(path), "--json"])
+            .ok()
+            .stdout,
+    )
 }
 
 fn close(a: f64, b: f64, rel: f64) -> bool {
@@ -253,7 +258,10 @@ fn uncalibrated_rows_ask_for_dt_ps_and_ingest_with_it() {
         let j = info_json(&path);
         assert!(j["time_axis"].is_null(), "{j}");
         let why = j["img"]["time_uncalibrated"].as_str().unwrap();
-        assert!(why.contains(key) && why.contains("Time Range=\"2\""), "{why}");
+        assert!(
+            why.contains(key) && why.contains("Time Range=\"2\""),
+            "{why}"
+        );
         assert_eq!(j["img"]["time_range_index"], 2);
 
         let out = dir.path().join("refused.h5");
@@ -269,7 +277,14 @@ fn uncalibrated_rows_ask_for_dt_ps_and_ingest_with_it() {
         assert!(!out.exists(), "a refused ingest wrote {}", out.display());
 
         // --dt-ps alone: the first row starts at 0 ps.
-        let meta = ingest_and_check(&path, &["--dt-ps", "3.5"], file_type, (w, h), (0.0, 3.5), 0.0);
+        let meta = ingest_and_check(
+            &path,
+            &["--dt-ps", "3.5"],
+            file_type,
+            (w, h),
+            (0.0, 3.5),
+            0.0,
+        );
         assert!(
             note(&meta, "ingest.time_axis").contains("not calibrated"),
             "{:?}",
@@ -360,7 +375,10 @@ fn rsciio_sections(comment: &str) -> Vec<(String, Vec<(String, String)>)> {
     let mut out = Vec::new();
     for entry in comment[1..].split('[') {
         let close = entry.find(']').expect("section name closes");
-        let body = entry[close + 1..].strip_prefix(',').unwrap_or("").trim_end();
+        let body = entry[close + 1..]
+            .strip_prefix(',')
+            .unwrap_or("")
+            .trim_end();
         let mut entries = Vec::new();
         let mut rest = body;
         while let Some(eq) = rest.find('=') {
@@ -418,11 +436,23 @@ fn femto_img_files_carry_the_keys_rosettasciio_needs() {
             .unwrap_or_else(|_| panic!("[{section}] {key} is not an integer: {comment}"))
     };
     // AcqMode: 1 live, 2 acquire, 3 photon counting, 4 analog integration.
-    assert!((1..=4).contains(&int("Acquisition", "AcqMode")), "{comment}");
+    assert!(
+        (1..=4).contains(&int("Acquisition", "AcqMode")),
+        "{comment}"
+    );
     assert_eq!(int("Acquisition", "NrExposure"), 1);
     assert_eq!(int("Acquisition", "BytesPerPixel"), 2);
-    for key in ["BacksubCorr", "ShadingCorr", "CurveCorr", "DefectCorrection"] {
-        assert_eq!(int("Acquisition", key), 0, "{key}: femto applies no correction");
+    for key in [
+        "BacksubCorr",
+        "ShadingCorr",
+        "CurveCorr",
+        "DefectCorrection",
+    ] {
+        assert_eq!(
+            int("Acquisition", key),
+            0,
+            "{key}: femto applies no correction"
+        );
     }
     assert_eq!(get("Acquisition", "pntBinning").as_deref(), Some("1,1"));
     assert_eq!(get("Streak camera", "Mode").as_deref(), Some("Operate"));

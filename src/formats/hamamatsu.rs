@@ -779,6 +779,5 @@ fn make_axes_increase(
     Ok((columns_reversed, rows_reversed))
 }
 
-
 #[cfg(test)]
 mod tests;

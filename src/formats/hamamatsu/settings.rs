@@ -37,11 +37,11 @@ pub(super) fn parse_time_range(path: &Path, value: &str) -> Result<TimeRange, Fo
             section: "Streak camera".into(),
             key: "Time Range".into(),
             value: value.into(),
-            expected: "a number and a time unit (\"20 us\") or a sweep-range index (\"4\")"
-                .into(),
+            expected: "a number and a time unit (\"20 us\") or a sweep-range index (\"4\")".into(),
         });
     }
-    parse_time_value(path, "Streak camera", "Time Range", value).map(|ps| TimeRange::Duration { ps })
+    parse_time_value(path, "Streak camera", "Time Range", value)
+        .map(|ps| TimeRange::Duration { ps })
 }
 
 pub(super) fn parse_time_value(
@@ -89,7 +89,6 @@ fn parse_number<T: std::str::FromStr>(
         expected: expected.into(),
     })
 }
-
 
 /// The acquisition settings read from the comment (see [`super::ImgMeta`]).
 pub(super) struct CommentMeta {

@@ -78,15 +78,13 @@ impl AxisSource {
                     reference: reference.to_path_buf(),
                     starts_ps: table.clone(),
                 },
-                (None, Some(meta)) if probe.time_axis_ps.is_none() => {
-                    AxisSource::ImgUncalibrated {
-                        reference: reference.to_path_buf(),
-                        reason: meta
-                            .time_uncalibrated
-                            .clone()
-                            .unwrap_or_else(|| meta.uncalibrated_time()),
-                    }
-                }
+                (None, Some(meta)) if probe.time_axis_ps.is_none() => AxisSource::ImgUncalibrated {
+                    reference: reference.to_path_buf(),
+                    reason: meta
+                        .time_uncalibrated
+                        .clone()
+                        .unwrap_or_else(|| meta.uncalibrated_time()),
+                },
                 (None, _) => AxisSource::NotRecorded,
             },
         )
@@ -363,13 +361,23 @@ mod tests {
             nt: 4,
         };
         assert_eq!(d.out_axis, want);
-        assert!(d.description.contains("not calibrated"), "{}", d.description);
+        assert!(
+            d.description.contains("not calibrated"),
+            "{}",
+            d.description
+        );
         let options = IngestOptions {
             dt_ps: Some(2.5),
             t0_ps: Some(-7.0),
             ..IngestOptions::default()
         };
-        assert_eq!(decide(&source, None, &options, 4, "x").unwrap().out_axis.t0_ps, -7.0);
+        assert_eq!(
+            decide(&source, None, &options, 4, "x")
+                .unwrap()
+                .out_axis
+                .t0_ps,
+            -7.0
+        );
     }
 
     #[test]

@@ -219,7 +219,9 @@ impl fmt::Display for StreakDescription {
                     "time axis",
                     format!(
                         "not calibrated: {} (femto ingest needs --dt-ps)",
-                        m.time_uncalibrated.as_deref().unwrap_or("no [Scaling] entry")
+                        m.time_uncalibrated
+                            .as_deref()
+                            .unwrap_or("no [Scaling] entry")
                     ),
                 )?,
                 None => line(f, "time axis", "none in the file")?,
