@@ -36,7 +36,8 @@ pub struct IngestArgs {
     /// the manifest's axis or an .img time table is refused, unless --resample-time.
     #[arg(long)]
     pub dt_ps: Option<f64>,
-    /// Camera time of the start of the first bin, ps (likewise).
+    /// Camera time of the start of the first bin, ps (likewise; 0 when only --dt-ps is given
+    /// for an .img file whose rows are not calibrated).
     #[arg(long, allow_hyphen_values = true)]
     pub t0_ps: Option<f64>,
     /// Resample the recorded rows onto the axis --dt-ps/--t0-ps ask for where it contradicts
@@ -240,6 +241,9 @@ fn with_hint(e: IngestError) -> anyhow::Error {
     let hint = match &e {
         IngestError::PrintfNeedsRows { .. } => Some("give --rows N"),
         IngestError::NoTimeAxis { .. } => Some("give --dt-ps and --t0-ps"),
+        IngestError::ImgTimeUncalibrated { .. } => {
+            Some("give --dt-ps PS, the time per row; --t0-ps defaults to 0")
+        }
         IngestError::NothingToResample { .. } => Some("leave out --resample-time"),
         IngestError::SaturationAuto { .. } => Some("use --saturation LEVEL"),
         IngestError::MissingScanline { .. } | IngestError::ManifestFileMissing { .. } => {

@@ -33,20 +33,30 @@
 //! `[Scaling]` key, a file type or a time unit that the reader does not know is an error,
 //! never a guess.
 //!
+//! An axis that is not calibrated leaves [`StreakImage::time_axis_ps`] empty (never a guessed
+//! scale) and [`ImgMeta::time_uncalibrated`] names the header keys that say so; `[Streak
+//! camera] Time Range` may be a duration (`"20 us"`) or a bare sweep-range index (`"4"`),
+//! kept as [`ImgMeta::time_range_index`] (see `hamamatsu/settings.rs`).
+//!
 //! Writer ([`write_img`]): 16- or 32-bit unsigned, a comment with `[Application]`,
-//! `[Acquisition]`, `[Streak camera]` (`Time Range`, `Mode="Operate"`) and `[Scaling]` with
+//! `[Acquisition]` (`AcqMode=2`, one exposure, no corrections: every key rosettasciio's
+//! reader needs), `[Streak camera]` (`Time Range`, `Mode="Operate"`) and `[Scaling]` with
 //! an uncalibrated X axis and `ScalingYType=2`, the per-row times in ps stored as a float32
 //! table after the pixels. Values are rounded to the nearest integer (half away from zero)
 //! and clamped to `0..=2^bits - 1`; the number clamped at the top is returned.
 //!
-//! The reader is here; the writer is in `hamamatsu/write.rs`, the unit tests in
-//! `hamamatsu/tests.rs`.
+//! The reader is here; the comment's settings in `hamamatsu/settings.rs`, the writer in
+//! `hamamatsu/write.rs`, the unit tests in `hamamatsu/tests.rs`.
 
 use super::{AxisTable, FormatError, PixelType, StreakImage};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod settings;
 mod write;
+use settings::comment_meta;
+#[cfg(test)]
+use settings::{parse_time_range, parse_time_value, TimeRange};
 pub use write::write_img;
 
 /// Length of the fixed header.
@@ -150,8 +160,17 @@ pub struct ImgMeta {
     pub rows_reversed: bool,
     /// `[Streak camera] Mode` (`Operate`, `Focus`).
     pub mode: Option<String>,
-    /// `[Streak camera] Time Range` (the sweep window), picoseconds.
+    /// `[Streak camera] Time Range` (the sweep window), picoseconds, when it is written as a
+    /// duration (`"20 us"`).
     pub time_range_ps: Option<f64>,
+    /// `[Streak camera] Time Range` when it is written as a bare number (`"4"`): the index
+    /// of the sweep range, which gives no duration.
+    pub time_range_index: Option<u32>,
+    /// Which axis of the file holds time: `'Y'` (rows), or `'X'` when read transposed.
+    pub time_file_axis: char,
+    /// When the file does not calibrate its time axis: the header keys that say so
+    /// ([`ImgMeta::uncalibrated_time`]); `None` when it has a time axis.
+    pub time_uncalibrated: Option<String>,
     /// `[Streak camera] MCP Gain`.
     pub mcp_gain: Option<f64>,
     /// `[Acquisition] NrExposure`: exposures summed into the image.
@@ -169,6 +188,36 @@ impl ImgMeta {
             .get(section)
             .and_then(|s| s.get(key))
             .map(String::as_str)
+    }
+
+    /// The header keys that leave the time axis uncalibrated, in words, for messages: e.g.
+    /// `[Scaling] ScalingYType=1 with ScalingYUnit="" (sensor rows)` and, when the time range
+    /// is a sweep-range index, `[Streak camera] Time Range="4" (a sweep-range index, not a
+    /// duration)`. Meant for an image read without a time axis.
+    pub fn uncalibrated_time(&self) -> String {
+        let axis = self.time_file_axis;
+        let key = |suffix: &str| format!("Scaling{axis}{suffix}");
+        let scaling = match (
+            self.sections.get("Scaling"),
+            self.get("Scaling", &key("Type")),
+        ) {
+            (None, _) => "no [Scaling] section".to_string(),
+            (Some(_), None) => format!("no [Scaling] {}", key("Type")),
+            (Some(_), Some(kind)) => format!(
+                "[Scaling] {}={kind} with {}={:?} (sensor {})",
+                key("Type"),
+                key("Unit"),
+                self.get("Scaling", &key("Unit")).unwrap_or(""),
+                if axis == 'Y' { "rows" } else { "columns" }
+            ),
+        };
+        match self.time_range_index {
+            Some(i) => format!(
+                "{scaling}; [Streak camera] Time Range=\"{i}\" (a sweep-range index, not a \
+                 duration)"
+            ),
+            None => scaling,
+        }
     }
 }
 
@@ -534,52 +583,6 @@ fn direction(values: &[f64]) -> Result<i8, usize> {
     Ok(dir)
 }
 
-fn parse_time_value(
-    path: &Path,
-    section: &str,
-    key: &str,
-    value: &str,
-) -> Result<f64, FormatError> {
-    let bad = || FormatError::BadValue {
-        path: path.to_path_buf(),
-        section: section.into(),
-        key: key.into(),
-        value: value.into(),
-        expected: "a finite number and a time unit, e.g. \"20 us\"".into(),
-    };
-    let mut parts = value.split_whitespace();
-    let (Some(number), Some(unit), None) = (parts.next(), parts.next(), parts.next()) else {
-        return Err(bad());
-    };
-    let number: f64 = number.parse().map_err(|_| bad())?;
-    let per = time_unit_to_ps(unit).ok_or_else(|| FormatError::UnknownUnit {
-        path: path.to_path_buf(),
-        what: format!("[{section}] {key}"),
-        unit: unit.to_string(),
-    })?;
-    let ps = number * per;
-    if !ps.is_finite() {
-        return Err(bad());
-    }
-    Ok(ps)
-}
-
-fn parse_number<T: std::str::FromStr>(
-    path: &Path,
-    section: &str,
-    key: &str,
-    value: &str,
-    expected: &str,
-) -> Result<T, FormatError> {
-    value.trim().parse().map_err(|_| FormatError::BadValue {
-        path: path.to_path_buf(),
-        section: section.into(),
-        key: key.into(),
-        value: value.into(),
-        expected: expected.into(),
-    })
-}
-
 const SCALING_KEYS: [&str; 4] = ["Type", "Scale", "Unit", "ScalingFile"];
 
 /// Read an HPD-TA `.img` file (see the module doc for the layout and the axis rules).
@@ -652,29 +655,37 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
     let x_axis = space_vals.map(|(values, unit)| AxisTable { values, unit });
 
     let settings = comment_meta(path, &sections)?;
+    let pixel_type = header.file_type.pixel_type();
 
+    let mut meta = ImgMeta {
+        header,
+        comment,
+        sections,
+        scaling_x,
+        scaling_y,
+        columns_reversed,
+        rows_reversed,
+        mode: settings.mode,
+        time_range_ps: settings.time_range_ps,
+        time_range_index: settings.time_range_index,
+        time_file_axis: time_axis_name,
+        time_uncalibrated: None,
+        mcp_gain: settings.mcp_gain,
+        n_exposures: settings.n_exposures,
+        exposure_time_s: settings.exposure_time_s,
+        total_exposure_s: settings.total_exposure_s,
+    };
+    if time_axis_ps.is_none() {
+        meta.time_uncalibrated = Some(meta.uncalibrated_time());
+    }
     Ok(StreakImage {
         nx,
         nt,
         data,
-        pixel_type: header.file_type.pixel_type(),
+        pixel_type,
         time_axis_ps,
         x_axis,
-        img_meta: Some(ImgMeta {
-            header,
-            comment,
-            sections,
-            scaling_x,
-            scaling_y,
-            columns_reversed,
-            rows_reversed,
-            mode: settings.mode,
-            time_range_ps: settings.time_range_ps,
-            mcp_gain: settings.mcp_gain,
-            n_exposures: settings.n_exposures,
-            exposure_time_s: settings.exposure_time_s,
-            total_exposure_s: settings.total_exposure_s,
-        }),
+        img_meta: Some(meta),
     })
 }
 
@@ -766,75 +777,6 @@ fn make_axes_increase(
         }
     }
     Ok((columns_reversed, rows_reversed))
-}
-
-/// The acquisition settings read from the comment (see [`ImgMeta`]).
-struct CommentMeta {
-    mode: Option<String>,
-    time_range_ps: Option<f64>,
-    mcp_gain: Option<f64>,
-    n_exposures: Option<u32>,
-    exposure_time_s: Option<f64>,
-    total_exposure_s: Option<f64>,
-}
-
-/// The `[Streak camera]` and `[Acquisition]` settings of the comment's `sections`; a value
-/// that does not parse (or a gain that is not finite) is an error naming its key.
-fn comment_meta(
-    path: &Path,
-    sections: &BTreeMap<String, BTreeMap<String, String>>,
-) -> Result<CommentMeta, FormatError> {
-    let streak = sections.get("Streak camera");
-    let acquisition = sections.get("Acquisition");
-    let mode = streak.and_then(|s| s.get("Mode")).cloned();
-    let time_range_ps = streak
-        .and_then(|s| s.get("Time Range"))
-        .map(|v| parse_time_value(path, "Streak camera", "Time Range", v))
-        .transpose()?;
-    let mcp_gain = streak
-        .and_then(|s| s.get("MCP Gain"))
-        .map(|v| parse_number::<f64>(path, "Streak camera", "MCP Gain", v, "a finite number"))
-        .transpose()?
-        .map(|g| {
-            g.is_finite()
-                .then_some(g)
-                .ok_or_else(|| FormatError::BadValue {
-                    path: path.to_path_buf(),
-                    section: "Streak camera".into(),
-                    key: "MCP Gain".into(),
-                    value: g.to_string(),
-                    expected: "a finite number".into(),
-                })
-        })
-        .transpose()?;
-    let n_exposures = acquisition
-        .and_then(|s| s.get("NrExposure"))
-        .map(|v| {
-            parse_number::<u32>(
-                path,
-                "Acquisition",
-                "NrExposure",
-                v,
-                "a non-negative integer",
-            )
-        })
-        .transpose()?;
-    let exposure_time_s = acquisition
-        .and_then(|s| s.get("ExposureTime"))
-        .map(|v| parse_time_value(path, "Acquisition", "ExposureTime", v).map(|ps| ps * 1e-12))
-        .transpose()?;
-    let total_exposure_s = match (n_exposures, exposure_time_s) {
-        (Some(n), Some(t)) => Some(n as f64 * t),
-        _ => None,
-    };
-    Ok(CommentMeta {
-        mode,
-        time_range_ps,
-        mcp_gain,
-        n_exposures,
-        exposure_time_s,
-        total_exposure_s,
-    })
 }
 
 #[cfg(test)]

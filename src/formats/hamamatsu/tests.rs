@@ -143,3 +143,26 @@ fn the_writer_refuses_bad_depths_sizes_and_time_axes() {
     assert!(e.contains("not finite"), "{e}");
     assert!(check_write_args(p, &img, 16, &[0.0]).is_err());
 }
+
+#[test]
+fn time_range_is_a_duration_or_a_sweep_range_index() {
+    let p = Path::new("x.img");
+    assert_eq!(
+        parse_time_range(p, "20 us").unwrap(),
+        TimeRange::Duration { ps: 2e7 }
+    );
+    assert_eq!(parse_time_range(p, "4").unwrap(), TimeRange::Index(4));
+    assert_eq!(parse_time_range(p, " 1 ").unwrap(), TimeRange::Index(1));
+    for v in ["2.5", "-1", "", "us", "99999999999"] {
+        let e = parse_time_range(p, v).unwrap_err().to_string();
+        assert!(
+            e.contains("Time Range") && e.contains("sweep-range index"),
+            "{v}: {e}"
+        );
+    }
+    // A unit HPD-TA does not write is still an unknown unit, not an index.
+    assert!(matches!(
+        parse_time_range(p, "3 min"),
+        Err(FormatError::UnknownUnit { .. })
+    ));
+}

@@ -22,17 +22,30 @@ pub(super) fn format_time_range(span_ps: f64) -> String {
     format!("{rounded} {unit}")
 }
 
-/// The comment [`write_img`] stores, for a table at `table_offset`.
+/// The comment [`write_img`] stores, for an image `nx` wide and `nt` high with a table at
+/// `table_offset`.
+///
+/// It carries every key the open readers of HPD-TA files need, with the values HPD-TA
+/// writes for a single acquisition: rosettasciio (`rsciio.hamamatsu`) reads
+/// `[Acquisition] AcqMode` (1 live, 2 acquire, 3 photon counting, 4 analog integration;
+/// without it the reader fails) and `NrExposure`, the corrections applied
+/// (`BacksubCorr`, `ShadingCorr`, `CurveCorr`, `DefectCorrection`: -1 yes, 0 no; femto
+/// applies none), `pntBinning`, `ZAxisLabel`/`ZAxisUnit`, and both axes' `[Scaling]` type,
+/// unit and scaling file. No `ExposureTime`, `Date` or `Time`: a simulation has none, and
+/// the file stays the same from run to run.
 fn writer_comment(
     bytes_per_pixel: usize,
-    nt: usize,
+    (nx, nt): (usize, usize),
     time_range: &str,
     table_offset: usize,
 ) -> String {
     format!(
         "[Application],Software=\"femto\",SoftwareVersion=\"{version}\",\
          ApplicationTitle=\"femto streak-camera simulator\"\r\n\
-         [Acquisition],BytesPerPixel={bytes_per_pixel},IsLineData=0,ZAxisLabel=Intensity,ZAxisUnit=Count\r\n\
+         [Acquisition],NrExposure=1,NrTrigger=0,AcqMode=2,CurveCorr=0,DefectCorrection=0,\
+         areSource=\"0,0,{nx},{nt}\",areGRBScan=\"0,0,{nx},{nt}\",pntOrigCh=\"0,0\",\
+         pntOrigFB=\"0,0\",pntBinning=\"1,1\",BytesPerPixel={bytes_per_pixel},IsLineData=0,\
+         BacksubCorr=0,ShadingCorr=0,ZAxisLabel=Intensity,ZAxisUnit=Count\r\n\
          [Streak camera],Time Range=\"{time_range}\",Mode=\"Operate\"\r\n\
          [Scaling],ScalingXType=1,ScalingXScale=1,ScalingXUnit=\"\",ScalingXScalingFile=\"\",\
          ScalingYType=2,ScalingYScale=1,ScalingYUnit=\"ps\",ScalingYScalingFile=\"#{table_offset},{nt:04}\"\r\n\
@@ -165,10 +178,10 @@ pub fn write_img(
     let pixel_bytes = nx * nt * bpp;
     // The table offset is written inside the comment, whose length moves the offset: iterate
     // to the fixed point (at most a couple of rounds, as the offset only grows in digits).
-    let mut comment = writer_comment(bpp, nt, &time_range, 0);
+    let mut comment = writer_comment(bpp, (nx, nt), &time_range, 0);
     loop {
         let offset = HEADER_LEN + comment.len() + pixel_bytes;
-        let next = writer_comment(bpp, nt, &time_range, offset);
+        let next = writer_comment(bpp, (nx, nt), &time_range, offset);
         if next.len() == comment.len() {
             comment = next;
             break;

@@ -28,6 +28,11 @@ pub enum AxisSource {
         reference: PathBuf,
         starts_ps: Vec<f64>,
     },
+    /// The reference is an HPD-TA `.img` file that does not calibrate its time axis (a pixel
+    /// axis, or a bare sweep-range index with no table): the bin width must be given (the
+    /// start defaults to 0 ps), or a sweep table's span decides. `reason` names the header
+    /// keys ([`crate::formats::hamamatsu::ImgMeta::uncalibrated_time`]).
+    ImgUncalibrated { reference: PathBuf, reason: String },
     /// Nothing recorded: the bin width and start given, or a sweep table's span, decide.
     NotRecorded,
 }
@@ -64,13 +69,25 @@ impl AxisSource {
                 axis,
             });
         }
-        Ok(match probe.time_axis_ps.as_ref().filter(|t| t.len() >= 2) {
-            Some(table) => AxisSource::ImgTable {
-                reference: reference.to_path_buf(),
-                starts_ps: table.clone(),
+        Ok(
+            match (
+                probe.time_axis_ps.as_ref().filter(|t| t.len() >= 2),
+                &probe.img_meta,
+            ) {
+                (Some(table), _) => AxisSource::ImgTable {
+                    reference: reference.to_path_buf(),
+                    starts_ps: table.clone(),
+                },
+                (None, Some(meta)) if probe.time_axis_ps.is_none() => AxisSource::ImgUncalibrated {
+                    reference: reference.to_path_buf(),
+                    reason: meta
+                        .time_uncalibrated
+                        .clone()
+                        .unwrap_or_else(|| meta.uncalibrated_time()),
+                },
+                (None, _) => AxisSource::NotRecorded,
             },
-            None => AxisSource::NotRecorded,
-        })
+        )
     }
 
     /// The recorded axis and its edges (the `.img` table's starts become edges, the last
@@ -94,7 +111,7 @@ impl AxisSource {
                     edges,
                 })
             }
-            AxisSource::NotRecorded => None,
+            AxisSource::ImgUncalibrated { .. } | AxisSource::NotRecorded => None,
         }
     }
 
@@ -152,18 +169,37 @@ pub fn decide(
     nt: usize,
     input: &str,
 ) -> Result<TimeDecision, IngestError> {
-    let request = AxisRequest {
+    let mut request = AxisRequest {
         dt_ps: options.dt_ps,
         t0_ps: options.t0_ps,
         resample: options.resample_time,
     };
-    let resolved = time_axis::resolve(
+    let mut uncalibrated_note = None;
+    if let AxisSource::ImgUncalibrated { reference, reason } = source {
+        if request.dt_ps.is_none() && sweep.is_none() {
+            return Err(IngestError::ImgTimeUncalibrated {
+                path: reference.clone(),
+                reason: reason.clone(),
+            });
+        }
+        if request.dt_ps.is_some() && request.t0_ps.is_none() {
+            request.t0_ps = Some(0.0);
+        }
+        uncalibrated_note = Some(format!(
+            " (the time axis of {} is not calibrated: {reason})",
+            reference.display()
+        ));
+    }
+    let mut resolved = time_axis::resolve(
         source.recorded().as_ref(),
         sweep.as_ref(),
         &request,
         nt,
         input,
     )?;
+    if let Some(note) = uncalibrated_note {
+        resolved.description.push_str(&note);
+    }
     Ok(TimeDecision {
         out_axis: resolved.out_axis,
         description: resolved.description,
@@ -298,6 +334,50 @@ mod tests {
             assert_eq!(s.recorded(), None);
             assert_eq!(s.img_time_table_ps(), None);
         }
+    }
+
+    #[test]
+    fn an_img_without_a_time_calibration_needs_the_bin_width_only() {
+        let source = AxisSource::ImgUncalibrated {
+            reference: "focus.img".into(),
+            reason: "[Scaling] ScalingYType=1 with ScalingYUnit=\"\" (sensor rows)".into(),
+        };
+        assert_eq!(source.recorded(), None);
+        assert_eq!(source.img_time_table_ps(), None);
+        let e = decide(&source, None, &IngestOptions::default(), 4, "x").unwrap_err();
+        assert!(
+            matches!(&e, IngestError::ImgTimeUncalibrated { path, reason }
+                if path == Path::new("focus.img") && reason.contains("ScalingYType=1")),
+            "{e:?}"
+        );
+        let options = IngestOptions {
+            dt_ps: Some(2.5),
+            ..IngestOptions::default()
+        };
+        let d = decide(&source, None, &options, 4, "x").unwrap();
+        let want = TimeAxis {
+            t0_ps: 0.0,
+            dt_ps: 2.5,
+            nt: 4,
+        };
+        assert_eq!(d.out_axis, want);
+        assert!(
+            d.description.contains("not calibrated"),
+            "{}",
+            d.description
+        );
+        let options = IngestOptions {
+            dt_ps: Some(2.5),
+            t0_ps: Some(-7.0),
+            ..IngestOptions::default()
+        };
+        assert_eq!(
+            decide(&source, None, &options, 4, "x")
+                .unwrap()
+                .out_axis
+                .t0_ps,
+            -7.0
+        );
     }
 
     #[test]

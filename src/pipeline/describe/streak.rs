@@ -143,6 +143,8 @@ fn serialize_img<S: Serializer>(img: &Option<ImgMeta>, s: S) -> Result<S::Ok, S:
         file_type: i16,
         mode: &'a Option<String>,
         time_range_ps: Option<f64>,
+        time_range_index: Option<u32>,
+        time_uncalibrated: Option<String>,
         mcp_gain: Option<f64>,
         n_exposures: Option<u32>,
         exposure_time_s: Option<f64>,
@@ -158,6 +160,8 @@ fn serialize_img<S: Serializer>(img: &Option<ImgMeta>, s: S) -> Result<S::Ok, S:
             file_type: m.header.file_type.code(),
             mode: &m.mode,
             time_range_ps: m.time_range_ps,
+            time_range_index: m.time_range_index,
+            time_uncalibrated: m.time_uncalibrated.clone(),
             mcp_gain: m.mcp_gain,
             n_exposures: m.n_exposures,
             exposure_time_s: m.exposure_time_s,
@@ -209,7 +213,19 @@ impl fmt::Display for StreakDescription {
                     json_text(mean_dt_ps)
                 ),
             )?,
-            _ => line(f, "time axis", "none in the file")?,
+            _ => match &self.img {
+                Some(m) => line(
+                    f,
+                    "time axis",
+                    format!(
+                        "not calibrated: {} (femto ingest needs --dt-ps)",
+                        m.time_uncalibrated
+                            .as_deref()
+                            .unwrap_or("no [Scaling] entry")
+                    ),
+                )?,
+                None => line(f, "time axis", "none in the file")?,
+            },
         }
         if let Some(a) = &self.x_axis {
             line(
@@ -229,12 +245,15 @@ impl fmt::Display for StreakDescription {
                 f,
                 "HPD-TA",
                 format!(
-                    "{} x {} stored, file type {}, mode {}, time range {} ps, MCP gain {}",
+                    "{} x {} stored, file type {}, mode {}, time range {}, MCP gain {}",
                     m.header.width,
                     m.header.height,
                     m.header.file_type.code(),
                     m.mode.as_deref().unwrap_or("-"),
-                    opt(m.time_range_ps),
+                    match (m.time_range_ps, m.time_range_index) {
+                        (_, Some(i)) => format!("index {i} (no duration)"),
+                        (ps, None) => format!("{} ps", opt(ps)),
+                    },
                     opt(m.mcp_gain)
                 ),
             )?;
