@@ -35,6 +35,7 @@ pub mod demo;
 pub mod formats;
 pub mod geometry;
 pub mod ingest;
+pub mod interop;
 pub mod interrupt;
 pub mod limits;
 pub mod manifest;
