@@ -18,7 +18,7 @@ mod cli;
 use cli::{arg, FemtoCmd};
 use femto::container::{self, Provenance};
 use femto::cube::{Cube, TimeAxis, TimeFrame};
-use femto::geometry::Bvh;
+use femto::geometry::bvh::Bvh;
 use femto::interop::read_tal;
 use femto::store::registration;
 use std::path::{Path, PathBuf};

@@ -223,10 +223,10 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         Ok(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
     };
     let sensor_grid_xyz_m = grid("sensor_grid_xyz")?;
-    let sensor_grid_normals = if has("sensor_grid_normals") {
-        Some(grid("sensor_grid_normals")?)
-    } else {
-        None
+    // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
+    let sensor_grid_normals = match has("sensor_grid_normals") {
+        true if !read("sensor_grid_normals")?.1.is_empty() => Some(grid("sensor_grid_normals")?),
+        _ => None,
     };
     let (lshape, lv) = read("laser_grid_xyz")?;
     if lv.len() != 3 {
