@@ -60,7 +60,8 @@ impl Channels {
             Ok((0..n).map(|j| if j == i { 1.0 } else { 0.0 }).collect())
         };
         match self {
-            Channels::Mean => Ok(vec![1.0 / n as f32; n]),
+            // Summed, then divided by n (below), as NumPy's mean does: 1/3 is not a float.
+            Channels::Mean => Ok(vec![1.0; n]),
             Channels::R => one(0),
             Channels::G => one(1),
             Channels::B => one(2),
@@ -123,10 +124,15 @@ pub fn read_transient_npy(
         ));
     }
     // (H, W, T, C) is (y, x, t, c): the cube's [y][x][t] with the channels innermost.
+    let divisor = if channels == Channels::Mean {
+        nc as f32
+    } else {
+        1.0
+    };
     let data: Vec<f32> = a
         .values
         .chunks_exact(nc)
-        .map(|c| c.iter().zip(&weights).map(|(v, w)| v * w).sum())
+        .map(|c| c.iter().zip(&weights).map(|(v, w)| v * w).sum::<f32>() / divisor)
         .collect();
     Ok(Cube {
         nx,

@@ -49,6 +49,12 @@ pub enum InteropError {
         key: String,
         message: String,
     },
+    /// A cube file femto could not read (the message names the file).
+    #[error(transparent)]
+    Container(#[from] crate::container::ContainerError),
+    /// A cube's registration group could not be read (the message names the file).
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
     /// The cube given cannot be converted (no geometry, wrong sizes).
     #[error("{path}: {message}")]
     Cube { path: PathBuf, message: String },

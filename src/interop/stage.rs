@@ -40,10 +40,6 @@ fn cube_err(path: &Path, message: impl Into<String>) -> InteropError {
     }
 }
 
-fn container_err(path: &Path) -> impl Fn(container::ContainerError) -> InteropError + '_ {
-    move |e| cube_err(path, e.to_string())
-}
-
 /// Write the cube at `cube_path` as a y-tal capture at `out`: the sensor grid from its
 /// `registration` group (else its `tal` group), the laser origin given, else the `tal`
 /// group's, else the registration's camera centre.
@@ -52,21 +48,19 @@ pub fn export_tal(
     out: &Path,
     laser_origin_m: Option<[f64; 3]>,
 ) -> Result<TalExport, InteropError> {
-    let e = container_err(cube_path);
-    let groups = container::list_groups(cube_path).map_err(&e)?;
+    let groups = container::list_groups(cube_path)?;
     let has = |g: &str| groups.iter().any(|n| n == g);
-    let meta = container::read_meta(cube_path).map_err(&e)?;
+    let meta = container::read_meta(cube_path)?;
     let (nx, ny) = (meta.nx, meta.ny);
     let tal_geo = if has(GROUP) {
-        let data = container::read_group(cube_path, GROUP).map_err(&e)?;
+        let data = container::read_group(cube_path, GROUP)?;
         Some(geometry_from_group(cube_path, &data, nx, ny)?)
     } else {
         None
     };
     let (geo, from, origin) = if has(registration::GROUP) {
-        let data = container::read_group(cube_path, registration::GROUP).map_err(&e)?;
-        let stored = registration::from_group(cube_path, &data)
-            .map_err(|err| cube_err(cube_path, err.to_string()))?;
+        let data = container::read_group(cube_path, registration::GROUP)?;
+        let stored = registration::from_group(cube_path, &data)?;
         let (o, how) = match (laser_origin_m, &tal_geo) {
             (Some(o), _) => (o, LaserOrigin::Given),
             (None, Some(t)) => (t.laser_origin_m, LaserOrigin::TalGroup),
@@ -95,7 +89,7 @@ pub fn export_tal(
             format!("the {from} group is not {nx} x {ny} pixels"),
         ));
     }
-    let cube: Cube = container::read_cube(cube_path).map_err(&e)?;
+    let cube: Cube = container::read_cube(cube_path)?;
     let capture = TalCapture::from_cube(&cube, &geo);
     let unseen_points = capture
         .sensor_grid_xyz_m
@@ -118,7 +112,6 @@ fn write_cube_file(
     provenance: &Provenance,
     groups: &[(&str, container::GroupData)],
 ) -> Result<(), InteropError> {
-    let e = |err: container::ContainerError| cube_err(out, err.to_string());
     // The cube and its groups go to a staged file renamed onto `out` only when both are in.
     crate::atomic::write_atomically_with(
         out,
@@ -127,9 +120,9 @@ fn write_cube_file(
             source,
         },
         |tmp| {
-            container::write_cube(tmp, cube, provenance).map_err(e)?;
+            container::write_cube(tmp, cube, provenance)?;
             if !groups.is_empty() {
-                container::write_groups(tmp, groups).map_err(e)?;
+                container::write_groups(tmp, groups)?;
             }
             Ok(())
         },

@@ -123,7 +123,7 @@ def check_registered_export(femto, work, failures):
 
     demo = os.path.join(work, "demo")
     run(femto, "demo", "--quick", "--out", demo)
-    world = os.path.join(demo, "world.h5")
+    world = os.path.join(demo, "data", "world.h5")
     out = os.path.join(work, "world_tal.hdf5")
     run(femto, "export", "--to", "tal", world, "-o", out)
     r = tal.io.read_capture(out)
