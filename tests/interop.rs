@@ -11,9 +11,9 @@
 //! `FEMTO_INTEROP_PYTHON` (the virtual environment `.ci/run` makes); without it it prints
 //! `skipped: <why>`, and under `CI=true` it fails.
 
-mod common;
 #[path = "common/cli.rs"]
 mod cli;
+mod common;
 
 use cli::{arg, FemtoCmd};
 use femto::container::{self, Provenance};
@@ -29,7 +29,10 @@ const NY: usize = 9;
 
 /// A world-time cube of the cube scene with its registration; bin values 1 + x + 100 y + 1e4 t
 /// so that any transposition shows.
-fn registered_cube(dir: &Path, frame: TimeFrame) -> (PathBuf, Cube, registration::StoredRegistration) {
+fn registered_cube(
+    dir: &Path,
+    frame: TimeFrame,
+) -> (PathBuf, Cube, registration::StoredRegistration) {
     let cal = common::cube_scene_calibration(NX, NY);
     let bvh = Bvh::new(common::cube_scene_mesh());
     let reg = femto::calibrate::register(&cal, &bvh, NX, NY).unwrap();
@@ -74,7 +77,11 @@ fn export_to_tal_writes_the_cube_as_t_sx_sy_on_the_registrations_grid() {
     }
     assert_eq!(cap.h.len(), cube.data.len());
     // 30 ps after the pulse leaves the spot (cube time 100 ps): 30 ps of light.
-    assert!((cap.t_start_m - 30.0 * C_M_PER_PS).abs() < 1e-12, "{}", cap.t_start_m);
+    assert!(
+        (cap.t_start_m - 30.0 * C_M_PER_PS).abs() < 1e-12,
+        "{}",
+        cap.t_start_m
+    );
     assert!((cap.delta_t_m - 2.5 * C_M_PER_PS).abs() < 1e-15);
     assert!(!cap.t_accounts_first_and_last_bounces);
     let reg = &stored.registration;
@@ -193,14 +200,18 @@ fn refusals_name_the_file_and_write_nothing() {
     let err = FemtoCmd::new()
         .args(["export", "--to", "tal", arg(&bare), "-o", arg(&out)])
         .refused();
-    assert!(err.contains("bare.h5") && err.contains("registration"), "{err}");
+    assert!(
+        err.contains("bare.h5") && err.contains("registration"),
+        "{err}"
+    );
     assert!(!out.exists());
     // A mitransient array without its binning; with a streak flag; a streak capture with a
     // mitransient flag.
     let npy = d.join("render.npy");
     let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    let mut header = "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3, 4, 3), }".to_string();
-    while (10 + header.len() + 1) % 64 != 0 {
+    let mut header =
+        "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3, 4, 3), }".to_string();
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');
@@ -212,14 +223,24 @@ fn refusals_name_the_file_and_write_nothing() {
     let err = FemtoCmd::new()
         .args(["ingest", arg(&npy), "-o", arg(&cube)])
         .refused();
-    assert!(err.contains("--start-opl-m") && err.contains("render.npy"), "{err}");
+    assert!(
+        err.contains("--start-opl-m") && err.contains("render.npy"),
+        "{err}"
+    );
     let err = FemtoCmd::new()
         .args(["ingest", arg(&npy), "-o", arg(&cube), "--dark", "3"])
         .args(["--start-opl-m", "1", "--bin-width-opl-m", "0.01"])
         .refused();
     assert!(err.contains("--dark"), "{err}");
     let err = FemtoCmd::new()
-        .args(["ingest", arg(&npy), "-o", arg(&cube), "--channels", "luminance"])
+        .args([
+            "ingest",
+            arg(&npy),
+            "-o",
+            arg(&cube),
+            "--channels",
+            "luminance",
+        ])
         .args(["--start-opl-m", "1", "--bin-width-opl-m", "0"])
         .refused();
     assert!(err.contains("bin_width_opl"), "{err}");
@@ -252,7 +273,10 @@ fn the_python_interop_check_passes() {
                            target/interop-venv/bin/python)"
                     .to_string(),
             };
-            assert!(!required(), "CI=true and the interop check cannot run: {why}");
+            assert!(
+                !required(),
+                "CI=true and the interop check cannot run: {why}"
+            );
             println!("skipped: {why}");
             return;
         }
@@ -269,5 +293,8 @@ fn the_python_interop_check_passes() {
         String::from_utf8_lossy(&out.stderr)
     );
     println!("{text}");
-    assert!(out.status.success(), "tools/interop_check.py failed:\n{text}");
+    assert!(
+        out.status.success(),
+        "tools/interop_check.py failed:\n{text}"
+    );
 }

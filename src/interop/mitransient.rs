@@ -55,7 +55,9 @@ impl Channels {
     fn weights(self, n: usize) -> Result<Vec<f32>, String> {
         let one = |i: usize| -> Result<Vec<f32>, String> {
             if i >= n {
-                return Err(format!("the array has {n} colour channel(s), no channel {i}"));
+                return Err(format!(
+                    "the array has {n} colour channel(s), no channel {i}"
+                ));
             }
             Ok((0..n).map(|j| if j == i { 1.0 } else { 0.0 }).collect())
         };
@@ -171,7 +173,7 @@ mod tests {
         let cube = read_transient_npy(&p, b, Channels::G, TimeFrame::Camera).unwrap();
         assert_eq!((cube.nx, cube.ny, cube.axis.nt), (2, 1, 2));
         assert_eq!(cube.data, [1.0, 11.0, 101.0, 111.0]);
-        assert!((cube.axis.t0_ps - 1000.692_286).abs() < 1e-5);
+        assert!((cube.axis.t0_ps - 1_000.692_286).abs() < 1e-5);
         assert!((cube.axis.dt_ps - 2.001_384_57).abs() < 1e-7);
         let mean = read_transient_npy(&p, b, Channels::Mean, TimeFrame::World).unwrap();
         assert_eq!(mean.data, [1.0, 11.0, 101.0, 111.0]);

@@ -63,7 +63,10 @@ pub(super) fn parse_npy(path: &Path, bytes: &[u8]) -> Result<NpyArray, InteropEr
     let descr = dict_value(header, "descr").ok_or_else(|| bad(path, "no 'descr'"))?;
     let descr = descr.trim_matches(['\'', '"']);
     if dict_value(header, "fortran_order") != Some("False") {
-        return Err(bad(path, "Fortran order is not read (save a C-ordered array)"));
+        return Err(bad(
+            path,
+            "Fortran order is not read (save a C-ordered array)",
+        ));
     }
     let shape_text = dict_value(header, "shape").ok_or_else(|| bad(path, "no 'shape'"))?;
     let shape: Vec<usize> = shape_text
@@ -85,7 +88,9 @@ pub(super) fn parse_npy(path: &Path, bytes: &[u8]) -> Result<NpyArray, InteropEr
         other => {
             return Err(bad(
                 path,
-                format!("dtype {other} is not read (little-endian float16, float32 or float64 are)"),
+                format!(
+                    "dtype {other} is not read (little-endian float16, float32 or float64 are)"
+                ),
             ))
         }
     };
@@ -126,7 +131,7 @@ pub(super) fn npy_bytes(shape: &[usize], values: &[f32]) -> Vec<u8> {
         format!("({})", dims.join(", "))
     };
     let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {tuple}, }}");
-    while (10 + header.len() + 1) % 64 != 0 {
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');

@@ -64,9 +64,16 @@ pub fn export_tal(
         let (o, how) = match (laser_origin_m, &tal_geo) {
             (Some(o), _) => (o, LaserOrigin::Given),
             (None, Some(t)) => (t.laser_origin_m, LaserOrigin::TalGroup),
-            (None, None) => (stored.registration.camera_m.coords.into(), LaserOrigin::CameraCentre),
+            (None, None) => (
+                stored.registration.camera_m.coords.into(),
+                LaserOrigin::CameraCentre,
+            ),
         };
-        (TalGeometry::from_registration(&stored, o), "registration", how)
+        (
+            TalGeometry::from_registration(&stored, o),
+            "registration",
+            how,
+        )
     } else if let Some(mut t) = tal_geo {
         let how = match laser_origin_m {
             Some(o) => {

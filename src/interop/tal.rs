@@ -82,9 +82,8 @@ impl TalGeometry {
     pub fn from_registration(stored: &StoredRegistration, laser_origin_m: [f64; 3]) -> TalGeometry {
         let reg = &stored.registration;
         let cal = &stored.calibration;
-        let wide = |v: &[[f32; 3]]| -> Vec<[f64; 3]> {
-            v.iter().map(|p| p.map(f64::from)).collect()
-        };
+        let wide =
+            |v: &[[f32; 3]]| -> Vec<[f64; 3]> { v.iter().map(|p| p.map(f64::from)).collect() };
         TalGeometry {
             sensor_grid_m: wide(&reg.point_m),
             sensor_normals: Some(wide(&reg.normal)),
@@ -103,7 +102,11 @@ impl TalCapture {
     /// the first bounce added.
     pub fn from_cube(cube: &Cube, geo: &TalGeometry) -> TalCapture {
         let (nx, ny, nt) = (cube.nx, cube.ny, cube.axis.nt);
-        assert_eq!(geo.sensor_grid_m.len(), nx * ny, "one sensor point per pixel");
+        assert_eq!(
+            geo.sensor_grid_m.len(),
+            nx * ny,
+            "one sensor point per pixel"
+        );
         let mut h = vec![0.0f32; nt * nx * ny];
         for y in 0..ny {
             for x in 0..nx {

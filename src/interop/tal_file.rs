@@ -56,11 +56,19 @@ pub fn write_tal(path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
         let e = h5err(path);
         let file = H5File::create(tmp).map_err(&e)?;
         let f64s = |name: &str, shape: &[usize], v: &[f64]| -> Result<(), InteropError> {
-            let ds = file.new_dataset::<f64>().shape(shape).create(name).map_err(&e)?;
+            let ds = file
+                .new_dataset::<f64>()
+                .shape(shape)
+                .create(name)
+                .map_err(&e)?;
             ds.write_raw(v).map_err(&e)
         };
         let enum_like = |name: &str, v: i32| -> Result<(), InteropError> {
-            let ds = file.new_dataset::<i32>().shape([1]).create(name).map_err(&e)?;
+            let ds = file
+                .new_dataset::<i32>()
+                .shape([1])
+                .create(name)
+                .map_err(&e)?;
             ds.write_raw(&[v]).map_err(&e)
         };
         let ds = file
@@ -136,13 +144,7 @@ fn numbers(ds: &H5Dataset, path: &Path, key: &str) -> Result<Vec<f64>, InteropEr
                 })
                 .collect()
         }
-        other => {
-            return Err(invalid(
-                path,
-                key,
-                format!("not a number type ({other:?})"),
-            ))
-        }
+        other => return Err(invalid(path, key, format!("not a number type ({other:?})"))),
     };
     Ok(values)
 }
@@ -174,7 +176,11 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         let (_, v) = read(k)?;
         match v.as_slice() {
             [x] if x.is_finite() => Ok(*x),
-            _ => Err(invalid(path, k, format!("expected one finite number, found {v:?}"))),
+            _ => Err(invalid(
+                path,
+                k,
+                format!("expected one finite number, found {v:?}"),
+            )),
         }
     };
     let point = |k: &str| -> Result<[f64; 3], InteropError> {
@@ -195,9 +201,8 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
     }
     let ds = open("H")?;
     let shape = ds.shape();
-    let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice()).map_err(|_| {
-        invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)"))
-    })?;
+    let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice())
+        .map_err(|_| invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)")))?;
     if nt * sx * sy == 0 {
         return Err(invalid(path, "H", format!("shape {shape:?} is empty")));
     }
@@ -210,15 +215,26 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let h: Vec<f32> = numbers(&ds, path, "H")?.into_iter().map(|v| v as f32).collect();
+    let h: Vec<f32> = numbers(&ds, path, "H")?
+        .into_iter()
+        .map(|v| v as f32)
+        .collect();
     if let Some(i) = h.iter().position(|v| !v.is_finite()) {
         let (t, x, y) = (i / (sx * sy), i / sy % sx, i % sy);
-        return Err(invalid(path, "H", format!("{} at (t {t}, x {x}, y {y})", h[i])));
+        return Err(invalid(
+            path,
+            "H",
+            format!("{} at (t {t}, x {x}, y {y})", h[i]),
+        ));
     }
     let grid = |k: &str| -> Result<Vec<[f64; 3]>, InteropError> {
         let (shape, v) = read(k)?;
         if shape != [sx, sy, 3] {
-            return Err(invalid(path, k, format!("shape {shape:?}, expected [{sx}, {sy}, 3]")));
+            return Err(invalid(
+                path,
+                k,
+                format!("shape {shape:?}, expected [{sx}, {sy}, 3]"),
+            ));
         }
         Ok(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
     };
@@ -243,7 +259,11 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
     }
     let delta_t_m = scalar("delta_t")?;
     if delta_t_m <= 0.0 {
-        return Err(invalid(path, "delta_t", format!("{delta_t_m} m, must be > 0")));
+        return Err(invalid(
+            path,
+            "delta_t",
+            format!("{delta_t_m} m, must be > 0"),
+        ));
     }
     Ok(TalCapture {
         nt,
@@ -275,7 +295,10 @@ pub fn geometry_group(geo: &TalGeometry, nx: usize, ny: usize) -> GroupData {
     }
     GroupData {
         attrs: vec![
-            ("sensor_m".into(), AttrValue::F64Array(geo.sensor_m.to_vec())),
+            (
+                "sensor_m".into(),
+                AttrValue::F64Array(geo.sensor_m.to_vec()),
+            ),
             (
                 "laser_origin_m".into(),
                 AttrValue::F64Array(geo.laser_origin_m.to_vec()),
@@ -314,9 +337,9 @@ pub fn geometry_from_group(
     let grid = |k: &str| -> Result<Option<Vec<[f64; 3]>>, InteropError> {
         match data.dataset(k) {
             None => Ok(None),
-            Some((shape, DataBuf::F64(v))) if shape == [ny, nx, 3] => {
-                Ok(Some(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()))
-            }
+            Some((shape, DataBuf::F64(v))) if shape == [ny, nx, 3] => Ok(Some(
+                v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
+            )),
             Some((shape, _)) => Err(invalid(
                 path,
                 &key(k),
