@@ -149,6 +149,38 @@ fn numbers(ds: &H5Dataset, path: &Path, key: &str) -> Result<Vec<f64>, InteropEr
     Ok(values)
 }
 
+/// y-tal's `H`: its sizes `(T, Sx, Sy)` and values, checked finite.
+fn read_h(ds: &H5Dataset, path: &Path) -> Result<(usize, usize, usize, Vec<f32>), InteropError> {
+    let shape = ds.shape();
+    let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice())
+        .map_err(|_| invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)")))?;
+    if nt * sx * sy == 0 {
+        return Err(invalid(path, "H", format!("shape {shape:?} is empty")));
+    }
+    crate::limits::check_memory(
+        12.0 * (nt * sx * sy) as f64,
+        format_args!("H of {shape:?} values"),
+        "downscale the capture in y-tal first (NLOSCaptureData.downscale)",
+    )
+    .map_err(|source| InteropError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let h: Vec<f32> = numbers(ds, path, "H")?
+        .into_iter()
+        .map(|v| v as f32)
+        .collect();
+    if let Some(i) = h.iter().position(|v| !v.is_finite()) {
+        let (t, x, y) = (i / (sx * sy), i / sy % sx, i % sy);
+        return Err(invalid(
+            path,
+            "H",
+            format!("{} at (t {t}, x {x}, y {y})", h[i]),
+        ));
+    }
+    Ok((nt, sx, sy, h))
+}
+
 /// Read the y-tal capture at `path` (one laser point, `H_format = T_Sx_Sy`); confocal and
 /// multi-laser captures are refused, naming what they hold.
 pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
@@ -199,34 +231,7 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
             ),
         ));
     }
-    let ds = open("H")?;
-    let shape = ds.shape();
-    let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice())
-        .map_err(|_| invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)")))?;
-    if nt * sx * sy == 0 {
-        return Err(invalid(path, "H", format!("shape {shape:?} is empty")));
-    }
-    crate::limits::check_memory(
-        12.0 * (nt * sx * sy) as f64,
-        format_args!("H of {shape:?} values"),
-        "downscale the capture in y-tal first (NLOSCaptureData.downscale)",
-    )
-    .map_err(|source| InteropError::Limit {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let h: Vec<f32> = numbers(&ds, path, "H")?
-        .into_iter()
-        .map(|v| v as f32)
-        .collect();
-    if let Some(i) = h.iter().position(|v| !v.is_finite()) {
-        let (t, x, y) = (i / (sx * sy), i / sy % sx, i % sy);
-        return Err(invalid(
-            path,
-            "H",
-            format!("{} at (t {t}, x {x}, y {y})", h[i]),
-        ));
-    }
+    let (nt, sx, sy, h) = read_h(&open("H")?, path)?;
     let grid = |k: &str| -> Result<Vec<[f64; 3]>, InteropError> {
         let (shape, v) = read(k)?;
         if shape != [sx, sy, 3] {
