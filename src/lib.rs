@@ -22,6 +22,7 @@
 //! | Sec. 4.3 | rotation: each sensor area moves with `omega x r` | [`relativity::SensorRotation`], [`relativity::sensor_velocity`], [`camera_path::FrameState::pixel_beta`] |
 //! | Sec. 4 | one frame: ray, aberration, hit, emission time, lookup, accumulation, colour | [`render::render_frame`] (the steps: [`render`] module doc) |
 //! | Sec. 1, 5 | the real-time, interactive explorer of a captured scene | [`view::ViewSession`] (frames: [`view::ViewSession::render_srgb8`], through [`pipeline::render::plan`]), [`view::server::serve`], [`view::api::handle`] |
+//! | interop | y-tal captures both ways (`t_start`, `delta_t` in optical path, the clock conventions), mitransient renders in | [`interop::export_tal`], [`interop::ingest_tal`], [`interop::ingest_mitransient`], [`interop::tal::TalCapture`] |
 //! | capture | calibration of `t0` from the first arrivals (`physics.md`, two clocks) | [`calibrate::temporal::calibrate_time`], [`calibrate::temporal::fit_time_offset`] |
 
 pub mod atomic;
@@ -35,6 +36,7 @@ pub mod demo;
 pub mod formats;
 pub mod geometry;
 pub mod ingest;
+pub mod interop;
 pub mod interrupt;
 pub mod limits;
 pub mod manifest;

@@ -20,7 +20,8 @@ use std::time::Instant;
 pub struct IngestArgs {
     /// The capture: a folder with manifest.toml, a manifest, a glob ('scan_*.png', quoted),
     /// a printf pattern (scan_%04d.png, with --rows), an HDF5 file (with --dataset), or one
-    /// scanline file (.png, .tif, .tiff, .exr, .hdr, .img: a capture of one scanline).
+    /// scanline file (.png, .tif, .tiff, .exr, .hdr, .img: a capture of one scanline); or
+    /// another tool's file: a y-tal capture (.hdf5) or a mitransient array (.npy).
     pub input: String,
     /// The cube to write (HDF5, camera time).
     #[arg(long, short = 'o', required_unless_present = "decode_only")]
@@ -99,6 +100,9 @@ pub struct IngestArgs {
     /// docs/ingest.md).
     #[arg(long, value_parser = values::compression)]
     pub compression: Option<CubeCompression>,
+    /// Another tool's file (y-tal, mitransient): see `ingest_interop`.
+    #[command(flatten)]
+    pub interop: super::ingest_interop::InteropArgs,
     /// Only decode the scanlines (benchmark baseline); writes nothing.
     #[arg(long, hide = true)]
     pub decode_only: bool,
@@ -258,6 +262,9 @@ fn with_hint(e: IngestError) -> anyhow::Error {
 }
 
 pub fn run(args: IngestArgs) -> anyhow::Result<()> {
+    if let Some(done) = super::ingest_interop::run(&args) {
+        return done;
+    }
     let start = Instant::now();
     let input =
         InputSpec::classify(&args.input, args.rows, args.dataset.as_deref()).map_err(with_hint)?;

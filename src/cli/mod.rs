@@ -6,8 +6,10 @@
 
 pub mod calibrate;
 pub mod demo;
+pub mod export;
 pub mod info;
 pub mod ingest;
+pub mod ingest_interop;
 pub mod pyramid;
 pub mod render;
 pub mod simulate;
@@ -53,6 +55,8 @@ pub enum Command {
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
     Ingest(ingest::IngestArgs),
+    /// Write a cube for another tool: a y-tal capture (--to tal).
+    Export(export::ExportArgs),
     /// Explore a world-time cube interactively in the browser: fly a relativistic camera
     /// through the scene, scrub time, record keyframes and export them as a camera path.
     View(view::ViewArgs),
@@ -70,6 +74,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(*args),
         Command::Ingest(args) => ingest::run(args),
         Command::View(args) => view::run(args),
+        Command::Export(args) => export::run(args),
     }
 }
 

@@ -1,0 +1,183 @@
+//! The interop stages that `femto export` and `femto ingest` call: a cube file to a y-tal
+//! capture, a y-tal capture or a mitransient array to a cube file. Each checks everything
+//! before it writes, and writes atomically.
+
+use super::mitransient::{read_transient_npy, Channels, OplBinning};
+use super::tal::{TalCapture, TalGeometry, GROUP};
+use super::tal_file::{geometry_from_group, geometry_group, read_tal, write_tal};
+use super::InteropError;
+use crate::container::{self, Provenance};
+use crate::cube::{Cube, TimeFrame};
+use crate::store::registration;
+use std::path::Path;
+
+/// Where the laser's own origin of an export came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LaserOrigin {
+    /// Given by the caller (`--laser-origin-m`).
+    Given,
+    /// The cube's `tal` group (a capture ingested from y-tal).
+    TalGroup,
+    /// No record of it: the camera centre of the registration (laser beside the camera).
+    CameraCentre,
+}
+
+/// What [`export_tal`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TalExport {
+    pub capture: TalCapture,
+    /// Where the sensor grid came from: `"registration"` or `"tal"`.
+    pub geometry_group: &'static str,
+    pub laser_origin: LaserOrigin,
+    /// Sensor points that see nothing (NaN in `sensor_grid_xyz`).
+    pub unseen_points: usize,
+}
+
+fn cube_err(path: &Path, message: impl Into<String>) -> InteropError {
+    InteropError::Cube {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Write the cube at `cube_path` as a y-tal capture at `out`: the sensor grid from its
+/// `registration` group (else its `tal` group), the laser origin given, else the `tal`
+/// group's, else the registration's camera centre.
+pub fn export_tal(
+    cube_path: &Path,
+    out: &Path,
+    laser_origin_m: Option<[f64; 3]>,
+) -> Result<TalExport, InteropError> {
+    let groups = container::list_groups(cube_path)?;
+    let has = |g: &str| groups.iter().any(|n| n == g);
+    let meta = container::read_meta(cube_path)?;
+    let (nx, ny) = (meta.nx, meta.ny);
+    let tal_geo = if has(GROUP) {
+        let data = container::read_group(cube_path, GROUP)?;
+        Some(geometry_from_group(cube_path, &data, nx, ny)?)
+    } else {
+        None
+    };
+    let (geo, from, origin) = if has(registration::GROUP) {
+        let data = container::read_group(cube_path, registration::GROUP)?;
+        let stored = registration::from_group(cube_path, &data)?;
+        let (o, how) = match (laser_origin_m, &tal_geo) {
+            (Some(o), _) => (o, LaserOrigin::Given),
+            (None, Some(t)) => (t.laser_origin_m, LaserOrigin::TalGroup),
+            (None, None) => (
+                stored.registration.camera_m.coords.into(),
+                LaserOrigin::CameraCentre,
+            ),
+        };
+        (
+            TalGeometry::from_registration(&stored, o),
+            "registration",
+            how,
+        )
+    } else if let Some(mut t) = tal_geo {
+        let how = match laser_origin_m {
+            Some(o) => {
+                t.laser_origin_m = o;
+                LaserOrigin::Given
+            }
+            None => LaserOrigin::TalGroup,
+        };
+        (t, "tal", how)
+    } else {
+        return Err(cube_err(
+            cube_path,
+            "no registration group (run femto calibrate) and no tal group: y-tal needs the \
+             wall point each pixel sees",
+        ));
+    };
+    if geo.sensor_grid_m.len() != nx * ny {
+        return Err(cube_err(
+            cube_path,
+            format!("the {from} group is not {nx} x {ny} pixels"),
+        ));
+    }
+    let cube: Cube = container::read_cube(cube_path)?;
+    let capture = TalCapture::from_cube(&cube, &geo);
+    let unseen_points = capture
+        .sensor_grid_xyz_m
+        .iter()
+        .filter(|p| p.iter().any(|c| !c.is_finite()))
+        .count();
+    write_tal(out, &capture)?;
+    Ok(TalExport {
+        capture,
+        geometry_group: from,
+        laser_origin: origin,
+        unseen_points,
+    })
+}
+
+/// Write `cube` with `groups` to `out`: the cube atomically, then its groups.
+fn write_cube_file(
+    out: &Path,
+    cube: &Cube,
+    provenance: &Provenance,
+    groups: &[(&str, container::GroupData)],
+) -> Result<(), InteropError> {
+    // The cube and its groups go to a staged file renamed onto `out` only when both are in.
+    crate::atomic::write_atomically_with(
+        out,
+        |source| InteropError::Io {
+            path: out.to_path_buf(),
+            source,
+        },
+        |tmp| {
+            container::write_cube(tmp, cube, provenance)?;
+            if !groups.is_empty() {
+                container::write_groups(tmp, groups)?;
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Ingest the y-tal capture at `input` into the cube file `out`, its geometry in the `tal`
+/// group; the cube is in world time when the capture's clock starts at the laser spot
+/// (`t_accounts_first_and_last_bounces = False`), else in camera time.
+pub fn ingest_tal(input: &Path, out: &Path, provenance: &Provenance) -> Result<Cube, InteropError> {
+    let capture = read_tal(input)?;
+    let (cube, geo) = capture.to_cube();
+    let group = geometry_group(&geo, cube.nx, cube.ny);
+    let provenance = provenance.clone().with_note(
+        "ingest.source",
+        format!(
+            "y-tal capture {} (t_accounts_first_and_last_bounces = {})",
+            input.display(),
+            if capture.t_accounts_first_and_last_bounces {
+                "True"
+            } else {
+                "False"
+            }
+        ),
+    );
+    write_cube_file(out, &cube, &provenance, &[(GROUP, group)])?;
+    Ok(cube)
+}
+
+/// Ingest mitransient's transient array at `input` into the cube file `out`.
+pub fn ingest_mitransient(
+    input: &Path,
+    out: &Path,
+    binning: OplBinning,
+    channels: Channels,
+    frame: TimeFrame,
+    provenance: &Provenance,
+) -> Result<Cube, InteropError> {
+    let cube = read_transient_npy(input, binning, channels, frame)?;
+    let provenance = provenance.clone().with_note(
+        "ingest.source",
+        format!(
+            "mitransient array {} (start_opl {} m, bin_width_opl {} m, channels {channels:?})",
+            input.display(),
+            binning.start_opl_m,
+            binning.bin_width_opl_m
+        ),
+    );
+    write_cube_file(out, &cube, &provenance, &[])?;
+    Ok(cube)
+}

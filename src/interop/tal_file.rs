@@ -1,0 +1,365 @@
+//! y-tal's HDF5 capture layout (`FileFormat.HDF5_TAL`, what `tal.io.read_capture` reads and
+//! `tal.io.write_capture` writes): root datasets `H` (float32, `(T, Sx, Sy)`), `H_format`,
+//! `sensor_grid_format`, `laser_grid_format` (enum or integer, one element), `sensor_xyz`,
+//! `laser_xyz` (3), `sensor_grid_xyz`, `sensor_grid_normals` (`(Sx, Sy, 3)`),
+//! `laser_grid_xyz` (`(1, 1, 3)`), `delta_t`, `t_start` (scalars, metres of optical path) and
+//! `t_accounts_first_and_last_bounces` (bool). y-tal refuses any other root key, so femto
+//! writes only these. Also the cube group `tal` ([`super::tal::GROUP`]) that keeps a capture's
+//! geometry inside a femto cube.
+
+use super::tal::{TalCapture, TalGeometry, GROUP};
+use super::InteropError;
+use crate::container::{AttrValue, DataBuf, GroupData};
+use rust_hdf5::{DatatypeMessage, H5Dataset, H5File, HBool};
+use std::path::Path;
+
+/// y-tal's `HFormat.T_Sx_Sy` and `GridFormat.X_Y_3`.
+const H_FORMAT_T_SX_SY: i32 = 1;
+const GRID_FORMAT_X_Y_3: i32 = 2;
+
+fn h5err(path: &Path) -> impl Fn(rust_hdf5::Hdf5Error) -> InteropError + '_ {
+    move |e| InteropError::Hdf5 {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+fn invalid(path: &Path, key: &str, message: impl Into<String>) -> InteropError {
+    InteropError::Invalid {
+        path: path.to_path_buf(),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+/// Whether `path` is an HDF5 file with y-tal's `H` and `H_format` datasets.
+pub fn is_tal_capture(path: &Path) -> bool {
+    if !matches!(crate::container::is_hdf5(path), Ok(true)) {
+        return false;
+    }
+    let Ok(file) = H5File::open(path) else {
+        return false;
+    };
+    let names = file.dataset_names();
+    ["H", "H_format"]
+        .iter()
+        .all(|k| names.iter().any(|n| n.trim_start_matches('/') == *k))
+}
+
+/// Write `cap` as a y-tal capture at `path`, atomically.
+pub fn write_tal(path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
+    let io = |source| InteropError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    crate::atomic::write_atomically_with(path, io, |tmp| {
+        let e = h5err(path);
+        let file = H5File::create(tmp).map_err(&e)?;
+        let f64s = |name: &str, shape: &[usize], v: &[f64]| -> Result<(), InteropError> {
+            let ds = file
+                .new_dataset::<f64>()
+                .shape(shape)
+                .create(name)
+                .map_err(&e)?;
+            ds.write_raw(v).map_err(&e)
+        };
+        let enum_like = |name: &str, v: i32| -> Result<(), InteropError> {
+            let ds = file
+                .new_dataset::<i32>()
+                .shape([1])
+                .create(name)
+                .map_err(&e)?;
+            ds.write_raw(&[v]).map_err(&e)
+        };
+        let ds = file
+            .new_dataset::<f32>()
+            .shape([cap.nt, cap.sx, cap.sy])
+            .create("H")
+            .map_err(&e)?;
+        ds.write_raw(&cap.h).map_err(&e)?;
+        enum_like("H_format", H_FORMAT_T_SX_SY)?;
+        f64s("sensor_xyz", &[3], &cap.sensor_xyz_m)?;
+        let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
+        f64s(
+            "sensor_grid_xyz",
+            &[cap.sx, cap.sy, 3],
+            &flat(&cap.sensor_grid_xyz_m),
+        )?;
+        if let Some(n) = &cap.sensor_grid_normals {
+            f64s("sensor_grid_normals", &[cap.sx, cap.sy, 3], &flat(n))?;
+        }
+        enum_like("sensor_grid_format", GRID_FORMAT_X_Y_3)?;
+        f64s("laser_xyz", &[3], &cap.laser_xyz_m)?;
+        f64s("laser_grid_xyz", &[1, 1, 3], &cap.laser_grid_xyz_m)?;
+        enum_like("laser_grid_format", GRID_FORMAT_X_Y_3)?;
+        f64s("delta_t", &[], &[cap.delta_t_m])?;
+        f64s("t_start", &[], &[cap.t_start_m])?;
+        let ds = file
+            .new_dataset::<HBool>()
+            .scalar()
+            .create("t_accounts_first_and_last_bounces")
+            .map_err(&e)?;
+        ds.write_raw(&[HBool::from(cap.t_accounts_first_and_last_bounces)])
+            .map_err(&e)?;
+        file.close().map_err(&e)
+    })
+}
+
+/// The values of a numeric dataset (integer, float, enum or bool, little-endian) as f64.
+fn numbers(ds: &H5Dataset, path: &Path, key: &str) -> Result<Vec<f64>, InteropError> {
+    let dt = ds.datatype().map_err(h5err(path))?;
+    let dt = match dt {
+        DatatypeMessage::Enum { base, .. } => *base,
+        other => other,
+    };
+    let bytes = ds.read_raw_bytes().map_err(h5err(path))?;
+    if dt.scalar_byte_order() == Some(rust_hdf5::ByteOrder::BigEndian) {
+        return Err(invalid(path, key, "big-endian values are not read"));
+    }
+    let values: Vec<f64> = match dt {
+        DatatypeMessage::FloatingPoint { size: 4, .. } => bytes
+            .chunks_exact(4)
+            .map(|b| f64::from(f32::from_le_bytes(b.try_into().expect("4 bytes"))))
+            .collect(),
+        DatatypeMessage::FloatingPoint { size: 8, .. } => bytes
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+            .collect(),
+        DatatypeMessage::FixedPoint { size, signed, .. } if matches!(size, 1 | 2 | 4 | 8) => {
+            let n = size as usize;
+            bytes
+                .chunks_exact(n)
+                .map(|b| {
+                    let mut w = [0u8; 8];
+                    w[..n].copy_from_slice(b);
+                    let negative = signed && b[n - 1] & 0x80 != 0;
+                    if negative {
+                        w[n..].fill(0xff);
+                    }
+                    if signed {
+                        i64::from_le_bytes(w) as f64
+                    } else {
+                        u64::from_le_bytes(w) as f64
+                    }
+                })
+                .collect()
+        }
+        other => return Err(invalid(path, key, format!("not a number type ({other:?})"))),
+    };
+    Ok(values)
+}
+
+/// y-tal's `H`: its sizes `(T, Sx, Sy)` and values, checked finite.
+fn read_h(ds: &H5Dataset, path: &Path) -> Result<(usize, usize, usize, Vec<f32>), InteropError> {
+    let shape = ds.shape();
+    let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice())
+        .map_err(|_| invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)")))?;
+    if nt * sx * sy == 0 {
+        return Err(invalid(path, "H", format!("shape {shape:?} is empty")));
+    }
+    crate::limits::check_memory(
+        12.0 * (nt * sx * sy) as f64,
+        format_args!("H of {shape:?} values"),
+        "downscale the capture in y-tal first (NLOSCaptureData.downscale)",
+    )
+    .map_err(|source| InteropError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let h: Vec<f32> = numbers(ds, path, "H")?
+        .into_iter()
+        .map(|v| v as f32)
+        .collect();
+    if let Some(i) = h.iter().position(|v| !v.is_finite()) {
+        let (t, x, y) = (i / (sx * sy), i / sy % sx, i % sy);
+        return Err(invalid(
+            path,
+            "H",
+            format!("{} at (t {t}, x {x}, y {y})", h[i]),
+        ));
+    }
+    Ok((nt, sx, sy, h))
+}
+
+/// Read the y-tal capture at `path` (one laser point, `H_format = T_Sx_Sy`); confocal and
+/// multi-laser captures are refused, naming what they hold.
+pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
+    let file = H5File::open(path).map_err(h5err(path))?;
+    let names: Vec<String> = file
+        .dataset_names()
+        .into_iter()
+        .map(|n| n.trim_start_matches('/').to_string())
+        .collect();
+    let has = |k: &str| names.iter().any(|n| n == k);
+    let open = |k: &str| -> Result<H5Dataset, InteropError> {
+        if !has(k) {
+            return Err(InteropError::Missing {
+                path: path.to_path_buf(),
+                key: k.to_string(),
+            });
+        }
+        file.dataset(k).map_err(h5err(path))
+    };
+    let read = |k: &str| -> Result<(Vec<usize>, Vec<f64>), InteropError> {
+        let ds = open(k)?;
+        Ok((ds.shape(), numbers(&ds, path, k)?))
+    };
+    let scalar = |k: &str| -> Result<f64, InteropError> {
+        let (_, v) = read(k)?;
+        match v.as_slice() {
+            [x] if x.is_finite() => Ok(*x),
+            _ => Err(invalid(
+                path,
+                k,
+                format!("expected one finite number, found {v:?}"),
+            )),
+        }
+    };
+    let point = |k: &str| -> Result<[f64; 3], InteropError> {
+        let (_, v) = read(k)?;
+        <[f64; 3]>::try_from(v.as_slice())
+            .map_err(|_| invalid(path, k, format!("expected 3 numbers, found {}", v.len())))
+    };
+
+    let h_format = scalar("H_format")?;
+    if h_format != f64::from(H_FORMAT_T_SX_SY) {
+        return Err(invalid(
+            path,
+            "H_format",
+            format!(
+                "{h_format} (femto reads T_Sx_Sy = 1: one laser point, a grid of sensor points)"
+            ),
+        ));
+    }
+    let (nt, sx, sy, h) = read_h(&open("H")?, path)?;
+    let grid = |k: &str| -> Result<Vec<[f64; 3]>, InteropError> {
+        let (shape, v) = read(k)?;
+        if shape != [sx, sy, 3] {
+            return Err(invalid(
+                path,
+                k,
+                format!("shape {shape:?}, expected [{sx}, {sy}, 3]"),
+            ));
+        }
+        Ok(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+    };
+    let sensor_grid_xyz_m = grid("sensor_grid_xyz")?;
+    // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
+    let sensor_grid_normals = match has("sensor_grid_normals") {
+        true if !read("sensor_grid_normals")?.1.is_empty() => Some(grid("sensor_grid_normals")?),
+        _ => None,
+    };
+    let (lshape, lv) = read("laser_grid_xyz")?;
+    if lv.len() != 3 {
+        let what = if lshape.starts_with(&[sx, sy]) {
+            "a confocal capture (a laser point per sensor point)"
+        } else {
+            "several laser points"
+        };
+        return Err(invalid(
+            path,
+            "laser_grid_xyz",
+            format!("shape {lshape:?}: {what}; femto's cube has one laser spot (split the capture in y-tal: get_single_subdata_from_laser_point)"),
+        ));
+    }
+    let delta_t_m = scalar("delta_t")?;
+    if delta_t_m <= 0.0 {
+        return Err(invalid(
+            path,
+            "delta_t",
+            format!("{delta_t_m} m, must be > 0"),
+        ));
+    }
+    Ok(TalCapture {
+        nt,
+        sx,
+        sy,
+        h,
+        delta_t_m,
+        t_start_m: scalar("t_start")?,
+        t_accounts_first_and_last_bounces: scalar("t_accounts_first_and_last_bounces")? != 0.0,
+        sensor_xyz_m: point("sensor_xyz")?,
+        sensor_grid_xyz_m,
+        sensor_grid_normals,
+        laser_xyz_m: point("laser_xyz")?,
+        laser_grid_xyz_m: [lv[0], lv[1], lv[2]],
+    })
+}
+
+/// The cube group that keeps `geo` (datasets `sensor_grid_m`, `sensor_normals` `(ny, nx, 3)`;
+/// attributes `sensor_m`, `laser_origin_m`, `laser_spot_m`, `t_spot_ps`, `time_scale`).
+pub fn geometry_group(geo: &TalGeometry, nx: usize, ny: usize) -> GroupData {
+    let flat = |v: &[[f64; 3]]| DataBuf::F64(v.iter().flatten().copied().collect());
+    let mut datasets = vec![(
+        "sensor_grid_m".to_string(),
+        vec![ny, nx, 3],
+        flat(&geo.sensor_grid_m),
+    )];
+    if let Some(n) = &geo.sensor_normals {
+        datasets.push(("sensor_normals".to_string(), vec![ny, nx, 3], flat(n)));
+    }
+    GroupData {
+        attrs: vec![
+            (
+                "sensor_m".into(),
+                AttrValue::F64Array(geo.sensor_m.to_vec()),
+            ),
+            (
+                "laser_origin_m".into(),
+                AttrValue::F64Array(geo.laser_origin_m.to_vec()),
+            ),
+            (
+                "laser_spot_m".into(),
+                AttrValue::F64Array(geo.laser_spot_m.to_vec()),
+            ),
+            ("t_spot_ps".into(), AttrValue::F64(geo.t_spot_ps)),
+            ("time_scale".into(), AttrValue::F64(geo.time_scale)),
+        ],
+        datasets,
+    }
+}
+
+/// The geometry kept in a cube's `tal` group (`path` names the cube in errors).
+pub fn geometry_from_group(
+    path: &Path,
+    data: &GroupData,
+    nx: usize,
+    ny: usize,
+) -> Result<TalGeometry, InteropError> {
+    let key = |k: &str| format!("/{GROUP}/{k}");
+    let point = |k: &str| -> Result<[f64; 3], InteropError> {
+        match data.attr(k) {
+            Some(AttrValue::F64Array(v)) if v.len() == 3 => Ok([v[0], v[1], v[2]]),
+            _ => Err(invalid(path, &key(k), "expected an attribute of 3 numbers")),
+        }
+    };
+    let number = |k: &str| -> Result<f64, InteropError> {
+        match data.attr(k) {
+            Some(AttrValue::F64(v)) => Ok(*v),
+            _ => Err(invalid(path, &key(k), "expected a number attribute")),
+        }
+    };
+    let grid = |k: &str| -> Result<Option<Vec<[f64; 3]>>, InteropError> {
+        match data.dataset(k) {
+            None => Ok(None),
+            Some((shape, DataBuf::F64(v))) if shape == [ny, nx, 3] => Ok(Some(
+                v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
+            )),
+            Some((shape, _)) => Err(invalid(
+                path,
+                &key(k),
+                format!("expected f64 of shape [{ny}, {nx}, 3], found {shape:?}"),
+            )),
+        }
+    };
+    Ok(TalGeometry {
+        sensor_grid_m: grid("sensor_grid_m")?
+            .ok_or_else(|| invalid(path, &key("sensor_grid_m"), "missing"))?,
+        sensor_normals: grid("sensor_normals")?,
+        sensor_m: point("sensor_m")?,
+        laser_origin_m: point("laser_origin_m")?,
+        laser_spot_m: point("laser_spot_m")?,
+        t_spot_ps: number("t_spot_ps")?,
+        time_scale: number("time_scale")?,
+    })
+}
