@@ -360,6 +360,49 @@ impl H5Attribute {
         }
     }
 
+    /// femto patch (PATCH.md): the attribute's dimensions (empty for a
+    /// scalar), read mode only.
+    pub fn dims(&self) -> Result<Vec<u64>> {
+        self.read_attr
+            .as_ref()
+            .map(|a| a.dataspace.dims.clone())
+            .ok_or_else(|| {
+                Hdf5Error::InvalidState("attribute has no read data (write-mode handle?)".into())
+            })
+    }
+
+    /// femto patch (PATCH.md): every element of a string attribute, fixed- or
+    /// variable-length, scalar or array, in storage order (read mode only).
+    pub fn read_strings(&self) -> Result<Vec<String>> {
+        let attr = self.read_attr.as_ref().ok_or_else(|| {
+            Hdf5Error::InvalidState("attribute has no read data (write-mode handle?)".into())
+        })?;
+        let mut inner = borrow_inner_mut(&self.file_inner);
+        let H5FileInner::Reader(reader) = &mut *inner else {
+            return Err(Hdf5Error::InvalidState("read_strings needs read mode".into()));
+        };
+        let size = match attr.datatype {
+            DatatypeMessage::VarLenString { .. } => reader.vlen_reference_size(),
+            _ => attr.datatype.element_size() as usize,
+        };
+        let n = attr.dataspace.dims.iter().product::<u64>().max(1) as usize;
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let Some(bytes) = attr.data.get(i * size..(i + 1) * size) else {
+                return Err(Hdf5Error::InvalidState(format!(
+                    "attribute '{}' holds {} bytes, not {n} strings of {size}",
+                    attr.name,
+                    attr.data.len()
+                )));
+            };
+            let mut one = attr.clone();
+            one.data = bytes.to_vec();
+            one.dataspace.dims.clear();
+            out.push(reader.attr_string_value(&one)?);
+        }
+        Ok(out)
+    }
+
     /// Return the attribute datatype as parsed from the file (read mode only).
     ///
     /// Mirrors [`H5Dataset::datatype`](crate::dataset::H5Dataset::datatype):

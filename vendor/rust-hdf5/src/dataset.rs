@@ -2675,6 +2675,78 @@ impl H5Dataset {
         }
     }
 
+    /// femto patch (PATCH.md): add an attribute of any fixed-size datatype
+    /// from its raw bytes, scalar (`dims` empty) or array — the dataset form
+    /// of [`H5Group::set_attr_raw`](crate::H5Group::set_attr_raw).
+    pub fn set_attr_raw(
+        &self,
+        name: &str,
+        datatype: DatatypeMessage,
+        dims: &[u64],
+        value: Vec<u8>,
+    ) -> Result<()> {
+        let n = dims.iter().product::<u64>();
+        if value.len() as u64 != n * u64::from(datatype.element_size()) {
+            return Err(Hdf5Error::InvalidState(format!(
+                "attribute '{name}' of shape {dims:?} was given {} bytes for elements of {}",
+                value.len(),
+                datatype.element_size()
+            )));
+        }
+        if dims.is_empty() {
+            return self.set_attr_typed(name, datatype, value);
+        }
+        let attr = crate::format::messages::attribute::AttributeMessage::array_numeric(
+            name, datatype, dims, value,
+        );
+        let DatasetInfo::Writer { index, .. } = &self.info else {
+            return Err(Hdf5Error::InvalidState(
+                "cannot write attributes in read mode".into(),
+            ));
+        };
+        match &*borrow_inner(&self.file_inner) {
+            H5FileInner::Writer(writer) => {
+                writer.add_dataset_attribute(*index, attr)?;
+                Ok(())
+            }
+            _ => Err(Hdf5Error::InvalidState(
+                "cannot write attributes in read mode".into(),
+            )),
+        }
+    }
+
+    /// femto patch (PATCH.md): the dataset form of
+    /// [`H5Group::set_attr_strings_as`](crate::H5Group::set_attr_strings_as).
+    pub fn set_attr_strings_as(
+        &self,
+        name: &str,
+        values: &[&str],
+        dims: &[u64],
+        datatype: DatatypeMessage,
+    ) -> Result<()> {
+        crate::group::check_string_count(name, values, dims)?;
+        let DatasetInfo::Writer { index, .. } = &self.info else {
+            return Err(Hdf5Error::InvalidState(
+                "cannot write attributes in read mode".into(),
+            ));
+        };
+        match &*borrow_inner(&self.file_inner) {
+            H5FileInner::Writer(writer) => {
+                writer.set_vlen_string_attribute_as(
+                    crate::io::writer::AttrTarget::Dataset(*index),
+                    name,
+                    values,
+                    dims,
+                    datatype,
+                )?;
+                Ok(())
+            }
+            _ => Err(Hdf5Error::InvalidState(
+                "cannot write attributes in read mode".into(),
+            )),
+        }
+    }
+
     /// Write a typed slice holding the dataset's whole image.
     ///
     /// The slice length must match the total number of elements declared by

@@ -1245,6 +1245,30 @@ impl H5File {
         }
     }
 
+    /// femto patch (PATCH.md): make an append session (`open_rw`)
+    /// copy-on-write; see `Hdf5Writer::set_copy_on_write`. Errors in read
+    /// mode.
+    pub fn set_copy_on_write(&self) -> Result<()> {
+        let mut inner = borrow_inner_mut(&self.inner);
+        match &mut *inner {
+            H5FileInner::Writer(writer) => Ok(writer.set_copy_on_write()?),
+            _ => Err(Hdf5Error::InvalidState("cannot write in read mode".into())),
+        }
+    }
+
+    /// femto patch (PATCH.md): close a file being written without writing
+    /// its object headers or superblock (a reader: just close it). After a
+    /// copy-on-write append this leaves the old file's bytes as they were.
+    pub fn discard(self) {
+        let old = {
+            let mut inner = borrow_inner_mut(&self.inner);
+            std::mem::replace(&mut *inner, H5FileInner::Closed)
+        };
+        if let H5FileInner::Writer(writer) = old {
+            writer.discard();
+        }
+    }
+
     /// Close the file without a final `fsync` (write mode only).
     ///
     /// Like [`close`](Self::close), this finalizes the file — object headers

@@ -1162,6 +1162,85 @@ impl H5Group {
         }
     }
 
+    /// femto patch (PATCH.md): one of this group's attributes (read mode),
+    /// the group form of [`H5Dataset::attr`](crate::H5Dataset::attr); the
+    /// root group's for `file.root_group()`.
+    pub fn attr(&self, name: &str) -> Result<crate::attribute::H5Attribute> {
+        let mut inner = borrow_inner_mut(&self.file_inner);
+        match &mut *inner {
+            H5FileInner::Reader(reader) => {
+                let attr = if self.name == "/" {
+                    reader.root_attr(name)
+                } else {
+                    reader.group_attr(self.name.trim_start_matches('/'), name)
+                }?
+                .clone();
+                Ok(crate::attribute::H5Attribute::new_reader(
+                    clone_inner(&self.file_inner),
+                    attr,
+                ))
+            }
+            _ => Err(Hdf5Error::InvalidState(
+                "attr is only available in read mode".into(),
+            )),
+        }
+    }
+
+    /// femto patch (PATCH.md): add (or replace) an attribute of any
+    /// fixed-size datatype (numbers, enums such as h5py's bool, fixed-length
+    /// strings) from its raw little-endian bytes as read by
+    /// [`H5Attribute::read_raw`](crate::H5Attribute::read_raw); `dims` empty
+    /// for a scalar.
+    pub fn set_attr_raw(
+        &self,
+        name: &str,
+        datatype: crate::DatatypeMessage,
+        dims: &[u64],
+        value: Vec<u8>,
+    ) -> Result<()> {
+        let n = dims.iter().product::<u64>();
+        if value.len() as u64 != n * u64::from(datatype.element_size()) {
+            return Err(Hdf5Error::InvalidState(format!(
+                "attribute '{name}' of shape {dims:?} was given {} bytes for elements of {}",
+                value.len(),
+                datatype.element_size()
+            )));
+        }
+        if dims.is_empty() {
+            return self.set_attr_typed(name, datatype, value);
+        }
+        self.add_attr(AttributeMessage::array_numeric(name, datatype, dims, value))
+    }
+
+    /// femto patch (PATCH.md): add (or replace) a variable-length string
+    /// attribute, scalar (`dims` empty) or array, of the given string
+    /// `datatype`, so that its character set (ASCII or UTF-8) is kept.
+    pub fn set_attr_strings_as(
+        &self,
+        name: &str,
+        values: &[&str],
+        dims: &[u64],
+        datatype: crate::DatatypeMessage,
+    ) -> Result<()> {
+        check_string_count(name, values, dims)?;
+        let inner = borrow_inner(&self.file_inner);
+        match &*inner {
+            H5FileInner::Writer(writer) => {
+                writer.set_vlen_string_attribute_as(
+                    self.attr_target(),
+                    name,
+                    values,
+                    dims,
+                    datatype,
+                )?;
+                Ok(())
+            }
+            _ => Err(Hdf5Error::InvalidState(
+                "cannot write attributes in read mode".into(),
+            )),
+        }
+    }
+
     /// Read one of this group's attributes as a string (read mode).
     pub fn attr_string(&self, name: &str) -> Result<String> {
         let mut inner = borrow_inner_mut(&self.file_inner);
@@ -1180,4 +1259,16 @@ impl H5Group {
             )),
         }
     }
+}
+
+/// femto patch (PATCH.md): `values` must hold one string per element of `dims`.
+pub(crate) fn check_string_count(name: &str, values: &[&str], dims: &[u64]) -> Result<()> {
+    let n = dims.iter().product::<u64>();
+    if values.len() as u64 != n {
+        return Err(Hdf5Error::InvalidState(format!(
+            "attribute '{name}' of shape {dims:?} needs {n} strings, got {}",
+            values.len()
+        )));
+    }
+    Ok(())
 }

@@ -69,6 +69,10 @@ pub struct FileAllocator {
     /// `free_list.len()`, readable without taking the lock so the common
     /// never-freed case costs one relaxed load.
     free_count: AtomicU64,
+    /// femto patch (PATCH.md): while set, [`free`](Self::free) forgets the
+    /// block instead of listing it, so nothing this session allocates can
+    /// land on bytes the file held when it was opened (copy-on-write append).
+    retain_freed: std::sync::atomic::AtomicBool,
 }
 
 impl FileAllocator {
@@ -98,7 +102,18 @@ impl FileAllocator {
             policy,
             free_list: Mutex::new(Vec::new()),
             free_count: AtomicU64::new(0),
+            retain_freed: std::sync::atomic::AtomicBool::new(false),
         }
+    }
+
+    /// femto patch (PATCH.md): never reuse a block released from now on
+    /// (it stays as slack, as libhdf5 leaves an unreused block), and drop
+    /// every section already listed, so that every later allocation comes
+    /// from the end of the file.
+    pub(crate) fn retain_freed_blocks(&self) {
+        self.retain_freed.store(true, Ordering::Release);
+        self.free_list.lock().unwrap().clear();
+        self.free_count.store(0, Ordering::Release);
     }
 
     /// How this file's strategy maps requests onto managers and pages.
@@ -239,7 +254,7 @@ impl FileAllocator {
     /// the caller names and the length being freed, so a released block of at
     /// least one page goes to a paged file's large manager whatever it held.
     pub fn free(&self, addr: u64, len: u64, class: FreeSpaceClass) {
-        if len == 0 {
+        if len == 0 || self.retain_freed.load(Ordering::Acquire) {
             return;
         }
         self.record(addr, len, self.policy.manager(class, len));

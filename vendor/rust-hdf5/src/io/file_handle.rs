@@ -78,6 +78,9 @@ pub struct FileHandle {
     /// it, which is what `H5FD_set_base_addr` does for the C library's
     /// drivers — no caller can forget to add it.
     base: u64,
+    /// femto patch (PATCH.md): writes below this offset (in the HDF5
+    /// address space) are refused; 0 when no fence is up.
+    fence: std::sync::atomic::AtomicU64,
 }
 
 /// Where a [`FileHandle`]'s bytes come from — the one place that decides, so
@@ -521,7 +524,15 @@ impl FileHandle {
             lock_policy,
             lock_held,
             base: 0,
+            fence: std::sync::atomic::AtomicU64::new(0),
         }
+    }
+
+    /// femto patch (PATCH.md): refuse every later write below `fence` (in
+    /// the HDF5 address space), so that the bytes a file held when it was
+    /// opened cannot change; 0 lifts the fence.
+    pub fn set_write_fence(&self, fence: u64) {
+        self.fence.store(fence, Ordering::Release);
     }
 
     /// Wrap a file opened read-only. The only constructor that can install a
@@ -703,6 +714,17 @@ impl FileHandle {
             return Err(std::io::Error::new(
                 std::io::ErrorKind::PermissionDenied,
                 "file opened read-only",
+            ));
+        }
+        let fence = self.fence.load(Ordering::Acquire);
+        if offset < fence && !data.is_empty() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::PermissionDenied,
+                format!(
+                    "copy-on-write: a write of {} bytes at {offset} would change the first \
+                     {fence} bytes, which the file held when it was opened",
+                    data.len()
+                ),
             ));
         }
         let at = self.abs(offset)?;

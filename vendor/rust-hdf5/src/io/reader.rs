@@ -4465,6 +4465,12 @@ impl Hdf5Reader {
     /// Decode an attribute's value as a string, resolving a variable-length
     /// string attribute through the global heap (h5py writes string
     /// attributes as variable-length by default).
+    /// femto patch (PATCH.md): the size of one variable-length reference in
+    /// this file (sequence length, collection address, object index).
+    pub fn vlen_reference_size(&self) -> usize {
+        vlen_reference_size(&self.meta.ctx)
+    }
+
     pub fn attr_string_value(&mut self, attr: &AttributeMessage) -> IoResult<String> {
         use crate::format::messages::datatype::DatatypeMessage;
         if !matches!(attr.datatype, DatatypeMessage::VarLenString { .. }) {

@@ -3759,6 +3759,9 @@ pub struct Hdf5Writer {
     /// already has says nothing about the bound (see [`SuperblockVersion`]).
     libver: Option<LibverBound>,
     closed: bool,
+    /// femto patch (PATCH.md): set by
+    /// [`set_copy_on_write`](Self::set_copy_on_write).
+    copy_on_write: bool,
     /// Set once `finalize_for_swmr` has published a readable file.
     ///
     /// A SWMR reader may hold a chunk index that still points at a block this
@@ -4839,6 +4842,7 @@ impl Hdf5Writer {
             create_lock: Slot::new(()),
             libver,
             closed: false,
+            copy_on_write: false,
             swmr_active: false,
             cwfs: Slot::new(Vec::new()),
             root_group_addr: None,
@@ -6219,6 +6223,7 @@ impl Hdf5Writer {
             // names one, exactly as `H5Fopen` takes a fapl.
             libver: None,
             closed: false,
+            copy_on_write: false,
             swmr_active: false,
             cwfs: Slot::new(Vec::new()),
             root_group_addr: None,
@@ -11700,6 +11705,26 @@ impl Hdf5Writer {
         self.insert_attribute(target, attr, origin)
     }
 
+    /// femto patch (PATCH.md): a variable-length string attribute, scalar
+    /// (`dims` empty) or array, of the given string `datatype` (its character
+    /// set and padding kept: h5py writes `bytes` as ASCII, `str` as UTF-8).
+    pub fn set_vlen_string_attribute_as(
+        &self,
+        target: AttrTarget<'_>,
+        name: &str,
+        values: &[&str],
+        dims: &[u64],
+        datatype: crate::format::messages::datatype::DatatypeMessage,
+    ) -> IoResult<()> {
+        let origin = self.evict_attr(target, name)?;
+        let mut attr = self.vlen_string_array_attribute(name, values, dims)?;
+        attr.datatype = datatype;
+        if dims.is_empty() {
+            attr.dataspace = crate::format::messages::dataspace::DataspaceMessage::scalar();
+        }
+        self.insert_attribute(target, attr, origin)
+    }
+
     /// Set an attribute on `target` whose value is the object references
     /// naming `paths` — h5py's `obj.attrs['ref'] = f['/target'].ref`.
     ///
@@ -13404,7 +13429,6 @@ impl Hdf5Writer {
         if ref_size == 0 || refs.len() < ref_size {
             return Ok(());
         }
-
         // Group by collection so one holding several replaced objects is read,
         // rewritten and judged empty exactly once.
         let mut per_collection: std::collections::BTreeMap<u64, Vec<u16>> = Default::default();
@@ -13437,7 +13461,10 @@ impl Hdf5Writer {
     ) -> IoResult<()> {
         use crate::format::global_heap::GlobalHeapCollection;
 
-        if self.swmr_active {
+        // femto patch: under copy-on-write a released heap object stays where
+        // it is (its collection is part of the old file), unreferenced, like
+        // every other block the session frees.
+        if self.swmr_active || self.copy_on_write {
             return Ok(());
         }
 
@@ -16817,6 +16844,36 @@ impl Hdf5Writer {
         self.finalize(true)
     }
 
+    /// femto patch (PATCH.md): make this append session copy-on-write.
+    ///
+    /// From this call on, no byte the file held when it was opened is
+    /// written until the close's last step, the superblock: freed blocks are
+    /// never reused, every rewritten object header (the root's included) is
+    /// placed past the old end of the file, and the file handle refuses any
+    /// other write below that end. A reader of the file sees the old file
+    /// until the superblock write (one write of under a hundred bytes at
+    /// offset 0), and the new one after it. A close that fails before the
+    /// superblock, and [`discard`](Self::discard), leave the old file's
+    /// bytes as they were (followed by unreferenced bytes past its end).
+    ///
+    /// A rewritten group header moves, so an object reference to a group
+    /// (not to a dataset) would name its old header.
+    pub fn set_copy_on_write(&mut self) -> IoResult<()> {
+        self.handle.flush()?;
+        let old_end = self.allocator.eof();
+        self.allocator.retain_freed_blocks();
+        self.handle.set_write_fence(old_end);
+        self.copy_on_write = true;
+        Ok(())
+    }
+
+    /// femto patch (PATCH.md): close without finalizing: no object header
+    /// and no superblock is written, so a copy-on-write session leaves the
+    /// old file as it was.
+    pub fn discard(mut self) {
+        self.closed = true;
+    }
+
     /// Finalize and close the file without a final `fsync`.
     ///
     /// Identical to [`close`](Self::close) — the same object headers and
@@ -17270,6 +17327,18 @@ impl Hdf5Writer {
         // 4. Write every object header over the block phase 2 reserved for it.
         self.write_object_headers(&layout)?;
 
+        // femto patch: under copy-on-write everything above went past the
+        // old end of the file; it reaches the file (and the disk, for a
+        // durable close) before the superblock, the one write that switches
+        // readers to the new root.
+        if self.copy_on_write {
+            self.handle.flush()?;
+            if sync {
+                self.handle.sync_data()?;
+            }
+            self.handle.set_write_fence(0);
+        }
+
         // 5. Write superblock at offset 0.
         self.write_superblock(0)?;
 
@@ -17332,6 +17401,11 @@ impl Hdf5Writer {
             .is_some_and(|&(addr, _)| taken.insert(addr))
         {
             kept.root = Some(self.keep_chunk0(root_blocks));
+        }
+        if self.copy_on_write {
+            // femto patch: every rewritten header goes to fresh space; the
+            // old ones stay as they are for readers of the old file.
+            return KeptChunks::default();
         }
         kept
     }
