@@ -739,7 +739,10 @@ fn groups_are_appended_to_h5py_annotated_files_without_rewriting_them() {
     for name in H5PY_FIXTURES {
         let path = h5py_fixture(dir.path(), name);
         let cube = container::read_cube(&path).unwrap();
-        let groups = container::GroupReader::open(&path).unwrap().groups().to_vec();
+        let groups = container::GroupReader::open(&path)
+            .unwrap()
+            .groups()
+            .to_vec();
         assert_eq!(groups, ["notes"], "{name}");
         for (round, scale) in [(0, 1.5), (1, -0.25)] {
             let old = std::fs::read(&path).unwrap();
@@ -749,10 +752,15 @@ fn groups_are_appended_to_h5py_annotated_files_without_rewriting_them() {
             let new = std::fs::read(&path).unwrap();
             // Only the superblock changed (at most 96 bytes at offset 0) ...
             let (first, last) = changed_range(&old, &new).expect("the superblock changed");
-            assert!(first < 96 && last < 96, "{name} round {round}: bytes {first}..={last}");
-            // ... and what was added is small: no copy of the cube.
+            assert!(
+                first < 96 && last < 96,
+                "{name} round {round}: bytes {first}..={last}"
+            );
+            // ... and what was added is small: no copy of the cube (the most, about 11 KB,
+            // for h5py's version 0 file, whose groups are symbol tables: B-tree nodes and
+            // local heaps written afresh).
             let added = new.len() - old.len();
-            assert!(added < 8192, "{name} round {round}: {added} bytes added");
+            assert!(added < 16384, "{name} round {round}: {added} bytes added");
             // Everything reads back: the cube, femto's group, h5py's group still listed.
             assert_eq!(container::read_cube(&path).unwrap(), cube, "{name}");
             assert_eq!(
@@ -782,7 +790,11 @@ fn unfinished_in_place_updates_leave_the_file_as_it_was() {
         up.begin_group(
             "pyramid",
             &[],
-            &[container::DatasetSpec::new("d", &[3, 2], container::GroupElem::F64)],
+            &[container::DatasetSpec::new(
+                "d",
+                &[3, 2],
+                container::GroupElem::F64,
+            )],
         )
         .unwrap();
         up.write_group_rows("pyramid", "d", 0, &DataBuf::F64(vec![1.0, 2.0]))
@@ -796,12 +808,20 @@ fn unfinished_in_place_updates_leave_the_file_as_it_was() {
         up.begin_group(
             "pyramid",
             &[],
-            &[container::DatasetSpec::new("d", &[3, 2], container::GroupElem::F64)],
+            &[container::DatasetSpec::new(
+                "d",
+                &[3, 2],
+                container::GroupElem::F64,
+            )],
         )
         .unwrap();
         let e = up.finish().unwrap_err().to_string();
         assert!(e.contains("row 0"), "{e}");
-        assert_eq!(std::fs::read(&path).unwrap(), old, "{name}: after a failure");
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            old,
+            "{name}: after a failure"
+        );
         assert_eq!(files_in(dir.path()).len(), 1, "{name}: no temporary file");
         std::fs::remove_file(&path).unwrap();
     }
@@ -819,10 +839,17 @@ fn femto_pyramid_keeps_what_h5py_wrote() {
         FemtoCmd::new().arg("pyramid").arg(&path).ok();
         let new = std::fs::read(&path).unwrap();
         let (first, last) = changed_range(&old, &new).unwrap();
-        assert!(first < 96 && last < 96, "{name}: bytes {first}..={last} changed");
+        assert!(
+            first < 96 && last < 96,
+            "{name}: bytes {first}..={last} changed"
+        );
         let out = FemtoCmd::new().arg("info").arg(&path).arg("--json").ok();
         let j: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
-        assert_eq!(j["groups"], serde_json::json!(["notes", "pyramid"]), "{name}");
+        assert_eq!(
+            j["groups"],
+            serde_json::json!(["notes", "pyramid"]),
+            "{name}"
+        );
         std::fs::remove_file(&path).unwrap();
     }
 }
@@ -876,7 +903,10 @@ fn h5py_objects(path: &Path) -> Vec<String> {
             trace.read_raw_bytes().unwrap()
         ),
     ];
-    out.push(format!("{:?}", f.root_group().group("notes").unwrap().dataset_names()));
+    out.push(format!(
+        "{:?}",
+        f.root_group().group("notes").unwrap().dataset_names()
+    ));
     out
 }
 
@@ -891,40 +921,40 @@ fn new_cubes_carry_what_h5py_wrote() {
     for name in H5PY_FIXTURES {
         let src = h5py_fixture(dir.path(), name);
         let want = h5py_objects(&src);
-        assert!(want[1].contains("raw_header") && want[1].contains("reviewed"), "{want:?}");
+        assert!(
+            want[1].contains("raw_header") && want[1].contains("reviewed"),
+            "{want:?}"
+        );
+        let cube = container::read_cube(&src).unwrap();
+        let write = |out: &Path, keep: bool| {
+            let mut w = CubeWriter::create(
+                out,
+                cube.nx,
+                cube.ny,
+                cube.axis,
+                cube.frame,
+                "arbitrary",
+                &provenance(),
+            )
+            .unwrap();
+            w.write_rows(0, &cube.data).unwrap();
+            if keep {
+                w.keep_foreign_from(&src);
+            }
+            w.finish().unwrap();
+        };
         // A new cube.
         let out = dir.path().join(format!("new-{name}"));
-        let cube = container::read_cube(&src).unwrap();
-        let mut w = CubeWriter::create(
-            &out,
-            cube.nx,
-            cube.ny,
-            cube.axis,
-            cube.frame,
-            "arbitrary",
-            &provenance(),
-        )
-        .unwrap();
-        w.write_rows(0, &cube.data).unwrap();
-        w.keep_foreign_from(&src);
-        w.finish().unwrap();
+        write(&out, true);
         assert_eq!(h5py_objects(&out), want, "{name}: new cube");
         assert_eq!(container::read_cube(&out).unwrap().data, cube.data);
         // Without it, nothing is carried.
         let bare = dir.path().join(format!("bare-{name}"));
-        let mut w = CubeWriter::create(
-            &bare,
-            cube.nx,
-            cube.ny,
-            cube.axis,
-            cube.frame,
-            "arbitrary",
-            &provenance(),
-        )
-        .unwrap();
-        w.write_rows(0, &cube.data).unwrap();
-        w.finish().unwrap();
-        assert!(container::GroupReader::open(&bare).unwrap().groups().is_empty());
+        write(&bare, false);
+        assert!(container::GroupReader::open(&bare)
+            .unwrap()
+            .groups()
+            .is_empty());
         std::fs::remove_file(&out).unwrap();
         std::fs::remove_file(&bare).unwrap();
         std::fs::remove_file(&src).unwrap();

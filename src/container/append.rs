@@ -32,6 +32,8 @@ pub(super) struct AppendFile {
     path: PathBuf,
     old_len: u64,
     old_head: Vec<u8>,
+    /// Cuts the file back to `old_len` if the command is interrupted before the commit.
+    interrupt: Option<crate::interrupt::Registration>,
 }
 
 impl AppendFile {
@@ -57,6 +59,7 @@ impl AppendFile {
             path: path.to_path_buf(),
             old_len,
             old_head,
+            interrupt: Some(crate::interrupt::register_append(path, old_len)),
         };
         if append.file().set_copy_on_write().is_err() {
             // Dropping `append` discards the session.
@@ -79,8 +82,15 @@ impl AppendFile {
             .file
             .take()
             .expect("an AppendFile holds its file until commit");
+        // A signal waits for the headers and the superblock, or comes before them (and the
+        // file is cut back to its old length).
+        let _commit = crate::interrupt::commit();
         // No fsync, as for every output of femto (`CubeSink::close`).
-        match file.close_no_sync() {
+        let closed = file.close_no_sync();
+        if let Some(r) = self.interrupt.take() {
+            crate::interrupt::unregister(r);
+        }
+        match closed {
             Ok(()) => Ok(()),
             Err(e) => {
                 let message = h5(&self.path)(e).to_string();
@@ -117,6 +127,9 @@ impl Drop for AppendFile {
         if let Some(file) = self.file.take() {
             file.discard();
             self.restore();
+        }
+        if let Some(r) = self.interrupt.take() {
+            crate::interrupt::unregister(r);
         }
     }
 }

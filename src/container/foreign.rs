@@ -45,7 +45,9 @@ fn read_attr(attr: &H5Attribute, path: &Path, object: &str) -> Result<AttrCopy> 
         | DatatypeMessage::FloatingPoint { .. }
         | DatatypeMessage::Enum { .. }
         | DatatypeMessage::FixedString { .. }
-        | DatatypeMessage::BitField { .. } => Ok(AttrCopy::Raw(dt, dims, attr.read_raw().map_err(&e)?)),
+        | DatatypeMessage::BitField { .. } => {
+            Ok(AttrCopy::Raw(dt, dims, attr.read_raw().map_err(&e)?))
+        }
         other => Err(invalid(
             path,
             format!(
@@ -62,29 +64,24 @@ trait AttrSink {
     fn put(&self, name: &str, value: AttrCopy) -> rust_hdf5::Result<()>;
 }
 
-impl AttrSink for H5Group {
-    fn put(&self, name: &str, value: AttrCopy) -> rust_hdf5::Result<()> {
-        match value {
-            AttrCopy::Raw(dt, dims, bytes) => self.set_attr_raw(name, dt, &dims, bytes),
-            AttrCopy::Strings(dt, dims, values) => {
-                let v: Vec<&str> = values.iter().map(String::as_str).collect();
-                self.set_attr_strings_as(name, &v, &dims, dt)
+/// Groups and datasets being written take attributes through the same two calls.
+macro_rules! attr_sink {
+    ($t:ty) => {
+        impl AttrSink for $t {
+            fn put(&self, name: &str, value: AttrCopy) -> rust_hdf5::Result<()> {
+                match value {
+                    AttrCopy::Raw(dt, dims, bytes) => self.set_attr_raw(name, dt, &dims, bytes),
+                    AttrCopy::Strings(dt, dims, values) => {
+                        let v: Vec<&str> = values.iter().map(String::as_str).collect();
+                        self.set_attr_strings_as(name, &v, &dims, dt)
+                    }
+                }
             }
         }
-    }
+    };
 }
-
-impl AttrSink for H5Dataset {
-    fn put(&self, name: &str, value: AttrCopy) -> rust_hdf5::Result<()> {
-        match value {
-            AttrCopy::Raw(dt, dims, bytes) => self.set_attr_raw(name, dt, &dims, bytes),
-            AttrCopy::Strings(dt, dims, values) => {
-                let v: Vec<&str> = values.iter().map(String::as_str).collect();
-                self.set_attr_strings_as(name, &v, &dims, dt)
-            }
-        }
-    }
-}
+attr_sink!(H5Group);
+attr_sink!(H5Dataset);
 
 /// Copy what other tools wrote in `src` (at `src_path`) into `dst` (being written to
 /// `dst_path`): the root attributes, and every root group and dataset not in
@@ -124,14 +121,17 @@ fn copy_children(
     } else {
         src.root_group().group(prefix).map_err(&es)?
     };
-    let skip = |n: &str| {
-        root_skip.is_some_and(|s| FEMTO_OBJECTS.contains(&n) || s.iter().any(|o| o == n))
-    };
+    let skip =
+        |n: &str| root_skip.is_some_and(|s| FEMTO_OBJECTS.contains(&n) || s.iter().any(|o| o == n));
     for name in group.dataset_names().map_err(&es)? {
         if skip(&name) {
             continue;
         }
-        let full = if prefix.is_empty() { name.clone() } else { format!("{prefix}/{name}") };
+        let full = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}/{name}")
+        };
         let ds = src.dataset(&full).map_err(&es)?;
         copy_dataset(&ds, src_path, &full, into, dst_path, &name)?;
     }
@@ -139,11 +139,19 @@ fn copy_children(
         if skip(&name) {
             continue;
         }
-        let full = if prefix.is_empty() { name.clone() } else { format!("{prefix}/{name}") };
+        let full = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}/{name}")
+        };
         let src_group = src.root_group().group(&full).map_err(&es)?;
         let dst_group = into.create_group(&name).map_err(&ed)?;
         for a in src_group.attr_names().map_err(&es)? {
-            let value = read_attr(&src_group.attr(&a).map_err(&es)?, src_path, &format!("/{full}"))?;
+            let value = read_attr(
+                &src_group.attr(&a).map_err(&es)?,
+                src_path,
+                &format!("/{full}"),
+            )?;
             dst_group.put(&a, value).map_err(&ed)?;
         }
         copy_children(src, src_path, &full, dst_path, &dst_group, None)?;
@@ -183,10 +191,26 @@ fn copy_dataset(
     }
     let bytes = ds.read_raw_bytes().map_err(&es)?;
     let out = match dt.element_size() {
-        1 => into.new_dataset::<u8>().datatype(dt.clone()).shape(&shape[..]).create(name),
-        2 => into.new_dataset::<u16>().datatype(dt.clone()).shape(&shape[..]).create(name),
-        4 => into.new_dataset::<u32>().datatype(dt.clone()).shape(&shape[..]).create(name),
-        8 => into.new_dataset::<u64>().datatype(dt.clone()).shape(&shape[..]).create(name),
+        1 => into
+            .new_dataset::<u8>()
+            .datatype(dt.clone())
+            .shape(&shape[..])
+            .create(name),
+        2 => into
+            .new_dataset::<u16>()
+            .datatype(dt.clone())
+            .shape(&shape[..])
+            .create(name),
+        4 => into
+            .new_dataset::<u32>()
+            .datatype(dt.clone())
+            .shape(&shape[..])
+            .create(name),
+        8 => into
+            .new_dataset::<u64>()
+            .datatype(dt.clone())
+            .shape(&shape[..])
+            .create(name),
         n => return Err(refuse(format!("made of {n}-byte elements"))),
     }
     .map_err(&ed)?;

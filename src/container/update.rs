@@ -5,8 +5,8 @@
 
 use super::append::AppendFile;
 use super::attributes::{read_group_attrs, write_group_attrs};
-use super::foreign::{copy_foreign, FEMTO_OBJECTS};
 use super::error::{h5, invalid, Result};
+use super::foreign::{copy_foreign, FEMTO_OBJECTS};
 use super::groups::{dataset_names_in, group_elem, open_group};
 use super::open::open_dataset;
 use super::read::CubeReader;
@@ -246,7 +246,13 @@ impl GroupUpdate {
         }
         let file = file.file();
         let e = h5(&self.dest);
-        if file.root_group().group_names().map_err(&e)?.iter().any(|g| g == name) {
+        if file
+            .root_group()
+            .group_names()
+            .map_err(&e)?
+            .iter()
+            .any(|g| g == name)
+        {
             file.delete_group(name).map_err(&e)?;
         }
         Ok(())
@@ -414,7 +420,12 @@ mod tests {
                 .into_iter()
                 .map(|n| format!("{n} {}", raw(notes.attr(&n).unwrap())))
                 .collect();
-            v.extend(root.attr_names().unwrap().into_iter().map(|n| format!("/{n}")));
+            v.extend(
+                root.attr_names()
+                    .unwrap()
+                    .into_iter()
+                    .map(|n| format!("/{n}")),
+            );
             v.push(format!("{:?}", trace.read_raw_bytes().unwrap()));
             v.sort();
             v
