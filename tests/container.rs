@@ -709,9 +709,10 @@ fn h5py_fixture(dir: &Path, name: &str) -> std::path::PathBuf {
 
 /// Where `new` differs from `old` within `old`'s length: `(first, last)` offsets.
 fn changed_range(old: &[u8], new: &[u8]) -> Option<(usize, usize)> {
-    let mut changed = old.iter().zip(new).enumerate().filter(|(_, (a, b))| a != b);
-    let first = changed.next()?.0;
-    Some((first, changed.last().map_or(first, |c| c.0)))
+    let differs = |i: &usize| old[*i] != new[*i];
+    let n = old.len().min(new.len());
+    let first = (0..n).find(differs)?;
+    Some((first, (0..n).rev().find(differs).unwrap_or(first)))
 }
 
 fn pyramid_like(rows: usize, scale: f64) -> GroupData {

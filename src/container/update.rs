@@ -106,7 +106,7 @@ impl UpdateTarget {
 /// Adds or replaces extra groups of an existing cube file, or writes a side file that holds
 /// groups only, with datasets streamed by row slabs so that peak memory is one slab.
 ///
-/// A cube file is appended to in place, copy-on-write ([`super::append`]): the cube and
+/// A cube file is appended to in place, copy-on-write (module `container::append`): the cube and
 /// everything else in the file stay where they are, byte for byte, and the new groups
 /// become visible with the last, small write of [`GroupUpdate::finish`]; dropping an
 /// unfinished update leaves the old file as it was. Where the HDF5 library cannot append
