@@ -18,6 +18,9 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 
 /// The temporary paths that exist now, by registration number.
 static REGISTRY: Mutex<BTreeMap<u64, PathBuf>> = Mutex::new(BTreeMap::new());
+/// Files being appended to in place, by registration number: cut back to their old length
+/// on an interrupt (what was appended is not referenced by the old file).
+static APPENDS: Mutex<BTreeMap<u64, (PathBuf, u64)>> = Mutex::new(BTreeMap::new());
 /// Numbers for [`Registration`]s.
 static NEXT: Mutex<u64> = Mutex::new(0);
 /// Held by [`commit`] sections and by the signal handler.
@@ -47,9 +50,28 @@ pub fn register(path: &Path) -> Registration {
     Registration(id)
 }
 
+/// Record `path` as a file being appended to in place, to be truncated to `old_len` bytes if
+/// the command is interrupted before its [`commit`] section.
+pub fn register_append(path: &Path, old_len: u64) -> Registration {
+    let id = {
+        let mut next = NEXT.lock().unwrap_or_else(|e| e.into_inner());
+        *next += 1;
+        *next
+    };
+    APPENDS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(id, (path.to_path_buf(), old_len));
+    Registration(id)
+}
+
 /// Forget a registered path (it was renamed into place or removed).
 pub fn unregister(registration: Registration) {
     REGISTRY
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .remove(&registration.0);
+    APPENDS
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .remove(&registration.0);
@@ -85,10 +107,16 @@ impl Drop for Commit {
     }
 }
 
-/// Remove every registered path.
+/// Remove every registered path, and cut every file being appended to back to its old
+/// length.
 fn remove_registered() {
     let paths = REGISTRY.lock().unwrap_or_else(|e| e.into_inner());
     remove_paths(paths.values());
+    for (path, old_len) in APPENDS.lock().unwrap_or_else(|e| e.into_inner()).values() {
+        if let Ok(f) = std::fs::OpenOptions::new().write(true).open(path) {
+            let _ = f.set_len(*old_len);
+        }
+    }
 }
 
 /// Remove files and folders; what is already gone is skipped.

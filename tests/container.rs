@@ -692,3 +692,272 @@ fn info_rejects_other_files_in_one_line() {
         assert!(out.stdout.is_empty());
     }
 }
+
+/// The h5py fixtures (tests/data/h5py, written by tools/interop/make_h5py_fixtures.py): a
+/// femto cube that h5py annotated, and a cube h5py wrote itself and annotated.
+const H5PY_FIXTURES: [&str; 2] = ["annotated.h5", "h5py_cube.h5"];
+
+/// A copy of fixture `name` in `dir`.
+fn h5py_fixture(dir: &Path, name: &str) -> std::path::PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/h5py")
+        .join(name);
+    let dst = dir.join(name);
+    std::fs::copy(&src, &dst).unwrap_or_else(|e| panic!("{}: {e}", src.display()));
+    dst
+}
+
+/// Where `new` differs from `old` within `old`'s length: `(first, last)` offsets.
+fn changed_range(old: &[u8], new: &[u8]) -> Option<(usize, usize)> {
+    let differs = |i: &usize| old[*i] != new[*i];
+    let n = old.len().min(new.len());
+    let first = (0..n).find(differs)?;
+    Some((first, (0..n).rev().find(differs).unwrap_or(first)))
+}
+
+fn pyramid_like(rows: usize, scale: f64) -> GroupData {
+    GroupData {
+        attrs: vec![
+            ("levels".into(), AttrValue::I64(2)),
+            ("source".into(), AttrValue::Str("cube.h5".into())),
+        ],
+        datasets: vec![(
+            "level_1".into(),
+            vec![rows, 3],
+            DataBuf::F64((0..rows * 3).map(|i| i as f64 * scale).collect()),
+        )],
+    }
+}
+
+/// Adding a group to a file that h5py annotated appends to it copy-on-write: no byte of the
+/// old file changes but the superblock's (the last write, which switches readers to the new
+/// root group), so the cube, h5py's groups, datasets and attributes of every default type
+/// are kept as they were, byte for byte, and the update writes a small fraction of the file.
+/// Replacing the group does the same.
+#[test]
+fn groups_are_appended_to_h5py_annotated_files_without_rewriting_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in H5PY_FIXTURES {
+        let path = h5py_fixture(dir.path(), name);
+        let cube = container::read_cube(&path).unwrap();
+        let groups = container::GroupReader::open(&path)
+            .unwrap()
+            .groups()
+            .to_vec();
+        assert_eq!(groups, ["notes"], "{name}");
+        for (round, scale) in [(0, 1.5), (1, -0.25)] {
+            let old = std::fs::read(&path).unwrap();
+            let mut up = container::GroupUpdate::open(&path).unwrap();
+            up.write_group("pyramid", &pyramid_like(4, scale)).unwrap();
+            up.finish().unwrap();
+            let new = std::fs::read(&path).unwrap();
+            // Only the superblock changed (at most 96 bytes at offset 0) ...
+            let (first, last) = changed_range(&old, &new).expect("the superblock changed");
+            assert!(
+                first < 96 && last < 96,
+                "{name} round {round}: bytes {first}..={last}"
+            );
+            // ... and what was added is small: no copy of the cube (the most, about 11 KB,
+            // for h5py's version 0 file, whose groups are symbol tables: B-tree nodes and
+            // local heaps written afresh).
+            let added = new.len() - old.len();
+            assert!(added < 16384, "{name} round {round}: {added} bytes added");
+            // Everything reads back: the cube, femto's group, h5py's group still listed.
+            assert_eq!(container::read_cube(&path).unwrap(), cube, "{name}");
+            assert_eq!(
+                container::read_group(&path, "pyramid").unwrap(),
+                pyramid_like(4, scale),
+                "{name}"
+            );
+            assert_eq!(
+                container::GroupReader::open(&path).unwrap().groups(),
+                ["notes", "pyramid"],
+                "{name}"
+            );
+        }
+    }
+}
+
+/// An update that is dropped unfinished, or that fails, leaves the file byte-identical (the
+/// bytes it appended are truncated away), and never touched the old bytes meanwhile.
+#[test]
+fn unfinished_in_place_updates_leave_the_file_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in H5PY_FIXTURES {
+        let path = h5py_fixture(dir.path(), name);
+        let old = std::fs::read(&path).unwrap();
+        // Dropped half-way through a streamed group.
+        let mut up = container::GroupUpdate::open(&path).unwrap();
+        up.begin_group(
+            "pyramid",
+            &[],
+            &[container::DatasetSpec::new(
+                "d",
+                &[3, 2],
+                container::GroupElem::F64,
+            )],
+        )
+        .unwrap();
+        up.write_group_rows("pyramid", "d", 0, &DataBuf::F64(vec![1.0, 2.0]))
+            .unwrap();
+        let during = std::fs::read(&path).unwrap();
+        assert_eq!(&during[..old.len()], &old[..], "{name}: old bytes written");
+        drop(up);
+        assert_eq!(std::fs::read(&path).unwrap(), old, "{name}: after a drop");
+        // Failed: a row never written.
+        let mut up = container::GroupUpdate::open(&path).unwrap();
+        up.begin_group(
+            "pyramid",
+            &[],
+            &[container::DatasetSpec::new(
+                "d",
+                &[3, 2],
+                container::GroupElem::F64,
+            )],
+        )
+        .unwrap();
+        let e = up.finish().unwrap_err().to_string();
+        assert!(e.contains("row 0"), "{e}");
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            old,
+            "{name}: after a failure"
+        );
+        assert_eq!(files_in(dir.path()).len(), 1, "{name}: no temporary file");
+        std::fs::remove_file(&path).unwrap();
+    }
+}
+
+/// `femto pyramid` and `femto info` read a cube that h5py annotated, and the pyramid is added
+/// without a byte of the old file changing but the superblock's.
+#[test]
+fn femto_pyramid_keeps_what_h5py_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in H5PY_FIXTURES {
+        let path = h5py_fixture(dir.path(), name);
+        let old = std::fs::read(&path).unwrap();
+        FemtoCmd::new().arg("info").arg(&path).ok();
+        FemtoCmd::new().arg("pyramid").arg(&path).ok();
+        let new = std::fs::read(&path).unwrap();
+        let (first, last) = changed_range(&old, &new).unwrap();
+        assert!(
+            first < 96 && last < 96,
+            "{name}: bytes {first}..={last} changed"
+        );
+        let out = FemtoCmd::new().arg("info").arg(&path).arg("--json").ok();
+        let j: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+        assert_eq!(
+            j["groups"],
+            serde_json::json!(["notes", "pyramid"]),
+            "{name}"
+        );
+        std::fs::remove_file(&path).unwrap();
+    }
+}
+
+/// Every attribute of the object at `path` (`""` for the root group) of `file`: name, HDF5
+/// type, dimensions, and value (its bytes, or its strings for variable-length strings).
+fn attrs_of(file: &rust_hdf5::H5File, path: &str, dataset: bool) -> Vec<String> {
+    let attr_text = |a: rust_hdf5::H5Attribute| {
+        let dt = a.datatype().unwrap();
+        let value = match dt {
+            rust_hdf5::DatatypeMessage::VarLenString { .. } => {
+                format!("{:?}", a.read_strings().unwrap())
+            }
+            _ => format!("{:?}", a.read_raw().unwrap()),
+        };
+        format!("{dt:?} {:?} {value}", a.dims().unwrap())
+    };
+    let mut out = Vec::new();
+    if dataset {
+        let ds = file.dataset(path).unwrap();
+        for n in ds.attr_names().unwrap() {
+            out.push(format!("{n}: {}", attr_text(ds.attr(&n).unwrap())));
+        }
+    } else {
+        let g = if path.is_empty() {
+            file.root_group()
+        } else {
+            file.root_group().group(path).unwrap()
+        };
+        for n in g.attr_names().unwrap() {
+            out.push(format!("{n}: {}", attr_text(g.attr(&n).unwrap())));
+        }
+    }
+    out.sort();
+    out
+}
+
+/// What h5py wrote into the fixtures (root attributes, `/notes`, its attributes, and
+/// `/notes/trace` with its values and attribute), read through the HDF5 crate.
+fn h5py_objects(path: &Path) -> Vec<String> {
+    let f = rust_hdf5::H5File::open(path).unwrap();
+    let trace = f.dataset("notes/trace").unwrap();
+    let mut out = vec![
+        format!("/ {:?}", attrs_of(&f, "", false)),
+        format!("/notes {:?}", attrs_of(&f, "notes", false)),
+        format!("/notes/trace {:?}", attrs_of(&f, "notes/trace", true)),
+        format!(
+            "/notes/trace {:?} {:?} {:?}",
+            trace.datatype().unwrap(),
+            trace.shape(),
+            trace.read_raw_bytes().unwrap()
+        ),
+    ];
+    out.push(format!(
+        "{:?}",
+        f.root_group().group("notes").unwrap().dataset_names()
+    ));
+    out
+}
+
+/// A command that writes a new cube from an annotated one (`femto unwarp`, through
+/// `CubeWriter::keep_foreign_from`) and the rewrite that updates a file the HDF5 layer cannot
+/// append to both carry what h5py wrote: every attribute with its HDF5 type (h5py's str
+/// and bytes differ in character set, its bool is an enum, lists of str are arrays of
+/// variable-length strings), and datasets with their values and attributes.
+#[test]
+fn new_cubes_carry_what_h5py_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in H5PY_FIXTURES {
+        let src = h5py_fixture(dir.path(), name);
+        let want = h5py_objects(&src);
+        assert!(
+            want[1].contains("raw_header") && want[1].contains("reviewed"),
+            "{want:?}"
+        );
+        let cube = container::read_cube(&src).unwrap();
+        let write = |out: &Path, keep: bool| {
+            let mut w = CubeWriter::create(
+                out,
+                cube.nx,
+                cube.ny,
+                cube.axis,
+                cube.frame,
+                "arbitrary",
+                &provenance(),
+            )
+            .unwrap();
+            w.write_rows(0, &cube.data).unwrap();
+            if keep {
+                w.keep_foreign_from(&src);
+            }
+            w.finish().unwrap();
+        };
+        // A new cube.
+        let out = dir.path().join(format!("new-{name}"));
+        write(&out, true);
+        assert_eq!(h5py_objects(&out), want, "{name}: new cube");
+        assert_eq!(container::read_cube(&out).unwrap().data, cube.data);
+        // Without it, nothing is carried.
+        let bare = dir.path().join(format!("bare-{name}"));
+        write(&bare, false);
+        assert!(container::GroupReader::open(&bare)
+            .unwrap()
+            .groups()
+            .is_empty());
+        std::fs::remove_file(&out).unwrap();
+        std::fs::remove_file(&bare).unwrap();
+        std::fs::remove_file(&src).unwrap();
+    }
+}

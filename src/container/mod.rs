@@ -28,14 +28,18 @@
 //! | `compression` | the shuffle + deflate chunk compressor ([`RowCompressor`]) |
 //! | `read` | the cube reader with direct chunk reads ([`CubeReader`], [`read_cube`]) |
 //! | `attributes` | attributes of datasets and groups, and the JSON attribute index of groups |
+//! | `foreign` | what other tools wrote (root attributes, groups, datasets), carried into a new cube |
 //! | `groups` | the reader of extra groups ([`GroupReader`]), which [`CubeReader`] owns |
 //! | `sinks` | extra groups being written, filled by row slabs |
-//! | `update` | in-place group updates and side files ([`GroupUpdate`], [`write_groups`]) |
+//! | `append` | copy-on-write appends of groups to an existing file, without rewriting it |
+//! | `update` | group updates (in place, else by a rewrite) and side files ([`GroupUpdate`], [`write_groups`]) |
 //! | `stack` | image stacks, the HDF5 input of `femto ingest` ([`read_image_stack`]) |
 
+mod append;
 mod attributes;
 mod compression;
 mod error;
+mod foreign;
 mod groups;
 mod open;
 mod read;

@@ -1,9 +1,12 @@
-//! In-place group updates: [`GroupUpdate`] adds or replaces extra groups of a cube file (or
-//! writes a side file of groups only) through a temporary file renamed when done, and
-//! [`write_groups`] does it with whole groups.
+//! Group updates: [`GroupUpdate`] adds or replaces extra groups of a cube file in place,
+//! copy-on-write ([`super::append`]; the cube is not rewritten), or, where the HDF5 library
+//! cannot append to the file, through a new file renamed onto it; it also writes side files
+//! of groups only. [`write_groups`] does it with whole groups.
 
+use super::append::AppendFile;
 use super::attributes::{read_group_attrs, write_group_attrs};
 use super::error::{h5, invalid, Result};
+use super::foreign::{copy_foreign, FEMTO_OBJECTS};
 use super::groups::{dataset_names_in, group_elem, open_group};
 use super::open::open_dataset;
 use super::read::CubeReader;
@@ -17,13 +20,10 @@ use crate::atomic::AtomicFile;
 use rust_hdf5::format::messages::filter::FILTER_DEFLATE;
 use rust_hdf5::H5File;
 use std::path::Path;
+use std::path::PathBuf;
 
 /// Add the given extra groups to the cube at `cube_path`, replacing groups of the same
-/// names, atomically.
-///
-/// A complete new file is written beside the old one (the cube copied slab by slab, other
-/// groups copied row slab by row slab) and renamed onto it, so on failure the old file is
-/// left as it was. [`GroupUpdate`] does the same with groups streamed by rows.
+/// names, atomically, as [`GroupUpdate`] does with groups streamed by rows.
 pub fn write_groups(cube_path: &Path, groups: &[(&str, GroupData)]) -> Result<()> {
     for (i, (name, data)) in groups.iter().enumerate() {
         check_group(cube_path, name, data)?;
@@ -80,7 +80,10 @@ pub(super) fn copy_group(reader: &CubeReader, file: &H5File, name: &str) -> Resu
 
 /// What a [`GroupUpdate`] writes into.
 pub(super) enum UpdateTarget {
-    /// A copy of a cube file; its groups not rewritten are copied at the end.
+    /// The cube file itself, appended to copy-on-write.
+    InPlace { file: AppendFile },
+    /// A copy of a cube file (the fallback where the HDF5 library cannot append to it); its
+    /// groups not rewritten are copied at the end.
     Cube {
         sink: Box<CubeSink>,
         reader: Box<CubeReader>,
@@ -93,6 +96,7 @@ impl UpdateTarget {
     /// The file being written.
     fn file(&self) -> &H5File {
         match self {
+            UpdateTarget::InPlace { file } => file.file(),
             UpdateTarget::Cube { sink, .. } => &sink.file,
             UpdateTarget::SideFile { file } => file,
         }
@@ -102,23 +106,44 @@ impl UpdateTarget {
 /// Adds or replaces extra groups of an existing cube file, or writes a side file that holds
 /// groups only, with datasets streamed by row slabs so that peak memory is one slab.
 ///
-/// Like [`CubeWriter`], everything goes to a temporary file beside the destination, renamed
-/// onto it by [`GroupUpdate::finish`]; dropping an unfinished update deletes the temporary file
-/// and leaves the old file as it was. For a cube, the cube and mask are copied when the update
-/// is opened, and the groups that were not rewritten when it is finished.
-///
-/// [`CubeWriter`]: super::CubeWriter
+/// A cube file is appended to in place, copy-on-write (module `container::append`): the cube and
+/// everything else in the file stay where they are, byte for byte, and the new groups
+/// become visible with the last, small write of [`GroupUpdate::finish`]; dropping an
+/// unfinished update leaves the old file as it was. Where the HDF5 library cannot append
+/// to the file, and for a side file, everything goes to a temporary file beside the
+/// destination, renamed onto it by [`GroupUpdate::finish`] (for a cube, the cube and mask
+/// copied when the update is opened, and the groups that were not rewritten when it is
+/// finished).
 pub struct GroupUpdate {
     // Field order matters: the HDF5 file is closed before the temporary path is deleted.
     groups: GroupSinks,
     target: UpdateTarget,
-    out: AtomicFile,
+    /// The temporary file of a rewrite or a side file; `None` in place.
+    out: Option<AtomicFile>,
+    /// The file updated or written, named in errors.
+    dest: PathBuf,
 }
 
 impl GroupUpdate {
-    /// Start an update of the cube file at `cube_path` (copying its cube and mask).
+    /// Start an update of the cube file at `cube_path`: in place where the HDF5 library can
+    /// append to it, else by a rewrite (copying its cube and mask now).
     pub fn open(cube_path: &Path) -> Result<GroupUpdate> {
         let reader = CubeReader::open(cube_path)?;
+        if let Some(file) = AppendFile::open(cube_path)? {
+            return Ok(GroupUpdate {
+                groups: GroupSinks::default(),
+                target: UpdateTarget::InPlace { file },
+                out: None,
+                dest: cube_path.to_path_buf(),
+            });
+        }
+        Self::rewrite(reader)
+    }
+
+    /// Start an update that rewrites the cube file `reader` reads (copying its cube and
+    /// mask now): the fallback of [`GroupUpdate::open`].
+    pub(super) fn rewrite(reader: CubeReader) -> Result<GroupUpdate> {
+        let cube_path = &reader.path.clone();
         let out = create_atomic(cube_path)?;
         let meta = reader.meta.clone();
         let attrs = CubeAttrs {
@@ -172,7 +197,8 @@ impl GroupUpdate {
                 sink: Box::new(sink),
                 reader: Box::new(reader),
             },
-            out,
+            out: Some(out),
+            dest: cube_path.to_path_buf(),
         })
     }
 
@@ -191,7 +217,8 @@ impl GroupUpdate {
             target: UpdateTarget::SideFile {
                 file: QuietFile(Some(file)),
             },
-            out,
+            out: Some(out),
+            dest: path.to_path_buf(),
         })
     }
 
@@ -203,9 +230,32 @@ impl GroupUpdate {
         attrs: &[(String, AttrValue)],
         datasets: &[DatasetSpec],
     ) -> Result<()> {
+        self.unlink_old(name)?;
         let file = self.target.file();
-        self.groups
-            .begin(file, self.out.dest(), name, attrs, datasets)
+        self.groups.begin(file, &self.dest, name, attrs, datasets)
+    }
+
+    /// In place, delete group `name` of the old file (if it has one) before it is written
+    /// again; its bytes stay where they are until the update is finished.
+    fn unlink_old(&mut self, name: &str) -> Result<()> {
+        let UpdateTarget::InPlace { file } = &self.target else {
+            return Ok(());
+        };
+        if self.groups.written.iter().any(|g| g == name) {
+            return Ok(());
+        }
+        let file = file.file();
+        let e = h5(&self.dest);
+        if file
+            .root_group()
+            .group_names()
+            .map_err(&e)?
+            .iter()
+            .any(|g| g == name)
+        {
+            file.delete_group(name).map_err(&e)?;
+        }
+        Ok(())
     }
 
     /// Write rows `r0 ..` of dataset `dataset` of group `group` (begun before).
@@ -216,14 +266,14 @@ impl GroupUpdate {
         r0: usize,
         rows: &DataBuf,
     ) -> Result<()> {
-        self.groups
-            .write_rows(self.out.dest(), group, dataset, r0, rows)
+        self.groups.write_rows(&self.dest, group, dataset, r0, rows)
     }
 
     /// Write a whole group at once.
     pub fn write_group(&mut self, name: &str, data: &GroupData) -> Result<()> {
+        self.unlink_old(name)?;
         let file = self.target.file();
-        self.groups.write_whole(file, self.out.dest(), name, data)
+        self.groups.write_whole(file, &self.dest, name, data)
     }
 
     /// Check that every row was written, copy the untouched groups of the old cube file,
@@ -232,42 +282,63 @@ impl GroupUpdate {
         self.finish_staged()?.persist()
     }
 
-    /// [`GroupUpdate::finish`] but the rename: the closed file stays beside the destination
-    /// until [`StagedFile::persist`], for a command that commits several outputs together.
+    /// [`GroupUpdate::finish`] but the commit (the rename, or in place the final write of
+    /// the headers and the superblock): the file stays as it was until
+    /// [`StagedFile::persist`], for a command that commits several outputs together.
     pub fn finish_staged(self) -> Result<StagedFile> {
         let GroupUpdate {
             groups,
             target,
             out,
+            dest,
         } = self;
         let written = groups.written.clone();
-        groups.close(out.dest())?;
+        groups.close(&dest)?;
+        let out = match (target, out) {
+            (UpdateTarget::InPlace { file }, _) => return Ok(StagedFile(Staged::InPlace(file))),
+            (target, Some(out)) => (target, out),
+            (_, None) => unreachable!("a rewrite or side file has its temporary file"),
+        };
+        let (target, out) = out;
         match target {
+            UpdateTarget::InPlace { .. } => unreachable!("returned above"),
             UpdateTarget::Cube { sink, reader } => {
+                // femto's own groups through femto's reader; everything else another tool
+                // wrote (root attributes, groups, datasets) as it is.
                 for old in &reader.meta.groups {
-                    if !written.contains(old) {
+                    if !written.contains(old) && FEMTO_OBJECTS.contains(&old.as_str()) {
                         copy_group(&reader, &sink.file, old)?;
                     }
                 }
+                copy_foreign(&reader.file, &reader.path, &sink.file, &dest, &written)?;
                 drop(reader);
                 sink.close()?;
             }
-            UpdateTarget::SideFile { file } => file.into_inner().close().map_err(h5(out.dest()))?,
+            UpdateTarget::SideFile { file } => file.into_inner().close().map_err(h5(&dest))?,
         }
-        Ok(StagedFile { out })
+        Ok(StagedFile(Staged::Renamed(out)))
     }
 }
 
-/// A finished file still under its temporary name beside its destination (dropping it
-/// deletes it).
-pub struct StagedFile {
-    out: AtomicFile,
+/// A finished update not yet committed (dropping it leaves the destination as it was).
+pub struct StagedFile(Staged);
+
+/// What a [`StagedFile`] holds.
+enum Staged {
+    /// A new file under its temporary name beside its destination.
+    Renamed(AtomicFile),
+    /// A copy-on-write append whose headers and superblock are not written yet.
+    InPlace(AppendFile),
 }
 
 impl StagedFile {
-    /// Rename the file onto its destination.
+    /// Commit: rename the file onto its destination, or write the appended file's headers
+    /// and, last, its superblock.
     pub fn persist(self) -> Result<()> {
-        commit(self.out)
+        match self.0 {
+            Staged::Renamed(out) => commit(out),
+            Staged::InPlace(file) => file.commit(),
+        }
     }
 }
 
@@ -281,7 +352,7 @@ mod tests {
     use crate::container::write::camera_writer;
     use crate::cube::TimeAxis;
 
-    /// Adding a group in place copies the cube: chunk by chunk as stored when femto's writer
+    /// The fallback rewrite copies the cube: chunk by chunk as stored when femto's writer
     /// made it (deflate at any level), decoded and written again otherwise (an uncompressed
     /// cube); the cube, its mask and its compression come back unchanged either way.
     #[test]
@@ -307,7 +378,7 @@ mod tests {
             let cx = chunk_rows(nt * 4, nx);
             assert!(cx < nx, "the test needs several chunks per row");
             assert_eq!(CubeReader::open(&p).unwrap().stored_as_written(cx), raw);
-            let mut u = GroupUpdate::open(&p).unwrap();
+            let mut u = GroupUpdate::rewrite(CubeReader::open(&p).unwrap()).unwrap();
             u.begin_group("g", &[], &[DatasetSpec::new("d", &[2, 3], GroupElem::F64)])
                 .unwrap();
             u.write_group_rows("g", "d", 0, &DataBuf::F64(vec![1.0; 6]))
@@ -321,6 +392,54 @@ mod tests {
             assert_eq!(reader.stored_compression(), compression);
             assert_eq!(reader.stored_as_written(cx), raw);
         }
+    }
+
+    /// The rewrite (the fallback where the HDF5 layer cannot append to a file) keeps what
+    /// another tool wrote: h5py's root attributes, its group with its attributes and its
+    /// dataset (tests/data/h5py, made by tools/interop/make_h5py_fixtures.py).
+    #[test]
+    fn the_fallback_rewrite_keeps_what_h5py_wrote() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/h5py/annotated.h5");
+        let p = dir.path().join("annotated.h5");
+        std::fs::copy(&src, &p).unwrap();
+        let listing = |p: &Path| {
+            let f = H5File::open(p).unwrap();
+            let root = f.root_group();
+            let notes = root.group("notes").unwrap();
+            let trace = f.dataset("notes/trace").unwrap();
+            let raw = |a: rust_hdf5::H5Attribute| match a.datatype().unwrap() {
+                rust_hdf5::DatatypeMessage::VarLenString { .. } => {
+                    format!("{:?}", a.read_strings().unwrap())
+                }
+                dt => format!("{dt:?} {:?} {:?}", a.dims().unwrap(), a.read_raw().unwrap()),
+            };
+            let mut v: Vec<String> = notes
+                .attr_names()
+                .unwrap()
+                .into_iter()
+                .map(|n| format!("{n} {}", raw(notes.attr(&n).unwrap())))
+                .collect();
+            v.extend(
+                root.attr_names()
+                    .unwrap()
+                    .into_iter()
+                    .map(|n| format!("/{n}")),
+            );
+            v.push(format!("{:?}", trace.read_raw_bytes().unwrap()));
+            v.sort();
+            v
+        };
+        let want = listing(&p);
+        assert_eq!(want.len(), 8 + 2 + 1, "{want:?}");
+        let cube = read_cube(&p).unwrap();
+        let mut u = GroupUpdate::rewrite(CubeReader::open(&p).unwrap()).unwrap();
+        assert!(matches!(u.target, UpdateTarget::Cube { .. }));
+        u.write_group("g", &GroupData::default()).unwrap();
+        u.finish().unwrap();
+        assert_eq!(listing(&p), want);
+        assert_eq!(read_cube(&p).unwrap(), cube);
+        assert_eq!(GroupReader::open(&p).unwrap().groups(), ["g", "notes"]);
     }
 
     #[test]

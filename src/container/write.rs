@@ -406,6 +406,9 @@ pub struct CubeWriter {
     groups: GroupSinks,
     sink: CubeSink,
     out: AtomicFile,
+    /// The file whose other tools' objects are copied in at the end
+    /// ([`CubeWriter::keep_foreign_from`]).
+    foreign_from: Option<PathBuf>,
 }
 
 impl CubeWriter {
@@ -457,7 +460,16 @@ impl CubeWriter {
             groups: GroupSinks::default(),
             sink,
             out,
+            foreign_from: None,
         })
+    }
+
+    /// Keep in the new cube what other tools wrote into the file at `source` (its root
+    /// attributes, groups and datasets that are not femto's, such as an h5py user's
+    /// notes): copied in by [`CubeWriter::finish`], which fails, naming it, on one femto
+    /// cannot carry.
+    pub fn keep_foreign_from(&mut self, source: &Path) {
+        self.foreign_from = Some(source.to_path_buf());
     }
 
     /// Write rows `y0 .. y0 + n` from `rows` (`n * nx * nt` values, layout `[y][x][t]`).
@@ -518,8 +530,17 @@ impl CubeWriter {
     /// Check every row (of the cube and of every group) was written, close the file and
     /// rename it onto the destination.
     pub fn finish(self) -> Result<()> {
-        let CubeWriter { groups, sink, out } = self;
+        let CubeWriter {
+            groups,
+            sink,
+            out,
+            foreign_from,
+        } = self;
         groups.close(out.dest())?;
+        if let Some(source) = foreign_from {
+            let src = super::open::open_h5(&source)?;
+            super::foreign::copy_foreign(&src, &source, &sink.file, out.dest(), &[])?;
+        }
         sink.close()?;
         commit(out)
     }

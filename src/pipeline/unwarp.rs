@@ -204,6 +204,7 @@ pub fn unwarp_file(
         &provenance,
         compression,
     )?;
+    writer.keep_foreign_from(input);
     let slabs = Slabs {
         meta: &meta,
         dist: &dist,

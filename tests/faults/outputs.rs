@@ -332,6 +332,21 @@ fn a_full_disk_keeps_every_earlier_output_and_leaves_no_temp() {
 /// (the run is under way and has something to clean), let it work 0.5 s more, then send
 /// `signal`; returns the exit code (minus the signal's number for a run the signal killed).
 fn interrupted(dir: &Path, args: &[&str], dest: &str, signal: i32) -> Option<i32> {
+    let temp = |pid: u32| {
+        let prefix = format!(".{dest}.femto-{pid}-");
+        temps(dir).iter().any(|n| n.starts_with(&prefix))
+    };
+    interrupted_when(dir, args, "a temporary file appeared", &temp, signal)
+}
+
+/// [`interrupted`], once `under_way(pid)` says the run is under way (`what`, for messages).
+fn interrupted_when(
+    dir: &Path,
+    args: &[&str],
+    what: &str,
+    under_way: &dyn Fn(u32) -> bool,
+    signal: i32,
+) -> Option<i32> {
     let mut child = FemtoCmd::new()
         .args(args)
         .current_dir(dir)
@@ -340,21 +355,17 @@ fn interrupted(dir: &Path, args: &[&str], dest: &str, signal: i32) -> Option<i32
         .stderr(Stdio::null())
         .spawn()
         .expect("femto starts");
-    let prefix = format!(".{dest}.femto-{}-", child.id());
     let started = Instant::now();
     loop {
-        if temps(dir).iter().any(|n| n.starts_with(&prefix)) {
+        if under_way(child.id()) {
             break;
         }
         if let Some(status) = child.try_wait().unwrap() {
-            panic!(
-                "femto {} ended ({status}) before a temporary file appeared",
-                args.join(" ")
-            );
+            panic!("femto {} ended ({status}) before {what}", args.join(" "));
         }
         assert!(
             started.elapsed() < Duration::from_secs(120),
-            "no temporary file of {dest} after 120 s"
+            "not {what} after 120 s"
         );
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -443,7 +454,17 @@ fn sigterm_during_an_in_place_pyramid_keeps_the_cube() {
     }
     writer.finish().unwrap();
     let before = Snapshot::of(d);
-    let code = interrupted(d, &["pyramid", "big.h5"], "big.h5", libc::SIGTERM);
+    // The pyramid is appended to the cube file in place (copy-on-write): the run is under
+    // way once the file grows; interrupted, it is cut back to its old bytes.
+    let old_len = std::fs::metadata(d.join("big.h5")).unwrap().len();
+    let grown = |_pid: u32| std::fs::metadata(d.join("big.h5")).unwrap().len() > old_len;
+    let code = interrupted_when(
+        d,
+        &["pyramid", "big.h5"],
+        "big.h5 grew",
+        &grown,
+        libc::SIGTERM,
+    );
     assert_eq!(code, Some(143));
     assert_eq!(before.changes(&Snapshot::of(d)), Vec::<String>::new());
 }

@@ -1,0 +1,3 @@
+pub mod btree_v2;
+pub mod extensible_array;
+pub mod fixed_array;
