@@ -230,9 +230,18 @@ impl GroupUpdate {
         attrs: &[(String, AttrValue)],
         datasets: &[DatasetSpec],
     ) -> Result<()> {
+        let _io = self.io_section();
         self.unlink_old(name)?;
         let file = self.target.file();
         self.groups.begin(file, &self.dest, name, attrs, datasets)
+    }
+
+    /// In place, every write to the cube file runs inside an interrupt commit section: a
+    /// signal waits for the write under way and then holds the section while it cuts the
+    /// file back, so no write lands after the cut (a rewrite writes a temporary file, which
+    /// the handler removes: no section needed).
+    fn io_section(&self) -> Option<crate::interrupt::Commit> {
+        matches!(self.target, UpdateTarget::InPlace { .. }).then(crate::interrupt::commit)
     }
 
     /// In place, delete group `name` of the old file (if it has one) before it is written
@@ -266,11 +275,13 @@ impl GroupUpdate {
         r0: usize,
         rows: &DataBuf,
     ) -> Result<()> {
+        let _io = self.io_section();
         self.groups.write_rows(&self.dest, group, dataset, r0, rows)
     }
 
     /// Write a whole group at once.
     pub fn write_group(&mut self, name: &str, data: &GroupData) -> Result<()> {
+        let _io = self.io_section();
         self.unlink_old(name)?;
         let file = self.target.file();
         self.groups.write_whole(file, &self.dest, name, data)
@@ -293,7 +304,9 @@ impl GroupUpdate {
             dest,
         } = self;
         let written = groups.written.clone();
+        let io = matches!(target, UpdateTarget::InPlace { .. }).then(crate::interrupt::commit);
         groups.close(&dest)?;
+        drop(io);
         let out = match (target, out) {
             (UpdateTarget::InPlace { file }, _) => return Ok(StagedFile(Staged::InPlace(file))),
             (target, Some(out)) => (target, out),
