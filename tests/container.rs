@@ -693,7 +693,7 @@ fn info_rejects_other_files_in_one_line() {
     }
 }
 
-/// The h5py fixtures (tests/data/h5py, written by tools/interop/make_h5py_fixtures.py): a
+/// The h5py fixtures (tests/data/h5py, written by tools/make_h5py_fixtures.py): a
 /// femto cube that h5py annotated, and a cube h5py wrote itself and annotated.
 const H5PY_FIXTURES: [&str; 2] = ["annotated.h5", "h5py_cube.h5"];
 

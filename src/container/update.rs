@@ -409,7 +409,7 @@ mod tests {
 
     /// The rewrite (the fallback where the HDF5 layer cannot append to a file) keeps what
     /// another tool wrote: h5py's root attributes, its group with its attributes and its
-    /// dataset (tests/data/h5py, made by tools/interop/make_h5py_fixtures.py).
+    /// dataset (tests/data/h5py, made by tools/make_h5py_fixtures.py).
     #[test]
     fn the_fallback_rewrite_keeps_what_h5py_wrote() {
         let dir = tempfile::tempdir().unwrap();

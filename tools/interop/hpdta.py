@@ -101,6 +101,10 @@ def read_png16(path: str) -> np.ndarray:
 def _rsciio(path: str):
     from rsciio.hamamatsu import file_reader
 
+    # rosettasciio warns on every file that lumispy, an optional package, is absent; its
+    # logger is set up when rsciio is imported, so quieten it after.
+    logging.getLogger("rsciio").setLevel(logging.ERROR)
+
     (result,) = file_reader(path)
     return result
 

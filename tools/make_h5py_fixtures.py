@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Write the h5py fixtures of tests/container.rs (tests/data/h5py/), with h5py and numpy.
 
-    python3 tools/interop/make_h5py_fixtures.py target/debug/femto
+    python3 tools/make_h5py_fixtures.py target/debug/femto
 
 - `annotated.h5`: a small cube written by femto (`femto simulate` at 8 x 6 pixels and
   `femto ingest`), then annotated by h5py as `tools/interop/h5.py` annotates (a group
@@ -24,7 +24,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from h5 import annotate  # noqa: E402
+from interop.h5 import annotate  # noqa: E402
 
 
 def main(argv):
