@@ -12,6 +12,7 @@ pub mod ingest;
 pub mod ingest_interop;
 pub mod pyramid;
 pub mod render;
+pub mod render_inputs;
 pub mod simulate;
 pub mod unwarp;
 pub mod values;

@@ -23,7 +23,7 @@ use super::values::{
 };
 use anyhow::{anyhow, bail};
 use clap::{ArgGroup, Args};
-use femto::pipeline::render::{open_render_inputs, render_to, Camera, RenderOptions};
+use femto::pipeline::render::{render_to, Camera, RenderOptions};
 use femto::render::paths::Shortcut;
 use femto::render::Effects;
 use femto::video::VideoFormat;
@@ -36,19 +36,8 @@ use std::path::PathBuf;
         .args(["path", "dolly", "orbit", "capture_view"])
 ))]
 pub struct RenderArgs {
-    /// World-time cube (HDF5, e.g. from the unwarp step).
-    #[arg(long, value_name = "WORLD.h5")]
-    pub cube: PathBuf,
-    /// Pyramid side file of the cube (`femto pyramid CUBE --side-file PATH`). Default: the
-    /// cube file's own `pyramid` group when it has one, else prefix sums built in memory.
-    #[arg(long, value_name = "PYRAMID.h5")]
-    pub pyramid: Option<PathBuf>,
-    /// Calibration of the capture camera, laser spot and time origin (TOML).
-    #[arg(long, value_name = "CAL.toml")]
-    pub calibration: PathBuf,
-    /// Scene geometry in world metres (.glb, .gltf or .obj).
-    #[arg(long, value_name = "MESH")]
-    pub mesh: PathBuf,
+    #[command(flatten)]
+    pub inputs: super::render_inputs::RenderInputArgs,
     /// Camera path file (TOML; frame size, count and interval from the file unless given).
     #[arg(long, value_name = "PATH.toml")]
     pub path: Option<PathBuf>,
@@ -98,10 +87,6 @@ pub struct RenderArgs {
     /// 0.1 % of the capture at half of the display range).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub exposure: f64,
-    /// Laser wavelength in nm [default: the cube's `laser_nm` attribute, which `femto ingest`
-    /// takes from the capture's manifest; else 670 nm, with a warning].
-    #[arg(long, value_name = "NM")]
-    pub laser_nm: Option<f64>,
     /// Contour spacing of the isochrone view, ps (default: a round value giving 10 to 25
     /// contours over the frame's range).
     #[arg(long, value_name = "PS")]
@@ -188,19 +173,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let (camera, options) = options(&args)?;
     femto::pipeline::render::check_options(&options)?;
-    let inputs = open_render_inputs(
-        &args.cube,
-        args.pyramid.as_deref(),
-        &args.calibration,
-        &args.mesh,
-        args.laser_nm,
-    )?;
-    let mut input_paths = vec![
-        args.cube.as_path(),
-        args.calibration.as_path(),
-        args.mesh.as_path(),
-    ];
-    input_paths.extend(args.pyramid.as_deref());
+    let inputs = args.inputs.open()?;
+    let mut input_paths = args.inputs.paths();
     input_paths.extend(args.path.as_deref());
     let done = render_to(
         &inputs,

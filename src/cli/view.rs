@@ -6,39 +6,22 @@
 //! ssh -L 8765:127.0.0.1:8765 lab-workstation   # then open http://127.0.0.1:8765/ here
 //! ```
 //!
-//! Opens the inputs as `femto render` does ([`femto::pipeline::render::open_render_inputs`]),
+//! Opens the inputs as `femto render` does (the same flags, [`super::render_inputs`]),
 //! binds the server, prints its URL as the first line of stdout, and serves until Ctrl-C.
 
 use anyhow::anyhow;
 use clap::Args;
-use femto::pipeline::render::open_render_inputs;
 use femto::view::{server, ViewSession};
 use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::path::PathBuf;
 
 /// Port `femto view` listens on unless told otherwise.
 pub const DEFAULT_PORT: u16 = 8765;
 
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// World-time cube (HDF5, e.g. from the unwarp step).
-    #[arg(long, value_name = "WORLD.h5")]
-    pub cube: PathBuf,
-    /// Pyramid side file of the cube (default: the cube's own `pyramid` group, else prefix
-    /// sums built in memory).
-    #[arg(long, value_name = "PYRAMID.h5")]
-    pub pyramid: Option<PathBuf>,
-    /// Calibration of the capture camera, laser spot and time origin (TOML).
-    #[arg(long, value_name = "CAL.toml")]
-    pub calibration: PathBuf,
-    /// Scene geometry in world metres (.glb, .gltf or .obj).
-    #[arg(long, value_name = "MESH")]
-    pub mesh: PathBuf,
-    /// Laser wavelength in nm [default: the cube's `laser_nm` attribute, else 670 nm, with a
-    /// warning]. The page can change it.
-    #[arg(long, value_name = "NM")]
-    pub laser_nm: Option<f64>,
+    #[command(flatten)]
+    pub inputs: super::render_inputs::RenderInputArgs,
     /// Port to listen on; 0 takes a free one (the URL on stdout says which).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PORT)]
     pub port: u16,
@@ -55,17 +38,6 @@ pub struct ViewArgs {
     pub threads: Option<u16>,
 }
 
-fn shell_quote(p: &std::path::Path) -> String {
-    let s = p.display().to_string();
-    if s.chars()
-        .all(|c| c.is_ascii_alphanumeric() || "/._-+,:=@".contains(c))
-    {
-        s
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
-}
-
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
@@ -73,23 +45,8 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
             .build_global()
             .map_err(|e| anyhow!("--threads {n}: {e}"))?;
     }
-    let inputs = open_render_inputs(
-        &args.cube,
-        args.pyramid.as_deref(),
-        &args.calibration,
-        &args.mesh,
-        args.laser_nm,
-    )?;
-    let mut render_inputs = format!(
-        "--cube {} --calibration {} --mesh {}",
-        shell_quote(&args.cube),
-        shell_quote(&args.calibration),
-        shell_quote(&args.mesh)
-    );
-    if let Some(p) = &args.pyramid {
-        render_inputs.push_str(&format!(" --pyramid {}", shell_quote(p)));
-    }
-    let session = ViewSession::new(&inputs, render_inputs)?;
+    let inputs = args.inputs.open()?;
+    let session = ViewSession::new(&inputs, args.inputs.shell_flags())?;
     let (http, bound) = server::bind(SocketAddr::new(args.bind, args.port))
         .map_err(|e| anyhow!("--port {} --bind {}: {e}", args.port, args.bind))?;
     let url = format!("http://{bound}/");

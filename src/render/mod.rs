@@ -180,8 +180,10 @@ pub enum RenderError {
     UnknownView(String),
 }
 
-/// Which relativistic effects are applied (all on by default).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which relativistic effects are applied (all on by default). As JSON (`femto view`'s
+/// state): an object of the six booleans, every one required.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Per-view time re-warp `t_e = t_receive - eta r / c`.
     pub unwarp: bool,

@@ -5,7 +5,7 @@
 //! defaults of `femto render`.
 
 use super::keyframes::{export_path, frames_of_path, LoadedPath};
-use super::state::{BadState, EffectSwitches, ViewName, ViewState};
+use super::state::{BadState, ViewName, ViewState};
 use crate::camera_path::CameraPath;
 use crate::pipeline::render::{plan, Camera, Plan, RenderInputs};
 use crate::pipeline::StageError;
@@ -124,7 +124,7 @@ impl<'a> ViewSession<'a> {
             width,
             height,
             rotation: None,
-            effects: EffectSwitches::from(crate::render::Effects::ALL),
+            effects: crate::render::Effects::ALL,
             view: ViewName::Transient,
             radiometry: crate::relativity::Radiometry::Consistent,
             exposure: 1.0,

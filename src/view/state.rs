@@ -44,7 +44,8 @@ pub struct ViewState {
     /// A rotating sensor (seed Sec. 4.3), or none.
     #[serde(default)]
     pub rotation: Option<SensorSpin>,
-    pub effects: EffectSwitches,
+    /// The six effects, each on or off (`femto render --effects`).
+    pub effects: Effects,
     pub view: ViewName,
     pub radiometry: Radiometry,
     /// Multiplier of the automatic exposure.
@@ -59,44 +60,6 @@ pub struct ViewState {
 pub struct SensorSpin {
     pub axis: RotationAxis,
     pub beta_edge: f64,
-}
-
-/// The six effects, each on or off (`femto render --effects`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EffectSwitches {
-    pub unwarp: bool,
-    pub aberration: bool,
-    pub doppler: bool,
-    pub searchlight: bool,
-    pub dilation: bool,
-    pub rotation: bool,
-}
-
-impl From<EffectSwitches> for Effects {
-    fn from(e: EffectSwitches) -> Effects {
-        Effects {
-            unwarp: e.unwarp,
-            aberration: e.aberration,
-            doppler: e.doppler,
-            searchlight: e.searchlight,
-            dilation: e.dilation,
-            rotation: e.rotation,
-        }
-    }
-}
-
-impl From<Effects> for EffectSwitches {
-    fn from(e: Effects) -> EffectSwitches {
-        EffectSwitches {
-            unwarp: e.unwarp,
-            aberration: e.aberration,
-            doppler: e.doppler,
-            searchlight: e.searchlight,
-            dilation: e.dilation,
-            rotation: e.rotation,
-        }
-    }
 }
 
 /// What a frame shows (`femto render --view`).
@@ -302,7 +265,7 @@ impl ViewState {
         format!(
             "--view {} --effects {} --radiometry {} --exposure {} --laser-nm {}",
             self.view.as_str(),
-            Effects::from(self.effects),
+            self.effects,
             match self.radiometry {
                 Radiometry::Consistent => "consistent",
                 Radiometry::Paper => "paper",
@@ -322,7 +285,7 @@ impl ViewState {
     /// The render options `femto render --path` gets from [`ViewState::render_flags`].
     pub fn render_options(&self) -> RenderOptions {
         RenderOptions {
-            effects: self.effects.into(),
+            effects: self.effects,
             radiometry: self.radiometry,
             view: self.view.into(),
             exposure: self.exposure,
@@ -353,7 +316,7 @@ pub(crate) mod tests {
             width: 64,
             height: 48,
             rotation: None,
-            effects: Effects::ALL.into(),
+            effects: Effects::ALL,
             view: ViewName::Transient,
             radiometry: Radiometry::Consistent,
             exposure: 1.0,

@@ -228,6 +228,30 @@ pub fn refused_unchanged(
     err
 }
 
+/// A capture of the built-in `cube` scene at `size` (e.g. `32x24`), 16 samples per pixel,
+/// with realistic flaws, in `cap/` of a new temporary folder, taken through the stages after
+/// it ([`chain_after_capture`]): the fixture of the fault corpus and of `femto view`'s tests.
+/// Returns the folder (removed when dropped) and its path.
+pub fn realistic_chain(size: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let root = dir.path().to_path_buf();
+    let cap = root.join("cap");
+    femto_ok(&[
+        "simulate",
+        "--scene",
+        "cube",
+        "--size",
+        size,
+        "--spp",
+        "16",
+        "--realistic",
+        "--out",
+        arg(&cap),
+    ]);
+    chain_after_capture(&root, &cap);
+    (dir, root)
+}
+
 /// The stages after a simulated capture `cap`, each with defaults, writing into `root`:
 /// `cube.h5` (ingest), `cube.calibration.toml` (calibrate against the capture's mesh, fiducials
 /// and true laser position), `world.h5` (unwarp) with its pyramid group. The fixtures of the

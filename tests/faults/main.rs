@@ -15,7 +15,6 @@ mod numbers;
 mod outputs;
 mod sizes;
 
-use cli::{arg, femto_ok};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -31,22 +30,7 @@ pub struct Fixture {
 pub fn fixture() -> &'static Fixture {
     static FIXTURE: OnceLock<Fixture> = OnceLock::new();
     FIXTURE.get_or_init(|| {
-        let dir = tempfile::tempdir().expect("a temporary folder");
-        let root = dir.path().to_path_buf();
-        let cap = root.join("cap");
-        femto_ok(&[
-            "simulate",
-            "--scene",
-            "cube",
-            "--size",
-            "32x24",
-            "--spp",
-            "16",
-            "--realistic",
-            "--out",
-            arg(&cap),
-        ]);
-        cli::chain_after_capture(&root, &cap);
+        let (dir, root) = cli::realistic_chain("32x24");
         Fixture { _dir: dir, root }
     })
 }

@@ -10,7 +10,6 @@ mod api;
 mod browser;
 mod hostile;
 
-use cli::{arg, femto_ok};
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -28,22 +27,9 @@ pub struct Fixture {
 pub fn fixture() -> &'static Fixture {
     static FIXTURE: OnceLock<Fixture> = OnceLock::new();
     FIXTURE.get_or_init(|| {
-        let dir = tempfile::tempdir().expect("a temporary folder");
-        let root = dir.path().to_path_buf();
-        let cap = root.join("cap");
-        femto_ok(&[
-            "simulate",
-            "--scene",
-            "cube",
-            "--size",
+        let (dir, root) = cli::realistic_chain(
             &std::env::var("FEMTO_VIEW_CAPTURE").unwrap_or_else(|_| "32x24".into()),
-            "--spp",
-            "16",
-            "--realistic",
-            "--out",
-            arg(&cap),
-        ]);
-        cli::chain_after_capture(&root, &cap);
+        );
         Fixture { _dir: dir, root }
     })
 }
