@@ -228,11 +228,17 @@ pub fn refused_unchanged(
     err
 }
 
+/// A folder of files made for a test, and its path.
+pub struct Fixture {
+    _dir: tempfile::TempDir,
+    pub root: std::path::PathBuf,
+}
+
 /// A capture of the built-in `cube` scene at `size` (e.g. `32x24`), 16 samples per pixel,
 /// with realistic flaws, in `cap/` of a new temporary folder, taken through the stages after
 /// it ([`chain_after_capture`]): the fixture of the fault corpus and of `femto view`'s tests.
-/// Returns the folder (removed when dropped) and its path.
-pub fn realistic_chain(size: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+/// The folder is removed when the fixture is dropped.
+pub fn realistic_chain(size: &str) -> Fixture {
     let dir = tempfile::tempdir().expect("a temporary folder");
     let root = dir.path().to_path_buf();
     let cap = root.join("cap");
@@ -249,7 +255,7 @@ pub fn realistic_chain(size: &str) -> (tempfile::TempDir, std::path::PathBuf) {
         arg(&cap),
     ]);
     chain_after_capture(&root, &cap);
-    (dir, root)
+    Fixture { _dir: dir, root }
 }
 
 /// The stages after a simulated capture `cap`, each with defaults, writing into `root`:

@@ -15,24 +15,16 @@ mod numbers;
 mod outputs;
 mod sizes;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
 /// The files of one small realistic chain, built once per test run: the simulated capture
 /// folder `cap/` (built-in cube scene, 32 x 24 pixels, every `--realistic` flaw, PNG16
 /// scanlines), `cube.h5` (ingested with defaults), `cube.calibration.toml` (calibrated with
 /// defaults), `world.h5` (unwarped) with its pyramid group.
-pub struct Fixture {
-    _dir: tempfile::TempDir,
-    pub root: PathBuf,
-}
-
-pub fn fixture() -> &'static Fixture {
-    static FIXTURE: OnceLock<Fixture> = OnceLock::new();
-    FIXTURE.get_or_init(|| {
-        let (dir, root) = cli::realistic_chain("32x24");
-        Fixture { _dir: dir, root }
-    })
+pub fn fixture() -> &'static cli::Fixture {
+    static FIXTURE: OnceLock<cli::Fixture> = OnceLock::new();
+    FIXTURE.get_or_init(|| cli::realistic_chain("32x24"))
 }
 
 /// `femto render` of the fixture's world cube (`world.h5`) with the calibration file

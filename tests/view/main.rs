@@ -11,26 +11,20 @@ mod browser;
 mod hostile;
 
 use std::io::{BufRead, BufReader, Read};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-pub struct Fixture {
-    _dir: tempfile::TempDir,
-    pub root: PathBuf,
-}
-
 /// A capture of the built-in `cube` scene, 32 x 24 (or `FEMTO_VIEW_CAPTURE`, e.g. `160x120`
 /// for the README's screenshot), with realistic flaws, taken through ingest, calibrate,
 /// unwarp and pyramid with defaults.
-pub fn fixture() -> &'static Fixture {
-    static FIXTURE: OnceLock<Fixture> = OnceLock::new();
+pub fn fixture() -> &'static cli::Fixture {
+    static FIXTURE: OnceLock<cli::Fixture> = OnceLock::new();
     FIXTURE.get_or_init(|| {
-        let (dir, root) = cli::realistic_chain(
+        cli::realistic_chain(
             &std::env::var("FEMTO_VIEW_CAPTURE").unwrap_or_else(|_| "32x24".into()),
-        );
-        Fixture { _dir: dir, root }
+        )
     })
 }
 
