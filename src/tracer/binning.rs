@@ -131,6 +131,13 @@ pub struct ResponseTable {
     /// table's hot part small enough for the cache). 0 for a delta pulse, whose table is the
     /// tent; 0.5 or more: always the table.
     tent_from: f64,
+    /// Where a sample sits relative to its placement bin: 0.5 for the sensor's response
+    /// (bin `floor(b - 0.5)`, the last centre at or before the sample), 0 for a histogram
+    /// (bin `floor(b)`, the bin the sample falls in).
+    place_shift: f64,
+    /// Factor of the sample's distance past its placement bin: 1 for the sensor's response,
+    /// 0 for a histogram (all of the sample in the placement bin: tent weights `1, 0`).
+    f_scale: f64,
 }
 
 impl ResponseTable {
@@ -208,6 +215,22 @@ impl ResponseTable {
             rows,
             table,
             tent_from,
+            place_shift: 0.5,
+            f_scale: 1.0,
+        }
+    }
+
+    /// The table of a histogram of arrival times (no pulse, no sensor blur): each sample adds
+    /// its whole value to the one bin its arrival time falls in, `[t0 + i dt, t0 + (i + 1) dt)`.
+    /// This is what a renderer with box time bins estimates (mitransient's
+    /// `transient_hdr_film`); femto's own cubes use [`ResponseTable::new`], the sensor's
+    /// response. Implemented as the delta pulse's tent placed at the bin's start with weights
+    /// `1, 0`, so it shares every code path (and the path window's reach) with the tent.
+    pub fn histogram(axis: TimeAxis) -> ResponseTable {
+        ResponseTable {
+            place_shift: 0.0,
+            f_scale: 0.0,
+            ..ResponseTable::new(&TimeResponse::new(axis, 0.0))
         }
     }
 
@@ -264,7 +287,7 @@ impl ResponseTable {
     /// [`ResponseTable::add`]; `None` for a non-finite coordinate.
     #[inline(always)]
     pub fn place(&self, b: f64) -> Option<Placement> {
-        let tc = b - 0.5;
+        let tc = b - self.place_shift;
         if !tc.is_finite() || tc.abs() > 1e15 {
             return None;
         }
@@ -272,7 +295,7 @@ impl ResponseTable {
         // exact for |tc| <= 1e15 < 2^53.
         let trunc = tc as i64;
         let floor = (trunc - ((trunc as f64) > tc) as i64) as f64;
-        let f = tc - floor;
+        let f = (tc - floor) * self.f_scale;
         Some(Placement {
             floor: floor as isize,
             f,
@@ -347,9 +370,10 @@ impl ResponseTable {
 /// Where a sample falls on a [`ResponseTable`]'s axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {
-    /// Bin whose centre is the last at or before the sample (`floor(b - 0.5)`).
+    /// Bin whose centre is the last at or before the sample (`floor(b - 0.5)`; for a
+    /// [`ResponseTable::histogram`], the bin the sample falls in, `floor(b)`).
     floor: isize,
-    /// Distance of the sample past that centre, bins, in `[0, 1)`.
+    /// Distance of the sample past that centre, bins, in `[0, 1)` (0 for a histogram).
     f: f64,
     /// Whether the weights are the plain tent: `1 - f` on bin `floor`, `f` on the next.
     tent: bool,
@@ -467,6 +491,34 @@ mod tests {
             assert!(weight_inside(early + 2.5 * dt + 6.0 * sigma_ps, &mut w) > 0.0);
             assert!(weight_inside(late - 2.5 * dt - 6.0 * sigma_ps, &mut w) > 0.0);
         }
+    }
+
+    #[test]
+    fn a_histogram_puts_each_sample_in_the_bin_it_falls_in() {
+        let table = ResponseTable::histogram(axis());
+        let (t0, dt, nt) = (axis().t0_ps, axis().dt_ps, axis().nt);
+        let mut scratch = vec![0.0; table.len()];
+        // Starts, middles and ends of bins; every sample lands whole in bin floor((t - t0) / dt).
+        for k in 0..(4 * nt) {
+            let t = t0 + k as f64 * 0.25 * dt + [0.0, 0.1, 0.5, 0.999][k % 4] * 0.25 * dt;
+            let mut profile = vec![0.0; nt];
+            let p = table.place(table.bin_coord(t)).unwrap();
+            let lost = table.add(&p, &mut profile, 3.0, &mut scratch);
+            let bin = ((t - t0) / dt).floor() as usize;
+            assert_eq!(lost, 0.0, "t {t}");
+            assert_eq!(profile[bin], 3.0, "t {t}");
+            assert_eq!(profile.iter().sum::<f64>(), 3.0, "t {t}");
+        }
+        // Before the first bin and at the end of the last: all lost, nothing added.
+        for t in [t0 - 1e-9, t0 - 0.5 * dt, t0 + nt as f64 * dt, t0 + (nt as f64 + 0.5) * dt] {
+            let mut profile = vec![0.0; nt];
+            let p = table.place(table.bin_coord(t)).unwrap();
+            assert_eq!(table.add(&p, &mut profile, 3.0, &mut scratch), 3.0, "t {t}");
+            assert!(profile.iter().all(|&v| v == 0.0), "t {t}");
+        }
+        // The histogram's bins lie inside the tent's reach, which the path window uses.
+        let (early, late) = table.reach_ps();
+        assert!(early <= t0 && late >= t0 + nt as f64 * dt);
     }
 
     #[test]

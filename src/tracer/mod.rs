@@ -107,6 +107,21 @@ pub struct TraceOptions {
     /// importance sampling (balance heuristic). Unbiased either way; it removes the spikes of
     /// bounces that land next to the spot, for one emission ray and a shadow ray per vertex.
     pub light_vertex: bool,
+    /// How a sample's arrival time is binned.
+    pub time_filter: TimeFilter,
+}
+
+/// How the tracer bins a sample's arrival time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TimeFilter {
+    /// The capture's response (physics.md, "Transient path tracing"): the laser's Gaussian
+    /// pulse and the streak sensor's one-bin box, a tent for a short pulse
+    /// ([`binning::TimeResponse`]). femto's cubes.
+    #[default]
+    Sensor,
+    /// A histogram of arrival times: each sample in the one bin it falls in, no pulse. The
+    /// quantity renderers with box time bins estimate (mitransient), for comparisons.
+    Box,
 }
 
 impl Default for TraceOptions {
@@ -120,6 +135,7 @@ impl Default for TraceOptions {
             split_bounces: true,
             world_time: true,
             light_vertex: true,
+            time_filter: TimeFilter::Sensor,
         }
     }
 }
@@ -285,13 +301,15 @@ impl<'a> Tracer<'a> {
     /// [`TraceOptions::world_time`] this probes the whole image for [`world_axis`].
     pub fn new(scene: &'a Scene, bvh: &'a Bvh, opts: &TraceOptions) -> Tracer<'a> {
         let sigma_ps = scene.laser.pulse_sigma_ps();
+        let table = |axis| match opts.time_filter {
+            TimeFilter::Sensor => ResponseTable::new(&TimeResponse::new(axis, sigma_ps)),
+            TimeFilter::Box => ResponseTable::histogram(axis),
+        };
         Tracer {
             kernel: kernel(scene, bvh, opts),
             opts: *opts,
-            cam_resp: ResponseTable::new(&TimeResponse::new(scene.camera.axis, sigma_ps)),
-            world_resp: opts
-                .world_time
-                .then(|| ResponseTable::new(&TimeResponse::new(world_axis(scene, bvh), sigma_ps))),
+            cam_resp: table(scene.camera.axis),
+            world_resp: opts.world_time.then(|| table(world_axis(scene, bvh))),
             #[cfg(target_arch = "x86_64")]
             wide_isa: bvh.simd().is_none_or(|l| l >= SimdLevel::Avx2)
                 && is_x86_feature_detected!("avx")
