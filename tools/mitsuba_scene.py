@@ -1,6 +1,5 @@
-"""A femto scene file as a Mitsuba 3 + mitransient scene, and femto's time filter applied to
-Mitsuba's histogram: the one place where tools/compare_mitsuba.py and tools/make_golden.py
-turn femto's conventions into Mitsuba's.
+"""A femto scene file as a Mitsuba 3 + mitransient scene: the one place where
+tools/compare_mitsuba.py and tools/make_golden.py turn femto's conventions into Mitsuba's.
 
 Scene. The scene file's meshes must all be `file` meshes (OBJ, flat triangles); each becomes
 an `obj` shape with face normals and a two-sided diffuse BSDF of the entry's albedo. The laser
@@ -9,15 +8,11 @@ must be isotropic; it becomes a `point` emitter of intensity energy / (4 pi). Th
 optical path from the near plane, so its default 1 cm would make all light 33 ps early).
 femto's `--bounces N` is Mitsuba's `max_depth = N + 1`.
 
-Time. femto splats each path sample into the two time bins whose centres bracket its arrival
-(a tent one bin wide on each side; the scene's pulse width is 0, so there is no Gaussian),
-Mitsuba's `transient_hdr_film` adds it to the one bin it falls in (a box). The two are
-different quantities: femto's bin i is the integral of the transient against the tent centred
-on bin i's centre. To compare like with like, Mitsuba renders `FINE` times finer bins over the
-window widened by half a bin on each side (the tent's reach), and `tent_filter` weighs each
-fine bin by the tent at its centre. With `FINE` even, every fine bin lies inside one linear
-piece of every tent, so the filtered histogram estimates femto's quantity up to the variation
-of the light's mean time within a fine bin (second order in the fine bin's width).
+Time. femto's cubes splat each sample into the two bins whose centres bracket its arrival
+(the sensor's tent); Mitsuba's `transient_hdr_film` adds it to the one bin it falls in (a box
+histogram). The two are different quantities, so both sides of a comparison render the
+histogram: femto with `--time-filter box` (`TimeFilter::Box`), Mitsuba with the scene's own
+bins (`start_opl = t0 c`, `bin_width_opl = dt c`). Both then estimate the same number per bin.
 """
 
 import math
@@ -27,8 +22,6 @@ import tomllib
 import numpy as np
 
 C_M_PER_PS = 2.99792458e-4
-# Fine bins per femto bin (even: see the module doc).
-FINE = 4
 
 
 def load(path):
@@ -48,24 +41,12 @@ def load(path):
     return scene
 
 
-def fine_window(scene):
-    """(start_opl_m, bin_width_opl_m, bins) of the fine Mitsuba film: the scene's window widened
-    by half a bin on each side, in FINE times finer bins."""
-    cam = scene["camera"]
-    dt_m = cam["dt_ps"] * C_M_PER_PS
-    start = cam["t0_ps"] * C_M_PER_PS - 0.5 * dt_m
-    return start, dt_m / FINE, FINE * (cam["nt"] + 1)
-
-
-def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4, fine=True):
-    """The Mitsuba scene dict. With `fine` False the film has the scene's own bins (for timing
-    the cost of the finer film)."""
+def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4):
+    """The Mitsuba scene dict of `scene` (from `load`), for paths of at most `max_bounces`
+    surface interactions."""
     cam = scene["camera"]
     t = mi.ScalarTransform4f
-    if fine:
-        start, width, bins = fine_window(scene)
-    else:
-        start, width, bins = cam["t0_ps"] * C_M_PER_PS, cam["dt_ps"] * C_M_PER_PS, cam["nt"]
+    start, width, bins = cam["t0_ps"] * C_M_PER_PS, cam["dt_ps"] * C_M_PER_PS, cam["nt"]
     d = {
         "type": "scene",
         "integrator": {"type": "transient_path", "max_depth": max_bounces + 1, "camera_unwarp": False},
@@ -102,18 +83,8 @@ def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4, fine=True
     return d
 
 
-def tent_filter(fine_cube, nt):
-    """femto's time bins from a fine histogram `(..., FINE * (nt + 1))` of `fine_window`: bin i
-    is the sum of the fine bins weighted by the tent centred on bin i's centre."""
-    j = np.arange(FINE * (nt + 1))
-    # Fine bin centres in units of coarse bins, from the first coarse bin's centre.
-    centre = (j + 0.5) / FINE - 0.5 - 0.5
-    w = np.maximum(0.0, 1.0 - np.abs(centre[:, None] - np.arange(nt)[None, :]))
-    return fine_cube @ w
-
-
 def render(mi_scene, mi, dr, spp, seed):
-    """One render: (cube (ny, nx, bins) float64, wall seconds)."""
+    """One render: (cube (ny, nx, nt) float64, wall seconds of `mi.render` and the read-back)."""
     import time
 
     t0 = time.perf_counter()
