@@ -31,6 +31,7 @@ pub mod camera;
 pub mod camera_path;
 pub mod color;
 pub mod container;
+pub mod cpu_time;
 pub mod cube;
 pub mod demo;
 pub mod formats;

@@ -726,7 +726,14 @@ fn existing_folder_is_refused_unless_forced() {
 #[test]
 fn bad_flags_exit_2_naming_the_flag() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: [(&[&str], &str); 14] = [
+    let cases: [(&[&str], &str); 18] = [
+        (&["--time-filter", "box"], "--transient-only"),
+        (
+            &["--transient-only", "--time-filter", "tent"],
+            "--time-filter",
+        ),
+        (&["--transient-only", "--realistic"], "--realistic"),
+        (&["--transient-only", "--threads", "0"], "--threads"),
         (&["--spp", "-3"], "--spp"),
         (&["--spp", "0"], "--spp"),
         (&["--size", "0x10"], "--size"),
@@ -805,4 +812,105 @@ fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
     // Five wall quads (two triangles each) and the bunny.
     assert_eq!(glb.triangle_count(), 5 * 2 + bunny_mesh.triangle_count());
     assert_eq!(manifest(&cap).capture.scene, "bunny");
+}
+
+#[test]
+fn transient_only_writes_the_tracers_cube_and_its_counters() {
+    // The cube scene at 24 x 16, 4 spp, 3 bounces, on 2 threads: the folder holds exactly
+    // the cube and the counters; the cube is the library's render with the same options
+    // (bit for bit), and a box-filtered render puts the same light in the window as the
+    // sensor's (each sample's weights sum to 1 either way; the scene's light lies well
+    // inside the window, which tent and box differ at).
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |name: &str, filter: &str| {
+        let args = [
+            "simulate",
+            "--out",
+            name,
+            "--size",
+            "24x16",
+            "--nt",
+            "256",
+            "--dt-ps",
+            "16",
+            "--spp",
+            "4",
+            "--bounces",
+            "3",
+            "--transient-only",
+            "--threads",
+            "2",
+            "--time-filter",
+            filter,
+        ];
+        let out = femto(tmp.path(), &args, None);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        tmp.path().join(name)
+    };
+    let (sensor, boxed) = (run("sensor", "sensor"), run("box", "box"));
+    for dir in [&sensor, &boxed] {
+        let names: Vec<PathBuf> = files_under(dir).into_keys().collect();
+        assert_eq!(
+            names,
+            ["render.json", "truth_camera.h5"].map(PathBuf::from),
+            "{}",
+            dir.display()
+        );
+    }
+    let scene = femto::scene::Scene::builtin("cube", None)
+        .unwrap()
+        .with_resolution(24, 16, 256, 16.0);
+    let bvh = Bvh::new(scene.mesh.clone());
+    for (dir, filter) in [
+        (&sensor, femto::tracer::TimeFilter::Sensor),
+        (&boxed, femto::tracer::TimeFilter::Box),
+    ] {
+        let opts = femto::tracer::TraceOptions {
+            spp: 4,
+            max_bounces: 3,
+            seed: 0,
+            split_bounces: false,
+            world_time: false,
+            time_filter: filter,
+            ..Default::default()
+        };
+        let expected = femto::tracer::trace(&scene, &bvh, &opts, &|_| {});
+        let cube = read_cube(&dir.join("truth_camera.h5")).unwrap();
+        assert_eq!(cube.frame, TimeFrame::Camera);
+        assert_eq!(cube.data, expected.camera_time.data, "{filter:?}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("render.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["paths"], 24 * 16 * 4);
+        assert_eq!(json["rays"], expected.stats.rays);
+        assert_eq!(json["threads"], 2);
+        assert_eq!(json["max_bounces"], 3);
+        assert!(json["render_seconds"].as_f64().unwrap() > 0.0);
+        assert!(json["render_cpu_seconds"].as_f64().unwrap() >= 0.0);
+    }
+    assert_eq!(
+        serde_json::from_str::<serde_json::Value>(
+            &std::fs::read_to_string(boxed.join("render.json")).unwrap()
+        )
+        .unwrap()["time_filter"],
+        "box"
+    );
+    let (a, b) = (
+        read_cube(&sensor.join("truth_camera.h5")).unwrap(),
+        read_cube(&boxed.join("truth_camera.h5")).unwrap(),
+    );
+    assert_ne!(a.data, b.data);
+    let nt = a.axis.nt;
+    for (pa, pb) in a.data.chunks(nt).zip(b.data.chunks(nt)) {
+        assert_eq!((pa[0], pa[nt - 1], pb[0], pb[nt - 1]), (0.0, 0.0, 0.0, 0.0));
+        let (sa, sb) = (
+            pa.iter().map(|&v| v as f64).sum::<f64>(),
+            pb.iter().map(|&v| v as f64).sum::<f64>(),
+        );
+        assert!((sa - sb).abs() <= 1e-5 * sa.max(1e-30), "{sa} vs {sb}");
+    }
 }

@@ -14,6 +14,7 @@ pub mod pyramid;
 pub mod render;
 pub mod render_inputs;
 pub mod simulate;
+pub mod threads;
 pub mod unwarp;
 pub mod values;
 pub mod view;

@@ -102,14 +102,8 @@ pub struct RenderArgs {
     /// Frames per second of MP4 and GIF output.
     #[arg(long, value_name = "FPS", default_value_t = 30.0)]
     pub fps: f64,
-    /// Worker threads, 1 to 1024 (default: all cores). The cap is far beyond any machine's
-    /// cores, and low enough that the threads' stacks cannot exhaust memory.
-    #[arg(
-        long,
-        value_name = "N",
-        value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS)
-    )]
-    pub threads: Option<u16>,
+    #[command(flatten)]
+    pub threads: super::threads::ThreadsArg,
 }
 
 fn output_format(args: &RenderArgs) -> anyhow::Result<VideoFormat> {
@@ -161,16 +155,8 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
     Ok((camera, options))
 }
 
-/// The most worker threads `--threads` may ask for.
-const MAX_THREADS: i64 = 1024;
-
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.into())
-            .build_global()
-            .map_err(|e| anyhow!("--threads {n}: {e}"))?;
-    }
+    args.threads.init()?;
     let (camera, options) = options(&args)?;
     femto::pipeline::render::check_options(&options)?;
     let inputs = args.inputs.open()?;

@@ -2,7 +2,7 @@
 //! [`femto::simulate`]). Flags are checked here and named in errors; the scene, the render,
 //! the imperfections and the files are the library's.
 
-use super::values::{offset_sigma, positive_finite, EnumArg, Size, StreakFormatArg};
+use super::values::{offset_sigma, positive_finite, EnumArg, Size, StreakFormatArg, TimeFilterArg};
 use anyhow::{bail, Context};
 use clap::Args;
 use femto::scene::{Scene, BUILTIN_NAMES};
@@ -89,6 +89,21 @@ pub struct SimulateArgs {
     /// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
     #[arg(long, conflicts_with_all = ["size", "nt", "dt_ps"])]
     pub seed_size: bool,
+    /// Write only the true transient cube in camera time (truth_camera.h5) and the render's
+    /// counters (render.json: paths, rays, wall and CPU seconds): the path tracer alone, as a
+    /// transient renderer is run; no streak images, imperfections, fiducials or side files.
+    #[arg(long, conflicts_with_all = ["format", "realistic", "photon_noise", "dark", "vignetting",
+          "jitter_ps", "power_sigma", "sweep", "saturation", "marker_spacing_m"])]
+    pub transient_only: bool,
+    /// How arrival times are binned: sensor (the laser pulse and the streak sensor's
+    /// one-bin response: femto's cubes) or box (a histogram of arrival times, each path sample
+    /// whole in the bin it falls in: what mitransient's box time bins estimate; only with
+    /// --transient-only).
+    #[arg(long, value_name = "FILTER", default_value = "sensor", requires = "transient_only",
+          ignore_case = true, value_parser = EnumArg::<TimeFilterArg>::new())]
+    pub time_filter: TimeFilterArg,
+    #[command(flatten)]
+    pub threads: super::threads::ThreadsArg,
     /// Spacing of the fiducial marker grid on flat surfaces, metres.
     #[arg(long, default_value_t = femto::simulate::fiducials::DEFAULT_MARKER_SPACING_M,
           allow_negative_numbers = true, value_name = "M", value_parser = positive_finite)]
@@ -177,6 +192,7 @@ fn option_flag(option: SimulateOption) -> &'static str {
         SimulateOption::Seed => "--seed",
         SimulateOption::Formats => "--format",
         SimulateOption::MarkerSpacingM => "--marker-spacing-m",
+        SimulateOption::TimeFilter => "--time-filter",
     }
 }
 
@@ -280,6 +296,8 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
         marker_spacing_m: args.marker_spacing_m,
         force: args.force,
         created_by: super::command_line(),
+        transient_only: args.transient_only,
+        time_filter: args.time_filter.into(),
     };
     if let Err(e) = opts.validate(&scene) {
         match e {
@@ -294,6 +312,7 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    args.threads.init()?;
     // The capture folder replaces --out whole: it may not be or hold an input.
     let scene_file = Path::new(&args.scene);
     let inputs: Vec<&Path> = [
@@ -314,8 +333,23 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     let axis = scene.camera.axis;
     eprintln!(
         "femto simulate: scene {}, {nx} x {ny} pixels, {} bins of {} ps from {} ps, spp {}, \
-         bounces {}, seed {}",
-        scene.name, axis.nt, axis.dt_ps, axis.t0_ps, opts.spp, opts.max_bounces, opts.seed
+         bounces {}, seed {}, {} threads{}",
+        scene.name,
+        axis.nt,
+        axis.dt_ps,
+        axis.t0_ps,
+        opts.spp,
+        opts.max_bounces,
+        opts.seed,
+        rayon::current_num_threads(),
+        if opts.transient_only {
+            format!(
+                ", transient only, time filter {}",
+                femto::simulate::transient::time_filter_name(opts.time_filter)
+            )
+        } else {
+            String::new()
+        }
     );
     let render_bar = super::progress(ny as u64, "rendering");
     let write_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
@@ -341,6 +375,31 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         }
         other => other.into(),
     })?;
+    if opts.transient_only {
+        println!(
+            "transient cube written to {}",
+            summary
+                .out_dir
+                .join(femto::simulate::capture::TRUTH_CAMERA_FILE)
+                .display()
+        );
+        println!(
+            "  paths: {} ({} rays) in {:.3} s wall, {:.3} CPU s: {:.0} paths/s",
+            summary.paths,
+            summary.rays,
+            summary.render_seconds,
+            summary.render_cpu_seconds,
+            summary.paths_per_second
+        );
+        println!(
+            "  counters: {}",
+            summary
+                .out_dir
+                .join(femto::simulate::transient::COUNTERS_FILE)
+                .display()
+        );
+        return Ok(());
+    }
     let scanline_files = summary
         .files
         .iter()

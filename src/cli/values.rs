@@ -304,6 +304,24 @@ impl From<StreakFormatArg> for StreakFormat {
     }
 }
 
+/// `femto simulate --time-filter`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TimeFilterArg {
+    /// The laser pulse and the streak sensor's response (femto's cubes).
+    Sensor,
+    /// A histogram of arrival times (mitransient's box time bins).
+    Box,
+}
+
+impl From<TimeFilterArg> for femto::tracer::TimeFilter {
+    fn from(f: TimeFilterArg) -> femto::tracer::TimeFilter {
+        match f {
+            TimeFilterArg::Sensor => femto::tracer::TimeFilter::Sensor,
+            TimeFilterArg::Box => femto::tracer::TimeFilter::Box,
+        }
+    }
+}
+
 /// One relativistic effect of `femto render --effects` (the list's items; the parser is
 /// [`Effects::parse`], and a test keeps the two lists of names equal).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

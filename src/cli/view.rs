@@ -33,18 +33,12 @@ pub struct ViewArgs {
     /// Open the page in the desktop's browser (xdg-open, or open on macOS).
     #[arg(long)]
     pub open: bool,
-    /// Worker threads for rendering, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
-    pub threads: Option<u16>,
+    #[command(flatten)]
+    pub threads: super::threads::ThreadsArg,
 }
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
-    if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.into())
-            .build_global()
-            .map_err(|e| anyhow!("--threads {n}: {e}"))?;
-    }
+    args.threads.init()?;
     let inputs = args.inputs.open()?;
     let session = ViewSession::new(&inputs, args.inputs.shell_flags())?;
     let (http, bound) = server::bind(SocketAddr::new(args.bind, args.port))

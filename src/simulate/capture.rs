@@ -20,7 +20,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::glb::{write_glb, GlbError};
 use crate::manifest::{CaptureFiles, CaptureInfo, Manifest, ManifestError, Scanline, StreakFormat};
 use crate::scene::Scene;
-use crate::tracer::{TraceOptions, TraceStats, Tracer};
+use crate::tracer::{TimeFilter, TraceOptions, TraceStats, Tracer};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -94,6 +94,8 @@ pub enum SimulateOption {
     Formats,
     /// [`SimulateOptions::marker_spacing_m`].
     MarkerSpacingM,
+    /// [`SimulateOptions::time_filter`].
+    TimeFilter,
 }
 
 impl SimulateOption {
@@ -105,6 +107,7 @@ impl SimulateOption {
             SimulateOption::Seed => "seed",
             SimulateOption::Formats => "formats",
             SimulateOption::MarkerSpacingM => "marker_spacing_m",
+            SimulateOption::TimeFilter => "time_filter",
         }
     }
 }
@@ -135,6 +138,12 @@ pub struct SimulateOptions {
     pub force: bool,
     /// Provenance: the command line (or tool) that asked for the capture.
     pub created_by: String,
+    /// Write only the true transient cube in camera time and the render's counters
+    /// ([`super::transient`]): no streak images, imperfections or side files.
+    pub transient_only: bool,
+    /// How the tracer bins arrival times; [`TimeFilter::Box`] only with `transient_only`
+    /// (a streak capture is the sensor's response).
+    pub time_filter: TimeFilter,
 }
 
 impl Default for SimulateOptions {
@@ -148,6 +157,8 @@ impl Default for SimulateOptions {
             marker_spacing_m: DEFAULT_MARKER_SPACING_M,
             force: false,
             created_by: "femto::simulate".into(),
+            transient_only: false,
+            time_filter: TimeFilter::Sensor,
         }
     }
 }
@@ -204,6 +215,14 @@ impl SimulateOptions {
                 format!("{} must be finite and > 0", self.marker_spacing_m),
             );
         }
+        if self.time_filter == TimeFilter::Box && !self.transient_only {
+            return bad(
+                SimulateOption::TimeFilter,
+                "a box time filter applies only to a transient-only render (a streak capture \
+                 is the sensor's response)"
+                    .into(),
+            );
+        }
         self.flaws.validate()?;
         super::budget::check(scene, self)?;
         Ok(())
@@ -230,6 +249,8 @@ pub struct SimulateSummary {
     pub rays: u64,
     /// Wall-clock time of the render, seconds.
     pub render_seconds: f64,
+    /// CPU time of the render (all threads), seconds.
+    pub render_cpu_seconds: f64,
     /// Wall-clock time of the whole capture (render, imperfections, files), seconds.
     pub seconds: f64,
     /// Paths per second of the render.
@@ -290,6 +311,7 @@ pub fn simulate_capture(
         paths: stats.paths,
         rays: stats.rays,
         render_seconds: stats.seconds,
+        render_cpu_seconds: stats.cpu_seconds,
         seconds: started.elapsed().as_secs_f64(),
         paths_per_second: stats.paths_per_second(),
         files: written.iter().map(|f| out_dir.join(f)).collect(),
@@ -308,6 +330,11 @@ fn stage_capture(
     dir: &Path,
     progress: &(dyn Fn(Stage, usize) + Sync),
 ) -> Result<(TraceStats, Vec<PathBuf>, usize, usize), SimulateError> {
+    if opts.transient_only {
+        let (stats, written) = super::transient::stage(scene, opts, dir, progress)?;
+        set_folder_permissions(&[dir.to_path_buf()])?;
+        return Ok((stats, written, 0, 0));
+    }
     let bvh = Bvh::new(scene.mesh.clone());
     let trace_opts = TraceOptions {
         spp: opts.spp,
@@ -361,16 +388,21 @@ fn stage_capture(
     manifest.save(&dir.join(MANIFEST_FILE))?;
     written.push(MANIFEST_FILE.into());
 
-    // Outputs are ordinary folders, not tempfile's owner-only ones.
+    set_folder_permissions(&[dir.to_path_buf(), dir.join("scanlines")])?;
+    Ok((stats, written, n_points, values_at_top_count))
+}
+
+/// Outputs are ordinary folders, not tempfile's owner-only ones.
+fn set_folder_permissions(dirs: &[PathBuf]) -> Result<(), SimulateError> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        for d in [dir.to_path_buf(), dir.join("scanlines")] {
-            std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755))
-                .map_err(io_err(&d))?;
+        for d in dirs {
+            std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o755))
+                .map_err(io_err(d))?;
         }
     }
-    Ok((stats, written, n_points, values_at_top_count))
+    Ok(())
 }
 /// The files of the capture folder `dir` but the truth cubes and the scanlines (written in
 /// `dir` by the time this runs): the scene as glTF, the true calibration, the fiducial
@@ -479,6 +511,7 @@ fn render_truths(
     let started = Instant::now();
     let tracer = Tracer::new(scene, bvh, trace_opts);
     let mut render_seconds = started.elapsed().as_secs_f64();
+    let mut render_cpu_seconds = 0.0;
     let world_axis = tracer
         .world_axis()
         .expect("the tracer was asked for world time");
@@ -526,6 +559,7 @@ fn render_truths(
         let r = tracer.render_rows(y0..y0 + band, &|n| progress(Stage::Render, n));
         stats.add(&r.stats);
         render_seconds += r.stats.seconds;
+        render_cpu_seconds += r.stats.cpu_seconds;
         peaks = r
             .camera_time
             .data
@@ -543,6 +577,7 @@ fn render_truths(
     world_file.finish()?;
     direct_file.finish()?;
     stats.seconds = render_seconds;
+    stats.cpu_seconds = render_cpu_seconds;
     Ok((peaks, stats))
 }
 

@@ -23,6 +23,9 @@
 //! | `flat.exr`                    | true flat field (`nx` x `ny` gains), with vignetting      |
 //! | `dark.exr`                    | a dark frame (`nx` x `nt`, signal units), with a dark signal |
 //!
+//! With `transient_only` ([`transient`]) the folder holds only `truth_camera.h5` and the
+//! render's counters, `render.json`.
+//!
 //! Determinism: the tracer and every imperfection draw from streams seeded by the seed and
 //! the pixel or scanline, so a capture is bit-identical whatever the thread count.
 
@@ -30,6 +33,7 @@ pub mod budget;
 pub mod capture;
 pub mod fiducials;
 pub mod flaws;
+pub mod transient;
 
 pub use capture::{
     simulate_capture, SimulateError, SimulateOption, SimulateOptions, SimulateSummary, Stage,

@@ -510,7 +510,12 @@ mod tests {
             assert_eq!(profile.iter().sum::<f64>(), 3.0, "t {t}");
         }
         // Before the first bin and at the end of the last: all lost, nothing added.
-        for t in [t0 - 1e-9, t0 - 0.5 * dt, t0 + nt as f64 * dt, t0 + (nt as f64 + 0.5) * dt] {
+        for t in [
+            t0 - 1e-9,
+            t0 - 0.5 * dt,
+            t0 + nt as f64 * dt,
+            t0 + (nt as f64 + 0.5) * dt,
+        ] {
             let mut profile = vec![0.0; nt];
             let p = table.place(table.bin_coord(t)).unwrap();
             assert_eq!(table.add(&p, &mut profile, 3.0, &mut scratch), 3.0, "t {t}");

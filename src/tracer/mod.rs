@@ -68,6 +68,7 @@ pub mod binning;
 mod path;
 pub mod sampling;
 
+use crate::cpu_time::process_cpu_seconds;
 use crate::cube::{Cube, TimeAxis, TimeFrame};
 use crate::geometry::bvh::Bvh;
 #[cfg(target_arch = "x86_64")]
@@ -161,6 +162,8 @@ pub struct TraceStats {
     pub energy_outside_window: f64,
     /// Wall-clock time of the render, seconds.
     pub seconds: f64,
+    /// CPU time of this process during the render (all threads, user + system), seconds.
+    pub cpu_seconds: f64,
 }
 
 impl TraceStats {
@@ -169,7 +172,7 @@ impl TraceStats {
         self.paths as f64 / self.seconds.max(1e-12)
     }
 
-    /// Add the counters of `o` (not its time).
+    /// Add the counters of `o` (not its times).
     pub fn add(&mut self, o: &TraceStats) {
         self.paths += o.paths;
         self.rays += o.rays;
@@ -273,9 +276,11 @@ pub fn trace(
     progress: &(dyn Fn(usize) + Sync),
 ) -> TransientRender {
     let started = Instant::now();
+    let cpu_started = process_cpu_seconds();
     let tracer = Tracer::new(scene, bvh, opts);
     let mut r = tracer.render_rows(0..scene.camera.intrinsics.height, progress);
     r.stats.seconds = started.elapsed().as_secs_f64();
+    r.stats.cpu_seconds = process_cpu_seconds() - cpu_started;
     r
 }
 
@@ -335,6 +340,7 @@ impl<'a> Tracer<'a> {
         progress: &(dyn Fn(usize) + Sync),
     ) -> TransientRender {
         let started = Instant::now();
+        let cpu_started = process_cpu_seconds();
         let scene = self.kernel.scene;
         let opts = &self.opts;
         let (nx, ny_image) = (
@@ -389,6 +395,7 @@ impl<'a> Tracer<'a> {
             stats.add(s);
         }
         stats.seconds = started.elapsed().as_secs_f64();
+        stats.cpu_seconds = process_cpu_seconds() - cpu_started;
         TransientRender {
             camera_time: camera,
             direct,
