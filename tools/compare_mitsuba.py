@@ -1,204 +1,232 @@
 #!/usr/bin/env python3
-"""Compare femto's transient path tracer with Mitsuba 3 + mitransient on the same scene.
+"""femto's transient path tracer against Mitsuba 3 + mitransient, like for like.
 
-Usage:
-    FEMTO_BENCH_DUMP=/tmp/femto_cmp cargo bench --bench tracer
-    pip install mitsuba mitransient          # LLVM variant, CPU only
+One command, from a release build:
+
+    cargo build --release
+    python3 tools/compare_mitsuba.py                      # needs mitsuba, mitransient, h5py, numpy
     # drjit 1.x needs LLVM >= 16 (Debian 12: apt-get install libllvm19, then
     # export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so)
-    python3 tools/compare_mitsuba.py /tmp/femto_cmp [threads] [--sampler independent,multijitter,...]
 
-The bench writes the built-in `cornell` scene (64 x 64 pixels, 300 bins of 4 ps) as one OBJ
-per material plus `scene.json`, and femto renders with isotropic emission (Mitsuba's point
-light is isotropic; the spot is lowered to 3 cm under the ceiling) at 4, 16 and 256 spp, each
-from its own seed. This script renders the same scene with
-`transient_path` (llvm_ad_mono, box pixel filter, flat-shaded OBJ triangles, a point light of
-intensity energy / 4 pi, the same time window given as optical path length) and reports:
+What is the same on both sides:
 
-* agreement: femto 256 spp vs Mitsuba 256 spp, image sums and per-pixel differences of the
-  steady (time-integrated) image against their combined noise, and the scene's time
-  histogram (all pixels summed, rebinned by 4 to even out the different splatting);
-* noise: RMSE of the 4 and 16 spp renders against the renderer's own 256 spp render, per
-  bin of the transient and per pixel of the steady image, and the efficiency
-  1 / (MSE * seconds), so the two can be compared at equal noise.
+* Scene: the same files. Each scene is a femto scene file whose meshes are OBJ files;
+  tools/mitsuba_scene.py turns it into Mitsuba's scene (obj shapes, two-sided diffuse of the
+  same albedo, an isotropic point light of intensity energy / 4 pi, box pixel filter).
+  `peer_cornell` (primary) is mitransient's own Cornell box with a point light at (0, 0.5, 0),
+  7 bounces (max_depth 8), 300 bins of 100 ps; `tuned_cornell` is femto's built-in scene,
+  the one its tracer was tuned on, 4 bounces, 300 bins of 4 ps.
+* Quantity: a histogram of arrival times on the same bins. femto renders with
+  `--time-filter box` (each path sample whole in the bin it falls in), Mitsuba's
+  `transient_hdr_film` bins the same way. (femto's own cubes use the sensor's tent response, a
+  different and smoother quantity, which is not what is compared here.) The steady image is
+  the sum over the same window on both sides.
+* Truth: a common converged reference, the mean of a femto and a Mitsuba render at
+  `--ref-spp` (neither renderer's own). The reference's own noise is removed from every MSE:
+  with F, M the two reference renders, the reference's per-bin variance is estimated as
+  mean((F - M)^2) / 4 (both unbiased and independent), and MSE(test) = mean((X - R)^2) - that.
+  The script prints how large that correction is, and the agreement of F and M.
+* Threads: femto `--threads T`, Dr.Jit `set_thread_count(T)`; wall and CPU seconds of the
+  render alone on both sides (femto: the tracer's own timer in render.json, BVH built before;
+  Mitsuba: `mi.render` and the read-back, scene loaded and the kernel compiled before by a
+  warm-up render at the same sample count).
 
-With `--sampler` (a comma-separated list of Mitsuba sampler plugins: independent, stratified,
-multijitter, ldsampler, orthogonal) Mitsuba's renders are repeated with each sampler, so femto
-can be compared with Mitsuba's best configuration; the agreement lines use the first one. The
-sample count Mitsuba actually used is printed (some samplers round it).
+Speed at equal noise: the time to reach a given per-bin MSE is MSE(N spp) x N x (seconds per
+sample), both measured; femto's advantage is the ratio of Mitsuba's to femto's. MSE(N spp) is
+the mean over `--seeds` renders at N spp (each its own seed); seconds per sample from the
+median of `--timing-runs` renders at `--timing-spp`, where fixed costs matter least.
 
-Numbers depend on the machine and on how busy it is; record them with the date.
+Window: femto ends a path as soon as everything it could still deliver would arrive after the
+window; Mitsuba traces such paths to max_depth. That is an algorithmic advantage of femto for a
+transient render, counted in its time; the script prints the share of paths it ended that way.
+
+Numbers depend on the machine and how busy it is: record them with the date and the load.
 """
 
 import argparse
 import json
 import math
 import os
+import platform
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
 
-C_M_PER_PS = 2.99792458e-4
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import mitsuba_scene  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+# Scene name -> most bounces (femto --bounces; Mitsuba max_depth = bounces + 1).
+SCENES = {"peer_cornell": 7, "tuned_cornell": 4}
 
 
-def load_femto(folder, meta):
-    out = {}
-    for r in meta["renders"]:
-        a = np.fromfile(os.path.join(folder, f"cube_spp{r['spp']}.f32"), dtype="<f4")
-        cube = a.reshape(meta["ny"], meta["nx"], meta["nt"]).astype(np.float64)
-        out[r["spp"]] = (cube, r["seconds"], r.get("cpu_seconds", float("nan")), r["spp"])
-    return out
+def femto_render(femto, scene_file, bounces, spp, seed, threads, workdir):
+    """One femto render: (cube (ny, nx, nt) float64, counters from render.json)."""
+    import h5py
+
+    out = os.path.join(workdir, f"femto_{spp}_{seed}")
+    cmd = [femto, "simulate", "--scene", scene_file, "--transient-only", "--time-filter", "box",
+           "--bounces", str(bounces), "--spp", str(spp), "--seed", str(seed), "--threads", str(threads),
+           "--out", out, "--force"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr}")
+    with h5py.File(os.path.join(out, "truth_camera.h5"), "r") as f:
+        cube = np.array(f["cube"], dtype=np.float64)
+    with open(os.path.join(out, "render.json")) as f:
+        counters = json.load(f)
+    return cube, counters
 
 
-def mitsuba_scene(folder, meta, mi, sampler="independent"):
-    t = mi.ScalarTransform4f
-    d = {
-        "type": "scene",
-        "integrator": {
-            "type": "transient_path",
-            "max_depth": meta["max_bounces"] + 1,
-            "rr_depth": 3,
-        },
-        "sensor": {
-            "type": "perspective",
-            "fov": meta["vfov_deg"],
-            "fov_axis": "y",
-            # Mitsuba starts camera rays on the near plane; mitransient counts optical path
-            # from there, so a default 1 cm near clip would make all light ~33 ps early.
-            "near_clip": 1e-6,
-            "to_world": t().look_at(origin=meta["camera_m"], target=meta["target_m"], up=meta["up"]),
-            "film": {
-                "type": "transient_hdr_film",
-                "width": meta["nx"],
-                "height": meta["ny"],
-                "temporal_bins": meta["nt"],
-                "start_opl": meta["t0_ps"] * C_M_PER_PS / meta["eta"],
-                "bin_width_opl": meta["dt_ps"] * C_M_PER_PS / meta["eta"],
-                "rfilter": {"type": "box"},
-            },
-            "sampler": {"type": sampler, "sample_count": 4},
-        },
-        "laser": {
-            "type": "point",
-            "position": meta["laser_m"],
-            "intensity": {"type": "uniform", "value": meta["energy"] / (4.0 * math.pi)},
-        },
-    }
-    for m, albedo in enumerate(meta["albedo"]):
-        d[f"mesh_{m}"] = {
-            "type": "obj",
-            "filename": os.path.join(folder, f"mesh_{m}.obj"),
-            "face_normals": True,
-            "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "uniform", "value": albedo}}},
-        }
-    return mi.load_dict(d)
+class Mitsuba:
+    """Mitsuba renders of one scene with one sampler, timed as femto's are."""
+
+    def __init__(self, scene, bounces, sampler, threads):
+        import drjit as dr
+        import mitsuba as mi
+
+        mi.set_variant("llvm_ad_mono")
+        import mitransient  # noqa: F401  (registers the transient plugins)
+
+        dr.set_thread_count(threads)
+        self.mi, self.dr = mi, dr
+        self.scene = mi.load_dict(mitsuba_scene.mitsuba_dict(scene, mi, bounces, sampler))
+        self.sampler = sampler
+        self.warm = set()
+
+    def render(self, spp, seed):
+        """(cube, wall seconds, CPU seconds); a first render at `spp` compiles the kernel."""
+        if spp not in self.warm:
+            mitsuba_scene.render(self.scene, self.mi, self.dr, spp, seed + 7919)
+            self.warm.add(spp)
+        c0 = time.process_time()
+        cube, seconds = mitsuba_scene.render(self.scene, self.mi, self.dr, spp, seed)
+        return cube, seconds, time.process_time() - c0
+
+    def used_spp(self, spp):
+        """The sample count the sampler really uses (some round it)."""
+        return self.mi.load_dict({"type": self.sampler, "sample_count": spp}).sample_count()
 
 
-def render_mitsuba(scene, meta, spp, mi, dr, seed):
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    steady, transient = mi.render(scene, spp=spp, seed=seed)
-    tr = np.array(transient, dtype=np.float64)
-    dr.sync_thread()
-    seconds = time.perf_counter() - t0
-    cpu_seconds = time.process_time() - c0
-    tr = tr[..., 0] if tr.ndim == 4 else tr
-    # mitransient stores (height, width, time) for a width x height film.
-    assert tr.shape == (meta["ny"], meta["nx"], meta["nt"]), tr.shape
-    return tr, seconds, cpu_seconds
+def mse(cubes, ref, ref_var):
+    """Mean over `cubes` of the per-bin and per-steady-pixel MSE against `ref`, less the
+    reference's own variance (`ref_var`: per bin, per steady pixel)."""
+    t = [np.mean((c - ref) ** 2) for c in cubes]
+    s = [np.mean((c.sum(axis=2) - ref.sum(axis=2)) ** 2) for c in cubes]
+    return np.mean(t) - ref_var[0], np.mean(s) - ref_var[1]
+
+
+def compare_scene(name, args, workdir):
+    bounces = SCENES[name]
+    scene_file = os.path.join(HERE, "scenes", name, "scene.toml")
+    scene = mitsuba_scene.load(scene_file)
+    cam = scene["camera"]
+    print(f"\n=== {name}: {cam['nx']} x {cam['ny']} px, {cam['nt']} bins of {cam['dt_ps']} ps "
+          f"({cam['dt_ps'] * mitsuba_scene.C_M_PER_PS:.4f} m) from {cam['t0_ps']} ps, {bounces} bounces "
+          f"(Mitsuba max_depth {bounces + 1}), box time bins, {args.threads} threads")
+    femto = lambda spp, seed: femto_render(args.femto, scene_file, bounces, spp, seed, args.threads, workdir)  # noqa: E731
+
+    # Common reference.
+    f_ref, f_ref_counters = femto(args.ref_spp, 1000)
+    m_ind = Mitsuba(scene, bounces, "independent", args.threads)
+    m_ref, _, _ = m_ind.render(args.ref_spp, 1000)
+    ref = 0.5 * (f_ref + m_ref)
+    ref_var = (np.mean((f_ref - m_ref) ** 2) / 4.0, np.mean((f_ref.sum(axis=2) - m_ref.sum(axis=2)) ** 2) / 4.0)
+    fs, ms = f_ref.sum(), m_ref.sum()
+    hf, hm = f_ref.sum(axis=(0, 1)), m_ref.sum(axis=(0, 1))
+    print(f"reference: femto + Mitsuba (independent) at {args.ref_spp} spp each; "
+          f"totals femto {fs:.6g}, Mitsuba {ms:.6g}, ratio {fs / ms:.5f}; whole-image histogram: "
+          f"first lit bin {np.nonzero(hf)[0][0]} / {np.nonzero(hm)[0][0]}, peak bin {hf.argmax()} / {hm.argmax()}")
+    ended = f_ref_counters["paths_ended_late"] / f_ref_counters["paths"]
+    print(f"femto ended {100 * ended:.1f} % of its paths early (all they could still deliver lay past the window)")
+
+    results = []
+    rows = []
+    # femto: noise at each N, seconds per sample.
+    timing = [femto(args.timing_spp, 2000 + k)[1] for k in range(args.timing_runs)]
+    f_wall = statistics.median(c["render_seconds"] for c in timing) / args.timing_spp
+    f_cpu = statistics.median(c["render_cpu_seconds"] for c in timing) / args.timing_spp
+    f_mse = {n: mse([femto(n, 1 + k)[0] for k in range(args.seeds)], ref, ref_var) for n in args.spp}
+    rows.append(("femto", f_wall, f_cpu, f_mse, {n: n for n in args.spp}))
+    for sampler in args.sampler:
+        m = m_ind if sampler == "independent" else Mitsuba(scene, bounces, sampler, args.threads)
+        used_t = m.used_spp(args.timing_spp)
+        runs = [m.render(args.timing_spp, 2000 + k) for k in range(args.timing_runs)]
+        m_wall = statistics.median(r[1] for r in runs) / used_t
+        m_cpu = statistics.median(r[2] for r in runs) / used_t
+        m_mse = {n: mse([m.render(n, 1 + k)[0] for k in range(args.seeds)], ref, ref_var) for n in args.spp}
+        rows.append((f"mitsuba {sampler}", m_wall, m_cpu, m_mse, {n: m.used_spp(n) for n in args.spp}))
+
+    print(f"reference noise removed from each MSE: {ref_var[0]:.3e} per bin, {ref_var[1]:.3e} per steady pixel")
+    print(f"{'renderer':22s} {'ms/spp wall':>11s} {'ms/spp CPU':>10s} " +
+          " ".join(f"{'RMSE bin @' + str(n):>14s} {'RMSE px @' + str(n):>13s}" for n in args.spp))
+    for label, wall, cpu, m_, used in rows:
+        print(f"{label:22s} {1e3 * wall:11.3f} {1e3 * cpu:10.3f} " +
+              " ".join(f"{math.sqrt(max(m_[n][0], 0)):14.4e} {math.sqrt(max(m_[n][1], 0)):13.4e}" for n in args.spp))
+    _, fw, fc, fm, fu = rows[0]
+    for label, wall, cpu, m_, used in rows[1:]:
+        for n in args.spp:
+            for k, what in ((0, "transient bin"), (1, "steady pixel")):
+                # Seconds to reach a given MSE: MSE(N) x (samples used) x (seconds per sample).
+                cost_f = fm[n][k] * fu[n] * np.array([fw, fc])
+                cost_m = m_[n][k] * used[n] * np.array([wall, cpu])
+                ratio = cost_m / cost_f
+                print(f"{name}, vs {label}, N = {n} spp, equal {what} noise: femto is {ratio[0]:.2f}x "
+                      f"(wall) / {ratio[1]:.2f}x (CPU) as fast")
+                results.append({"scene": name, "against": label, "spp": n, "quantity": what,
+                                "ratio_wall": ratio[0], "ratio_cpu": ratio[1]})
+    return results
 
 
 def main():
-    ap = argparse.ArgumentParser(description="Compare femto's transient renders with Mitsuba 3 + mitransient.")
-    ap.add_argument("folder", help="folder written by FEMTO_BENCH_DUMP=<folder> cargo bench --bench tracer")
-    ap.add_argument("threads", nargs="?", type=int, default=2, help="Dr.Jit threads (default 2)")
-    ap.add_argument("--sampler", default="independent",
-                    help="comma-separated Mitsuba samplers to compare with (default independent)")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--femto", default=os.path.join(HERE, "..", "target", "release", "femto"),
+                    help="the femto binary (default: target/release/femto)")
+    ap.add_argument("--threads", type=int, default=2, help="threads of both renderers (default 2)")
+    ap.add_argument("--scenes", default="peer_cornell,tuned_cornell",
+                    help=f"comma-separated, of {', '.join(SCENES)} (default both)")
+    ap.add_argument("--sampler", default="multijitter,independent",
+                    help="comma-separated Mitsuba samplers (default multijitter,independent)")
+    ap.add_argument("--spp", default="16,64", help="sample counts of the noise renders (default 16,64)")
+    ap.add_argument("--seeds", type=int, default=4, help="noise renders per sample count (default 4)")
+    ap.add_argument("--ref-spp", type=int, default=4096, help="spp of each reference render (default 4096)")
+    ap.add_argument("--timing-spp", type=int, default=256, help="spp of the timing renders (default 256)")
+    ap.add_argument("--timing-runs", type=int, default=3, help="timing renders, median taken (default 3)")
+    ap.add_argument("--json", help="also write the ratios to this JSON file")
     args = ap.parse_args()
-    folder, threads = args.folder, args.threads
-    samplers = [s for s in args.sampler.split(",") if s]
-    meta = json.load(open(os.path.join(folder, "scene.json")))
-    import drjit as dr
+    args.spp = [int(s) for s in args.spp.split(",") if s]
+    args.sampler = [s for s in args.sampler.split(",") if s]
+    args.femto = os.path.abspath(args.femto)
+    if not os.access(args.femto, os.X_OK):
+        raise SystemExit(f"--femto: {args.femto} is not an executable (cargo build --release first)")
+    scenes = [s for s in args.scenes.split(",") if s]
+    for s in scenes:
+        if s not in SCENES:
+            raise SystemExit(f"--scenes: unknown scene {s!r} (known: {', '.join(SCENES)})")
+
     import mitsuba as mi
 
     mi.set_variant("llvm_ad_mono")
-    import mitransient  # noqa: F401  (registers the transient plugins)
-
-    dr.set_thread_count(threads)
-    femto = load_femto(folder, meta)
-    print(f"scene cornell {meta['nx']}x{meta['ny']} px, {meta['nt']} bins of {meta['dt_ps']} ps, "
-          f"max bounces {meta['max_bounces']}, isotropic point light; Mitsuba {mi.__version__} llvm_ad_mono, "
-          f"{threads} threads")
-    for k, sampler in enumerate(samplers):
-        scene = mitsuba_scene(folder, meta, mi, sampler)
-        mits = {}
-        for spp, seed in ((4, 11), (16, 12), (256, 13)):
-            # JIT warm-up at the same sample count (some samplers bake it into the kernel), so
-            # the timed render reuses the compiled kernel.
-            render_mitsuba(scene, meta, spp, mi, dr, seed + 100)
-            mits[spp] = render_mitsuba(scene, meta, spp, mi, dr, seed)
-        used = {spp: mi.load_dict({"type": sampler, "sample_count": spp}).sample_count() for spp in mits}
-        if len(samplers) > 1:
-            print(f"--- Mitsuba sampler: {sampler}")
-        if any(used[spp] != spp for spp in used):
-            print(f"note: {sampler} rounds the sample counts 4, 16, 256 to {used[4]}, {used[16]}, {used[256]}")
-        mits = {spp: (cube, seconds, cpu, used[spp]) for spp, (cube, seconds, cpu) in mits.items()}
-        if k == 0:
-            agreement(femto, mits)
-        compare(femto, mits)
-
-
-def agreement(femto, mits):
-    """Agreement of the two renderers at 256 spp."""
-    f_ref, m_ref = femto[256][0], mits[256][0]
-    fs, ms = f_ref.sum(axis=2), m_ref.sum(axis=2)
-    # Noise of one 256-spp steady pixel, from the 16-spp renders (variance scales as 1/spp).
-    var16 = 0.5 * (((femto[16][0].sum(axis=2) - fs) ** 2) + ((mits[16][0].sum(axis=2) - ms) ** 2))
-    var256 = var16 * 16.0 / 256.0
-    z = (fs - ms) / np.sqrt(2.0 * var256 + 1e-30)
-    lit = fs > 0
-    print(f"steady image sum: femto {fs.sum():.6g}, mitsuba {ms.sum():.6g}, ratio {fs.sum() / ms.sum():.4f}")
-    # The variance comes from two squared 16-spp deviations per pixel, so z follows a Student
-    # t with 2 degrees of freedom if the renderers agree: median |z| = 0.816 (rms undefined).
-    print(f"steady per-pixel difference / combined noise: median |z| {np.median(np.abs(z[lit])):.3f} "
-          f"(0.816 = agreement within noise), rms {np.sqrt(np.mean(z[lit] ** 2)):.2f}, lit pixels {lit.sum()}")
-    hf = f_ref.sum(axis=(0, 1)).reshape(-1, 4).sum(axis=1)
-    hm = m_ref.sum(axis=(0, 1)).reshape(-1, 4).sum(axis=1)
-    top = hf.argmax()
-    print(f"time histogram (16 ps bins): peak bin femto {hf.argmax()} mitsuba {hm.argmax()}, "
-          f"max |difference| / peak {np.abs(hf - hm).max() / hf[top]:.3f}, "
-          f"total in window femto/mitsuba {hf.sum() / hm.sum():.4f}")
-
-
-def compare(femto, mits):
-    """Noise at equal spp, efficiency (1 / (MSE * seconds), wall and CPU) and speed at equal noise."""
-    print("renderer  spp   wall s    CPU s  RMSE(transient bin)  RMSE(steady px)  eff_transient(wall, CPU)  eff_steady(wall, CPU)")
-    mse16 = {}
-    for name, runs in (("femto", femto), ("mitsuba", mits)):
-        ref = runs[256][0]
-        for spp in (4, 16):
-            cube, seconds, cpu, _ = runs[spp]
-            mt = np.mean((cube - ref) ** 2)
-            ms_ = np.mean((cube.sum(axis=2) - ref.sum(axis=2)) ** 2)
-            if spp == 16:
-                mse16[name] = (mt, ms_)
-            print(f"{name:8s} {spp:4d} {seconds:8.3f} {cpu:8.2f} {math.sqrt(mt):20.4e} {math.sqrt(ms_):16.4e} "
-                  f"{1 / (mt * seconds):12.4e} {1 / (mt * cpu):11.4e} {1 / (ms_ * seconds):10.4e} {1 / (ms_ * cpu):10.4e}")
-    f256, m256 = femto[256], mits[256]
-    print(f"256 spp: femto {f256[1]:.2f} s wall, {f256[2]:.2f} CPU s; mitsuba {m256[1]:.2f} s wall, {m256[2]:.2f} CPU s")
-    # Equal noise: the time to reach a given MSE is proportional to (MSE at the "16 spp" render)
-    # x (its sample count) x (time per sample), the latter taken from the "256 spp" render
-    # where fixed costs matter least (sample counts as the sampler actually used them). The
-    # reference noise inflates both renderers' 16-spp MSE by about the same factor
-    # 1 + 16/256, so it nearly cancels (for independent samples; a stratified sampler's
-    # reference is less noisy than that, which slightly favours it).
-    f16, m16 = femto[16][3], mits[16][3]
-    for k, what in ((0, "transient bin"), (1, "steady pixel")):
-        for j, clock in ((1, "wall"), (2, "CPU")):
-            cost_f = mse16["femto"][k] * f16 * f256[j] / f256[3]
-            cost_m = mse16["mitsuba"][k] * m16 * m256[j] / m256[3]
-            print(f"equal {what} noise, {clock} time: femto is {cost_m / cost_f:.2f}x as fast as mitsuba")
+    version = subprocess.run([args.femto, "--version"], capture_output=True, text=True).stdout.strip()
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")),
+               platform.processor())
+    import mitransient
+    print(f"{version}; Mitsuba {mi.__version__} + mitransient {mitransient.__version__} (llvm_ad_mono); "
+          f"{cpu}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    results = []
+    with tempfile.TemporaryDirectory() as workdir:
+        for s in scenes:
+            results += compare_scene(s, args, workdir)
+    print(f"load average {os.getloadavg()[0]:.2f} at the end")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1)
 
 
 if __name__ == "__main__":

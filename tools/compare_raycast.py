@@ -3,8 +3,9 @@
 variants) on the very same rays, 1 and 2 threads.
 
 Usage:
-    FEMTO_BENCH_DUMP=/tmp/femto_cmp cargo bench --bench tracer     # the cornell OBJs
-    python3 tools/compare_raycast.py /tmp/femto_cmp [../shared/data/stanford-bunny.obj]
+    python3 tools/compare_raycast.py [../shared/data/stanford-bunny.obj]
+
+The cornell meshes are femto's built-in scene as OBJ files, tools/scenes/tuned_cornell/.
 
 Ray sets (640 x 480 rays each, seed 7):
 * cornell, interior: uniform origins in the box shrunk by 10 % about its centre, uniform
@@ -87,14 +88,11 @@ def embree(files, o, d, threads, mi, dr):
 
 
 def main():
-    if len(sys.argv) < 2:
-        sys.exit(__doc__)
-    cornell = sorted(glob.glob(os.path.join(sys.argv[1], "mesh_*.obj")))
-    if not cornell:
-        sys.exit(f"{sys.argv[1]}: no mesh_*.obj (run FEMTO_BENCH_DUMP={sys.argv[1]} cargo bench --bench tracer)")
+    here = os.path.dirname(os.path.abspath(__file__))
+    cornell = sorted(glob.glob(os.path.join(here, "scenes", "tuned_cornell", "*.obj")))
     sets = [("cornell, interior rays", cornell, interior_rays)]
-    if len(sys.argv) > 2:
-        sets.append(("bunny, sphere-to-box rays", [sys.argv[2]], sphere_to_box_rays))
+    if len(sys.argv) > 1:
+        sets.append(("bunny, sphere-to-box rays", [sys.argv[1]], sphere_to_box_rays))
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     subprocess.run(["cargo", "build", "--quiet", "--release", "--example", "raycast"], cwd=root, check=True)
     import drjit as dr
