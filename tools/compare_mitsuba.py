@@ -121,6 +121,8 @@ def mse(cubes, ref, ref_var):
 
 
 def compare_scene(name, args, workdir):
+    """Compare on scene `name`; prints the figures and returns (ratios, agreement): a list of
+    dicts, one per comparison, and the two reference renders' totals and histogram bins."""
     bounces = SCENES[name]
     scene_file = os.path.join(HERE, "scenes", name, "scene.toml")
     scene = mitsuba_scene.load(scene_file)
@@ -144,6 +146,9 @@ def compare_scene(name, args, workdir):
     ended = f_ref_counters["paths_ended_late"] / f_ref_counters["paths"]
     print(f"femto ended {100 * ended:.1f} % of its paths early (all they could still deliver lay past the window)")
 
+    agreement = {"total_femto": fs, "total_mitsuba": ms,
+                 "first_lit_bin": (int(np.nonzero(hf)[0][0]), int(np.nonzero(hm)[0][0])),
+                 "peak_bin": (int(hf.argmax()), int(hm.argmax()))}
     results = []
     rows = []
     # femto: noise at each N, seconds per sample.
@@ -179,7 +184,7 @@ def compare_scene(name, args, workdir):
                       f"(wall) / {ratio[1]:.2f}x (CPU) as fast")
                 results.append({"scene": name, "against": label, "spp": n, "quantity": what,
                                 "ratio_wall": ratio[0], "ratio_cpu": ratio[1]})
-    return results
+    return results, agreement
 
 
 def main():
@@ -222,7 +227,7 @@ def main():
     results = []
     with tempfile.TemporaryDirectory() as workdir:
         for s in scenes:
-            results += compare_scene(s, args, workdir)
+            results += compare_scene(s, args, workdir)[0]
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
     if args.json:
         with open(args.json, "w") as f:
