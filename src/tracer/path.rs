@@ -113,6 +113,10 @@ impl PathKernel<'_> {
         // last bounce's direction, for the connection's weight against the light's strategy.
         let mut light = None;
         let mut bounce_pdf = 0.0f32;
+        // How far the ray's origin lies ahead of the last vertex along the ray: bounce rays
+        // start off the surface ([`RAY_OFFSET_M`] along the normal), but the path's length
+        // runs from the vertex itself.
+        let mut origin_ahead_m = 0.0f32;
         for bounce in 1..=self.max_bounces {
             tally.rays += 1;
             let ray = Ray::new(origin, dir);
@@ -120,7 +124,8 @@ impl PathKernel<'_> {
                 break;
             };
             let p = origin + dir * hit.t;
-            path_m += hit.t as f64;
+            let segment_m = hit.t + origin_ahead_m;
+            path_m += segment_m as f64;
             if bounce == 1 {
                 first_m = hit.t as f64;
                 (early_m, late_m) = window.bounds_m(first_m);
@@ -143,8 +148,9 @@ impl PathKernel<'_> {
                 cosine_local(u1, u2)
             });
             let p_off = p + n * RAY_OFFSET_M;
-            // Next-event estimation towards the spot.
-            let to_spot = self.laser_m - p_off;
+            // Next-event estimation towards the spot, from the vertex itself (the shadow ray
+            // starts off the surface, parallel to the connection).
+            let to_spot = self.laser_m - p;
             let r2 = to_spot.norm_squared();
             let r = r2.sqrt();
             // This connection arrives after `path_m + r`, and so does every later one (the
@@ -172,7 +178,7 @@ impl PathKernel<'_> {
                     if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
                         let mut value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
                         if bounce >= 2 && self.light_vertex {
-                            let pdf_camera = bounce_pdf * -n.dot(&dir) / (hit.t * hit.t);
+                            let pdf_camera = bounce_pdf * -n.dot(&dir) / (segment_m * segment_m);
                             let pdf_light = self.emission_area_pdf(&p, &n);
                             // A direction tangent to the surface (cosine 0) that the light
                             // cannot reach either keeps its whole weight.
@@ -232,6 +238,7 @@ impl PathKernel<'_> {
             };
             dir = shading.tangent * l.x + b * l.y + n * l.z;
             origin = p_off;
+            origin_ahead_m = RAY_OFFSET_M * l.z;
         }
         tally
     }
