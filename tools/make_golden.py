@@ -31,11 +31,13 @@ wall, bin 25) is 1.18 times the next bin for direct light and 1.15 times for all
 the peak-bin check is not decided by noise; the multi-bounce histogram is flat at its top
 (1.03) and is not used for a peak check.
 
-Samples: BATCHES = 32 (enough batches for the variance estimate to be close to a normal one
-in the test's z scores) of SPP = 2048 samples per pixel, 65,536 per pixel per reference, far
-more than the test's femto renders (tests/golden.rs says how many), so the reference's
-variance per bin is a small part of the compared difference's. One run takes about three
-minutes with 2 threads. The file holds four float32 (32, 32, 64) datasets, gzip-compressed.
+Samples: 32 batches (enough for the variance estimate to be close to a normal one in the
+test's z scores) of 8192 (direct) and 2048 (all) samples per pixel: 262,144 and 65,536 per
+pixel, against femto's 32 x 64 = 2,048 in the test, so the reference's share of the compared
+variance per bin is small (the test prints its median: about 0.07 for one-bounce light, whose
+femto estimate is stratified, and 0.05 for multi-bounce light). One run takes about 1.5
+minutes with 2 threads (`--spp-scale` scales both counts). The file holds four float32
+(32, 32, 64) datasets, gzip-compressed, and two small float64 ones.
 
 The file is written to a temporary path beside the destination and renamed onto it.
 """
@@ -57,19 +59,20 @@ REPO = os.path.dirname(HERE)
 SCENE = os.path.join("tools", "scenes", "peer_cornell", "scene.toml")
 NX, NY, NT = 32, 32, 64
 T0_PS, DT_PS = 13550.0, 250.0
-# (name, femto max_bounces, first seed)
-REFERENCES = (("direct", 1, 0), ("all", 4, 1000))
+# (name, femto max_bounces, first seed, default samples per pixel per batch)
+REFERENCES = (("direct", 1, 0, 8192), ("all", 4, 1000, 2048))
 
 
 def main():
     ap = argparse.ArgumentParser(description="Render the golden references of tests/golden.rs with mitransient.")
     ap.add_argument("--out", default=os.path.join(REPO, "tests", "golden", f"peer_cornell_{NX}x{NY}x{NT}.h5"))
     ap.add_argument("--batches", type=int, default=32, help="independent batches per reference (default 32)")
-    ap.add_argument("--spp", type=int, default=2048, help="samples per pixel per batch (default 2048)")
+    ap.add_argument("--spp-scale", type=float, default=1.0,
+                    help="multiply each reference's samples per pixel per batch (default 1: direct 8192, all 2048)")
     ap.add_argument("--threads", type=int, default=2, help="Dr.Jit threads (default 2)")
     args = ap.parse_args()
-    if args.batches < 2 or args.spp < 1:
-        raise SystemExit("--batches must be at least 2 and --spp at least 1")
+    if args.batches < 2 or not args.spp_scale > 0:
+        raise SystemExit("--batches must be at least 2 and --spp-scale positive")
 
     import drjit as dr
     import h5py
@@ -91,12 +94,13 @@ def main():
     scene["camera"].update(nx=NX, ny=NY, nt=NT, t0_ps=T0_PS, dt_ps=DT_PS)
 
     results = {}
-    for name, bounces, seed0 in REFERENCES:
-        mi_scene = mi.load_dict(mitsuba_scene.mitsuba_dict(scene, mi, bounces, spp=args.spp))
+    for name, bounces, seed0, default_spp in REFERENCES:
+        spp = max(1, round(default_spp * args.spp_scale))
+        mi_scene = mi.load_dict(mitsuba_scene.mitsuba_dict(scene, mi, bounces, spp=spp))
         started = time.perf_counter()
         batches = []
         for b in range(args.batches):
-            cube, _ = mitsuba_scene.render(mi_scene, mi, dr, args.spp, seed0 + b)
+            cube, _ = mitsuba_scene.render(mi_scene, mi, dr, spp, seed0 + b)
             if cube.shape != (NY, NX, NT):
                 raise SystemExit(f"mitransient returned a cube of shape {cube.shape}, expected {(NY, NX, NT)}")
             batches.append(cube)
@@ -106,9 +110,9 @@ def main():
         # Whole-image histogram of each batch: the test's aggregate checks take the variance of
         # sums over bins from these (bins of one path's bounces are correlated).
         hist = stack.sum(axis=(1, 2))
-        results[name] = (mean, var_of_mean, hist, bounces)
+        results[name] = (mean, var_of_mean, hist, bounces, spp)
         seconds = time.perf_counter() - started
-        print(f"{name}: {args.batches} x {args.spp} spp in {seconds:.1f} s, image sum {mean.sum():.6f} "
+        print(f"{name}: {args.batches} x {spp} spp in {seconds:.1f} s, image sum {mean.sum():.6f} "
               f"+- {np.sqrt(var_of_mean.sum()):.6f} (per-bin variances summed)")
 
     out = os.path.abspath(args.out)
@@ -124,7 +128,7 @@ def main():
                 a[f"text:{rel}"] = data.decode("utf-8")
             a["nx"], a["ny"], a["nt"] = NX, NY, NT
             a["t0_ps"], a["dt_ps"] = T0_PS, DT_PS
-            a["spp_per_batch"], a["batches"] = args.spp, args.batches
+            a["batches"] = args.batches
             a["variant"] = "llvm_ad_mono"
             a["sampler"] = "independent"
             a["mitsuba_version"] = mi.__version__
@@ -133,14 +137,15 @@ def main():
             a["command"] = shlex.join([os.path.relpath(sys.argv[0], REPO)] + sys.argv[1:])
             a["layout"] = ("datasets <ref>_mean and <ref>_var (variance of the mean), float32 (ny, nx, nt); "
                            "<ref>_batch_hist, float64 (batches, nt): each batch's whole-image histogram")
-            for name, (mean, var, hist, bounces) in results.items():
+            for name, (mean, var, hist, bounces, spp) in results.items():
                 f.create_dataset(f"{name}_batch_hist", data=hist)
                 for kind, data in (("mean", mean), ("var", var)):
                     ds = f.create_dataset(f"{name}_{kind}", data=data.astype(np.float32),
                                           chunks=(1, NX, NT), shuffle=True, compression="gzip", compression_opts=9)
+                    ds.attrs["spp_per_batch"] = spp
                     ds.attrs["max_bounces"] = bounces
                     ds.attrs["mitsuba_max_depth"] = bounces + 1
-                    ds.attrs["first_seed"] = dict((n, s) for n, _, s in REFERENCES)[name]
+                    ds.attrs["first_seed"] = next(r[2] for r in REFERENCES if r[0] == name)
         os.replace(tmp, out)
     finally:
         if os.path.exists(tmp):
