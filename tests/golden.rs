@@ -354,9 +354,7 @@ fn bless_if_asked() {
         )
     });
     let status = std::process::Command::new(&python)
-        .arg(repo().join("tools/make_golden.py"))
-        .arg("--out")
-        .arg(repo().join(GOLDEN))
+        .args(["tools/make_golden.py", "--out", GOLDEN])
         .current_dir(repo())
         .status()
         .unwrap_or_else(|e| panic!("FEMTO_INTEROP_PYTHON={python}: {e}"));
