@@ -16,15 +16,16 @@ sampler. Two references:
 * `direct`: one-bounce light only (femto `max_bounces = 1`, Mitsuba `max_depth = 2`);
 * `all`: all light of at most 4 bounces (femto `max_bounces = 4`, Mitsuba `max_depth = 5`).
 
-Each is the mean of BATCHES renders of SPP samples per pixel with seeds of their own (direct:
+Each is the mean of B renders (`--batches`, default 32) with seeds of their own (direct:
 0 .. B-1, all: 1000 .. 1000+B-1, so the two references are independent), stored with the
 variance of that mean per bin estimated from the batches (sample variance, ddof 1, over B).
 The test compares femto's multi-bounce light with `all - direct`, whose variance is the sum.
 
 Time axis: t0 = 13,550 ps, dt = 250 ps (7.49 cm of optical path), 64 bins, to 29,550 ps. The
 first light (camera -> box -> point light, measured with 10 ps bins at 1024 spp) arrives at
-about 13,960 ps, so bin 0 is dark and bin 1 is the first lit bin with about 12 % of the peak:
-both renderers must agree on it, and no edge of bin 1 sits near the first arrival. One-bounce
+about 13,960 ps, so bin 0 is dark and bin 1 [13,800, 14,050) is the first lit bin with about
+12 % of the peak bin's light: both renderers must agree on it, and its value is not decided by
+a few samples near an edge. One-bounce
 light ends at about 23,900 ps (bin 41); the window holds about 93 % of the light of 2 to 4
 bounces (the rest is a tail to about 46 ns). The peak of the whole-image histogram (the back
 wall, bin 25) is 1.18 times the next bin for direct light and 1.15 times for all light, so
