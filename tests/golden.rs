@@ -22,9 +22,8 @@
 //!   localised error (a wrong bin, a shifted arrival) fails too;
 //! * the first lit bin and the peak bin of the whole-image histogram agree.
 //!
-//! The per-bin checks of one-bounce light are in their own test, ignored until the tracer's
-//! next-event connection is measured from the surface point rather than from the shadow
-//! ray's offset origin (docs/golden.md, "Open finding"); every other check runs.
+//! These checks found a bias of 2e-4 in one-bounce light, now fixed (docs/golden.md, "What
+//! the references found").
 //!
 //! On failure the test writes `target/golden-diff/<name>.h5` (femto - golden) and
 //! `<name>-z.h5` (the z scores) as femto cubes (`femto info` reads them) and names them in its
@@ -638,21 +637,10 @@ fn check_one_bounce(name: &str, per_bin: bool) {
     );
 }
 
-/// One-bounce light: aggregates, first lit bin and peak bin.
+/// One-bounce light: aggregates, per-bin checks, first lit bin and peak bin.
 #[test]
 fn one_bounce_light_matches_mitransient() {
-    check_one_bounce("peer_cornell_direct", false);
-}
-
-/// One-bounce light, every check including the per-bin ones.
-#[test]
-#[ignore = "open finding (docs/golden.md): femto's next-event connection to the spot is \
-            measured from the shadow ray's origin, 0.1 mm off the surface (src/tracer/path.rs, \
-            `to_spot = laser_m - p_off`): one-bounce light 0.02 % high and about 0.3 ps early \
-            (bin 24 of pixel (16, 12) at 8.5 sigma, mean z^2 1.23 for 1.06 +- 0.03); passes with \
-            `to_spot = laser_m - p`"]
-fn one_bounce_light_per_bin_matches_mitransient() {
-    check_one_bounce("peer_cornell_direct_per_bin", true);
+    check_one_bounce("peer_cornell_direct", true);
 }
 
 #[test]
