@@ -34,7 +34,8 @@ What is the same on both sides:
 Speed at equal noise: the time to reach a given per-bin MSE is MSE(N spp) x N x (seconds per
 sample), both measured; femto's advantage is the ratio of Mitsuba's to femto's. MSE(N spp) is
 the mean over `--seeds` renders at N spp (each its own seed); seconds per sample from the
-median of `--timing-runs` renders at `--timing-spp`, where fixed costs matter least.
+median of `--timing-runs` renders at `--timing-spp`, where fixed costs matter least; the
+renderers take turns, so that a change of the machine's load reaches all of them alike.
 
 Window: femto ends a path as soon as everything it could still deliver would arrive after the
 window; Mitsuba traces such paths to max_depth. That is an algorithmic advantage of femto for a
@@ -151,20 +152,26 @@ def compare_scene(name, args, workdir):
                  "peak_bin": (int(hf.argmax()), int(hm.argmax()))}
     results = []
     rows = []
-    # femto: noise at each N, seconds per sample.
-    timing = [femto(args.timing_spp, 2000 + k)[1] for k in range(args.timing_runs)]
-    f_wall = statistics.median(c["render_seconds"] for c in timing) / args.timing_spp
-    f_cpu = statistics.median(c["render_cpu_seconds"] for c in timing) / args.timing_spp
+    mitsubas = [m_ind if sampler == "independent" else Mitsuba(scene, bounces, sampler, args.threads)
+                for sampler in args.sampler]
+    # Seconds per sample: the renderers take turns, so that a change of the machine's load
+    # during the run reaches all of them alike; the median of each one's runs is kept.
+    f_times, m_times = [], [[] for _ in mitsubas]
+    for k in range(args.timing_runs):
+        c = femto(args.timing_spp, 2000 + k)[1]
+        f_times.append((c["render_seconds"], c["render_cpu_seconds"]))
+        for m, times in zip(mitsubas, m_times):
+            _, wall, cpu = m.render(args.timing_spp, 2000 + k)
+            times.append((wall, cpu))
+    per_sample = lambda times, used: (statistics.median(t[0] for t in times) / used,  # noqa: E731
+                                      statistics.median(t[1] for t in times) / used)
+    f_wall, f_cpu = per_sample(f_times, args.timing_spp)
     f_mse = {n: mse([femto(n, 1 + k)[0] for k in range(args.seeds)], ref, ref_var) for n in args.spp}
     rows.append(("femto", f_wall, f_cpu, f_mse, {n: n for n in args.spp}))
-    for sampler in args.sampler:
-        m = m_ind if sampler == "independent" else Mitsuba(scene, bounces, sampler, args.threads)
-        used_t = m.used_spp(args.timing_spp)
-        runs = [m.render(args.timing_spp, 2000 + k) for k in range(args.timing_runs)]
-        m_wall = statistics.median(r[1] for r in runs) / used_t
-        m_cpu = statistics.median(r[2] for r in runs) / used_t
+    for m, times in zip(mitsubas, m_times):
+        m_wall, m_cpu = per_sample(times, m.used_spp(args.timing_spp))
         m_mse = {n: mse([m.render(n, 1 + k)[0] for k in range(args.seeds)], ref, ref_var) for n in args.spp}
-        rows.append((f"mitsuba {sampler}", m_wall, m_cpu, m_mse, {n: m.used_spp(n) for n in args.spp}))
+        rows.append((f"mitsuba {m.sampler}", m_wall, m_cpu, m_mse, {n: m.used_spp(n) for n in args.spp}))
 
     print(f"reference noise removed from each MSE: {ref_var[0]:.3e} per bin, {ref_var[1]:.3e} per steady pixel")
     print(f"{'renderer':22s} {'ms/spp wall':>11s} {'ms/spp CPU':>10s} " +
@@ -201,7 +208,7 @@ def main():
     ap.add_argument("--seeds", type=int, default=4, help="noise renders per sample count (default 4)")
     ap.add_argument("--ref-spp", type=int, default=4096, help="spp of each reference render (default 4096)")
     ap.add_argument("--timing-spp", type=int, default=256, help="spp of the timing renders (default 256)")
-    ap.add_argument("--timing-runs", type=int, default=3, help="timing renders, median taken (default 3)")
+    ap.add_argument("--timing-runs", type=int, default=5, help="timing renders of each renderer, taken in turns, median kept (default 5)")
     ap.add_argument("--json", help="also write the ratios to this JSON file")
     args = ap.parse_args()
     args.spp = [int(s) for s in args.spp.split(",") if s]
