@@ -209,7 +209,7 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=4096, help="spp of each reference render (default 4096)")
     ap.add_argument("--timing-spp", type=int, default=256, help="spp of the timing renders (default 256)")
     ap.add_argument("--timing-runs", type=int, default=5, help="timing renders of each renderer, taken in turns, median kept (default 5)")
-    ap.add_argument("--json", help="also write the ratios to this JSON file")
+    ap.add_argument("--json", help="also write the ratios and the references' agreement to this JSON file")
     args = ap.parse_args()
     args.spp = [int(s) for s in args.spp.split(",") if s]
     args.sampler = [s for s in args.sampler.split(",") if s]
@@ -231,14 +231,15 @@ def main():
     print(f"{version}; Mitsuba {mi.__version__} + mitransient {mitransient.__version__} (llvm_ad_mono); "
           f"{cpu}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
-    results = []
+    results, agreement = [], {}
     with tempfile.TemporaryDirectory() as workdir:
         for s in scenes:
-            results += compare_scene(s, args, workdir)[0]
+            ratios, agreement[s] = compare_scene(s, args, workdir)
+            results += ratios
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(results, f, indent=1)
+            json.dump({"ratios": results, "agreement": agreement}, f, indent=1)
 
 
 if __name__ == "__main__":
