@@ -786,18 +786,23 @@ fn unfinished_in_place_updates_leave_the_file_as_it_was() {
     for name in H5PY_FIXTURES {
         let path = h5py_fixture(dir.path(), name);
         let old = std::fs::read(&path).unwrap();
+        // An update that has begun a 3 x 2 group `pyramid/d`.
+        let begun = || {
+            let mut up = container::GroupUpdate::open(&path).unwrap();
+            up.begin_group(
+                "pyramid",
+                &[],
+                &[container::DatasetSpec::new(
+                    "d",
+                    &[3, 2],
+                    container::GroupElem::F64,
+                )],
+            )
+            .unwrap();
+            up
+        };
         // Dropped half-way through a streamed group.
-        let mut up = container::GroupUpdate::open(&path).unwrap();
-        up.begin_group(
-            "pyramid",
-            &[],
-            &[container::DatasetSpec::new(
-                "d",
-                &[3, 2],
-                container::GroupElem::F64,
-            )],
-        )
-        .unwrap();
+        let mut up = begun();
         up.write_group_rows("pyramid", "d", 0, &DataBuf::F64(vec![1.0, 2.0]))
             .unwrap();
         let during = std::fs::read(&path).unwrap();
@@ -805,17 +810,7 @@ fn unfinished_in_place_updates_leave_the_file_as_it_was() {
         drop(up);
         assert_eq!(std::fs::read(&path).unwrap(), old, "{name}: after a drop");
         // Failed: a row never written.
-        let mut up = container::GroupUpdate::open(&path).unwrap();
-        up.begin_group(
-            "pyramid",
-            &[],
-            &[container::DatasetSpec::new(
-                "d",
-                &[3, 2],
-                container::GroupElem::F64,
-            )],
-        )
-        .unwrap();
+        let up = begun();
         let e = up.finish().unwrap_err().to_string();
         assert!(e.contains("row 0"), "{e}");
         assert_eq!(

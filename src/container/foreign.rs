@@ -17,6 +17,7 @@ use rust_hdf5::H5Attribute;
 use rust_hdf5::H5Dataset;
 use rust_hdf5::H5File;
 use rust_hdf5::H5Group;
+use rust_hdf5::H5Type;
 use std::path::Path;
 
 /// The root objects femto writes (and rewrites) itself; everything else at the root is
@@ -123,15 +124,18 @@ fn copy_children(
     };
     let skip =
         |n: &str| root_skip.is_some_and(|s| FEMTO_OBJECTS.contains(&n) || s.iter().any(|o| o == n));
+    let full_name = |name: &str| {
+        if prefix.is_empty() {
+            name.to_string()
+        } else {
+            format!("{prefix}/{name}")
+        }
+    };
     for name in group.dataset_names().map_err(&es)? {
         if skip(&name) {
             continue;
         }
-        let full = if prefix.is_empty() {
-            name.clone()
-        } else {
-            format!("{prefix}/{name}")
-        };
+        let full = full_name(&name);
         let ds = src.dataset(&full).map_err(&es)?;
         copy_dataset(&ds, src_path, &full, into, dst_path, &name)?;
     }
@@ -139,11 +143,7 @@ fn copy_children(
         if skip(&name) {
             continue;
         }
-        let full = if prefix.is_empty() {
-            name.clone()
-        } else {
-            format!("{prefix}/{name}")
-        };
+        let full = full_name(&name);
         let src_group = src.root_group().group(&full).map_err(&es)?;
         let dst_group = into.create_group(&name).map_err(&ed)?;
         for a in src_group.attr_names().map_err(&es)? {
@@ -190,27 +190,23 @@ fn copy_dataset(
         return Err(refuse(format!("of type {dt}")));
     }
     let bytes = ds.read_raw_bytes().map_err(&es)?;
+    // The element type only sizes the builder; the dataset takes the source's type.
+    fn create<T: H5Type>(
+        into: &H5Group,
+        dt: &DatatypeMessage,
+        shape: &[usize],
+        name: &str,
+    ) -> rust_hdf5::Result<H5Dataset> {
+        into.new_dataset::<T>()
+            .datatype(dt.clone())
+            .shape(shape)
+            .create(name)
+    }
     let out = match dt.element_size() {
-        1 => into
-            .new_dataset::<u8>()
-            .datatype(dt.clone())
-            .shape(&shape[..])
-            .create(name),
-        2 => into
-            .new_dataset::<u16>()
-            .datatype(dt.clone())
-            .shape(&shape[..])
-            .create(name),
-        4 => into
-            .new_dataset::<u32>()
-            .datatype(dt.clone())
-            .shape(&shape[..])
-            .create(name),
-        8 => into
-            .new_dataset::<u64>()
-            .datatype(dt.clone())
-            .shape(&shape[..])
-            .create(name),
+        1 => create::<u8>(into, &dt, &shape, name),
+        2 => create::<u16>(into, &dt, &shape, name),
+        4 => create::<u32>(into, &dt, &shape, name),
+        8 => create::<u64>(into, &dt, &shape, name),
         n => return Err(refuse(format!("made of {n}-byte elements"))),
     }
     .map_err(&ed)?;
