@@ -1,8 +1,9 @@
 //! Interop with y-tal and mitransient from femto's side, with no Python: `femto export --to
 //! tal` of a registered world-time cube (the cube scene's camera, its registration cast
 //! into the scene's mesh) and of a camera-time cube; `femto ingest` of the export back (a
-//! round trip that must give the cube again); the refusals (no geometry, a confocal capture,
-//! y-tal's `H` named as a stack of streak images, a mitransient array without its binning).
+//! round trip that must give the cube again); a confocal y-tal capture ingested, unwarped with
+//! both wall legs removed and exported back exactly; the refusals (no geometry, y-tal's `H`
+//! named as a stack of streak images, a mitransient array without its binning).
 //! Expected values are written here from the formats' definitions (H is (T, Sx, Sy), delta_t
 //! and t_start metres of optical path from the laser spot), not from femto's conversions.
 //!
@@ -19,7 +20,8 @@ use cli::{arg, FemtoCmd};
 use femto::container::{self, Provenance};
 use femto::cube::{Cube, TimeAxis, TimeFrame};
 use femto::geometry::bvh::Bvh;
-use femto::interop::read_tal;
+use femto::interop::tal::{LaserSpot, TalCapture};
+use femto::interop::{read_tal, write_tal};
 use femto::store::registration;
 use std::path::{Path, PathBuf};
 
@@ -102,7 +104,10 @@ fn export_to_tal_writes_the_cube_as_t_sx_sy_on_the_registrations_grid() {
     }
     assert!(seen > 3 * NX * NY / 2, "most pixels see the scene");
     let spot = stored.calibration.laser_m;
-    assert_eq!(cap.laser_grid_xyz_m, [spot.x, spot.y, spot.z]);
+    assert_eq!(
+        cap.laser_grid_xyz_m,
+        femto::interop::tal::LaserSpot::Single([spot.x, spot.y, spot.z])
+    );
     // No laser origin recorded: the camera centre, unless given.
     let o = reg.camera_m;
     assert_eq!(cap.laser_xyz_m, [o.x, o.y, o.z]);
@@ -255,6 +260,112 @@ fn refusals_name_the_file_and_write_nothing() {
     assert!((got.axis.t0_ps - 1.0 / C_M_PER_PS).abs() < 1e-6);
     assert!((got.axis.dt_ps - 0.01 / C_M_PER_PS).abs() < 1e-9);
     assert_eq!(got.frame, TimeFrame::Camera);
+}
+
+/// A confocal y-tal capture (laser grid = sensor grid, as y-tal's `render` writes a
+/// `scan_type = 'confocal'` capture) of a 4 x 3 grid on the plane z = 1 m, sensor and laser at
+/// different origins, camera clock (`t_accounts_first_and_last_bounces = True`). Each pixel
+/// holds one pulse: the wall point's own echo from a hidden point 0.3 m behind it (0.6 m of
+/// path) after both wall legs. Ingested, unwarped and exported, it must come back exactly,
+/// and the world-time cube must hold every pulse in the same bin.
+#[test]
+fn a_confocal_capture_unwarps_both_legs_and_round_trips_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (sx, sy, nt) = (4usize, 3usize, 400usize);
+    let delta_t_m = 0.01;
+    let sensor = [0.1, -0.2, -0.5];
+    let laser = [-0.3, 0.1, -0.4];
+    let dist = |a: [f64; 3], b: [f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let mut grid = vec![[0.0; 3]; sx * sy];
+    let mut h = vec![0.0f32; nt * sx * sy];
+    let echo_m = 0.6;
+    for x in 0..sx {
+        for y in 0..sy {
+            let p = [0.2 * x as f64 - 0.3, 0.2 * y as f64 - 0.2, 1.0];
+            grid[x * sy + y] = p;
+            let opl = dist(laser, p) + dist(p, sensor) + echo_m;
+            let t = (opl / delta_t_m).floor() as usize;
+            h[(t * sx + x) * sy + y] = (1 + x + 10 * y) as f32;
+        }
+    }
+    let cap = TalCapture {
+        nt,
+        sx,
+        sy,
+        h,
+        delta_t_m,
+        t_start_m: 0.0,
+        t_accounts_first_and_last_bounces: true,
+        sensor_xyz_m: sensor,
+        sensor_grid_xyz_m: grid,
+        sensor_grid_normals: None,
+        laser_xyz_m: laser,
+        laser_grid_xyz_m: LaserSpot::Confocal,
+    };
+    let src = d.join("confocal.hdf5");
+    write_tal(&src, &cap).unwrap();
+    assert_eq!(read_tal(&src).unwrap(), cap, "y-tal's layout reads back");
+
+    let camera = d.join("camera.h5");
+    FemtoCmd::new()
+        .args(["ingest", arg(&src), "-o", arg(&camera)])
+        .ok();
+    let back = d.join("back.hdf5");
+    FemtoCmd::new()
+        .args(["export", "--to", "tal", arg(&camera), "-o", arg(&back)])
+        .ok();
+    let again = read_tal(&back).unwrap();
+    assert_eq!(again.h, cap.h, "H round-trips exactly");
+    assert_eq!(again.laser_grid_xyz_m, LaserSpot::Confocal);
+    assert_eq!(again.sensor_grid_xyz_m, cap.sensor_grid_xyz_m);
+    assert!((again.t_start_m - cap.t_start_m).abs() < 1e-12);
+    assert!((again.delta_t_m - cap.delta_t_m).abs() < 1e-15);
+    assert!(again.t_accounts_first_and_last_bounces);
+
+    // Both legs removed: every pulse lands where the echo alone puts it, 0.6 m of light
+    // after the pulse is at the pixel's own wall point.
+    let world = d.join("world.h5");
+    let out = FemtoCmd::new()
+        .args(["unwarp", arg(&camera), "-o", arg(&world)])
+        .ok()
+        .stdout;
+    assert!(out.contains("12 of 12 pixels shifted"), "{out}");
+    let w = container::read_cube(&world).unwrap();
+    assert_eq!(w.frame, TimeFrame::World);
+    let want_ps = echo_m / C_M_PER_PS;
+    for y in 0..sy {
+        for x in 0..sx {
+            let profile = w.profile(x, y);
+            let total: f32 = profile.iter().sum();
+            let mean_ps: f64 = profile
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| f64::from(v) * (w.axis.t0_ps + (i as f64 + 0.5) * w.axis.dt_ps))
+                .sum::<f64>()
+                / f64::from(total);
+            assert!(
+                (total - (1 + x + 10 * y) as f32).abs() < 1e-3,
+                "({x}, {y}) {total}"
+            );
+            // The pulse filled one bin of the capture: within a bin of the echo's time.
+            let bin_ps = delta_t_m / C_M_PER_PS;
+            assert!(
+                (mean_ps - want_ps).abs() < bin_ps,
+                "({x}, {y}): {mean_ps} ps, want {want_ps} +- {bin_ps}"
+            );
+        }
+    }
+    // The world-time cube exports as y-tal's False clock, still confocal.
+    let wback = d.join("wback.hdf5");
+    FemtoCmd::new()
+        .args(["export", "--to", "tal", arg(&world), "-o", arg(&wback)])
+        .ok();
+    let wcap = read_tal(&wback).unwrap();
+    assert!(!wcap.t_accounts_first_and_last_bounces);
+    assert_eq!(wcap.laser_grid_xyz_m, LaserSpot::Confocal);
 }
 
 /// Whether the interop check must run (`CI=true`) rather than be skipped.

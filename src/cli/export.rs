@@ -2,6 +2,7 @@
 //! [`femto::interop::export_tal`]; this module parses the flags and prints what was written.
 
 use clap::{Args, ValueEnum};
+use femto::interop::tal::LaserSpot;
 use femto::interop::{export_tal, LaserOrigin};
 use std::path::PathBuf;
 
@@ -58,13 +59,16 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
             "the camera centre: no calibration records it (give --laser-origin-m)"
         }
     };
+    let spot = match c.laser_grid_xyz_m {
+        LaserSpot::Single(p) => format!("laser spot {p:?}"),
+        LaserSpot::Confocal => "confocal: laser grid = sensor grid".to_string(),
+    };
     println!(
-        "sensor grid from the {} group ({} of {} points see nothing: NaN); laser spot {:?}, \
+        "sensor grid from the {} group ({} of {} points see nothing: NaN); {spot}, \
          laser origin {:?}, {origin}",
         e.geometry_group,
         e.unseen_points,
         c.sx * c.sy,
-        c.laser_grid_xyz_m,
         c.laser_xyz_m
     );
     Ok(())

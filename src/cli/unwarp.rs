@@ -91,7 +91,7 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
             mesh,
             mesh_name,
         },
-        None => Distances::Registration,
+        None => Distances::Stored,
     };
     let done = unwarp_file(
         &args.cube,

@@ -278,13 +278,7 @@ pub(crate) fn run_chain(
                 command_line: "femto demo".into(),
                 ..UnwarpOptions::default()
             };
-            unwarp_file(
-                &cube_path,
-                &world_path,
-                Distances::Registration,
-                &options,
-                &Quiet,
-            )?;
+            unwarp_file(&cube_path, &world_path, Distances::Stored, &options, &Quiet)?;
             Ok(())
         },
     )?;

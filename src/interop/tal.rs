@@ -1,5 +1,6 @@
-//! A y-tal capture (`tal.io.NLOSCaptureData`, single laser point, `H_format = T_Sx_Sy`) in
-//! memory, and its conversion to and from a femto cube with the geometry y-tal needs.
+//! A y-tal capture (`tal.io.NLOSCaptureData`, `H_format = T_Sx_Sy`: one laser point, or a
+//! confocal scan) in memory, and its conversion to and from a femto cube with the geometry
+//! y-tal needs.
 //!
 //! Axes: y-tal's `H` is `(T, Sx, Sy)`, femto's cube `[y][x][t]`, so `H[t, x, y] =
 //! cube[y, x, t]`; `sensor_grid_xyz[x, y] = point_m[y, x]`. Time: y-tal's `t_start` and
@@ -10,6 +11,14 @@
 //! the time the pulse leaves the spot. With `True` it adds the first bounce (laser origin to
 //! spot) and the last (sensor point to the sensor origin): femto's camera time, for a camera
 //! at the sensor origin, plus the first bounce.
+//!
+//! Confocal captures ([`LaserSpot::Confocal`]: the laser and the sensor look at the same wall
+//! point, pixel by pixel, y-tal's `laser_grid_xyz` equal to `sensor_grid_xyz`): there is no
+//! one spot whose first bounce could be a constant, so femto's camera time of a confocal cube
+//! counts from the pulse leaving the laser's origin and holds both wall legs (laser origin to
+//! the pixel's point, the point to the sensor); world time counts from the pulse at the pixel's
+//! own wall point (`femto unwarp` removes both legs). Neither conversion adds a first bounce:
+//! y-tal's `t_accounts_first_and_last_bounces = True` is the camera-time cube as it is.
 
 use crate::cube::{Cube, TimeAxis, TimeFrame};
 use crate::store::registration::StoredRegistration;
@@ -19,7 +28,25 @@ use crate::units::C_M_PER_PS;
 /// read by `femto export --to tal` when the cube has no registration).
 pub const GROUP: &str = "tal";
 
-/// A capture as y-tal holds it: one laser point, a grid of sensor points.
+/// Where the laser points on the wall.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LaserSpot {
+    /// One spot for every pixel, metres.
+    Single([f64; 3]),
+    /// Each pixel's own wall point (a confocal scan): y-tal's `laser_grid_xyz` is the sensor
+    /// grid.
+    Confocal,
+}
+
+impl LaserSpot {
+    /// Whether this is a confocal scan.
+    pub fn is_confocal(self) -> bool {
+        self == LaserSpot::Confocal
+    }
+}
+
+/// A capture as y-tal holds it: a grid of sensor points and one laser point, or a laser point
+/// per sensor point (confocal).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TalCapture {
     /// Time bins (`T`).
@@ -43,8 +70,8 @@ pub struct TalCapture {
     pub sensor_grid_normals: Option<Vec<[f64; 3]>>,
     /// The laser's own origin (not the spot), metres.
     pub laser_xyz_m: [f64; 3],
-    /// The laser spot on the wall, metres.
-    pub laser_grid_xyz_m: [f64; 3],
+    /// The laser spot on the wall, metres, or the sensor grid itself (confocal).
+    pub laser_grid_xyz_m: LaserSpot,
 }
 
 /// What a cube needs besides its values to become a y-tal capture, per pixel `[y][x]`.
@@ -58,9 +85,9 @@ pub struct TalGeometry {
     pub sensor_m: [f64; 3],
     /// The laser's own origin, metres.
     pub laser_origin_m: [f64; 3],
-    /// The laser spot, metres.
-    pub laser_spot_m: [f64; 3],
-    /// Cube time at which the pulse leaves the spot, ps.
+    /// The laser spot, metres, or each pixel's own point (confocal).
+    pub laser_spot_m: LaserSpot,
+    /// Cube time at which the pulse leaves the spot (confocal: the laser's origin), ps.
     pub t_spot_ps: f64,
     /// Cube time units per true picosecond.
     pub time_scale: f64,
@@ -71,9 +98,26 @@ fn dist_m(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl TalGeometry {
-    /// The first bounce, laser origin to spot, metres.
+    /// The first bounce, laser origin to spot, metres, that y-tal's camera clock adds to
+    /// femto's; 0 for a confocal scan, whose camera time holds its first bounce already.
     pub fn first_bounce_m(&self) -> f64 {
-        dist_m(self.laser_origin_m, self.laser_spot_m)
+        match self.laser_spot_m {
+            LaserSpot::Single(spot) => dist_m(self.laser_origin_m, spot),
+            LaserSpot::Confocal => 0.0,
+        }
+    }
+
+    /// The optical path, metres, that separates the camera clock from the world clock at
+    /// pixel `p` (`[y][x]` index), for a sensor and a laser in a medium of index 1: the last
+    /// bounce (wall point to sensor) and, for a confocal scan, the pixel's own first bounce
+    /// (laser origin to wall point). NaN where the pixel sees nothing.
+    pub fn clock_path_m(&self, p: usize) -> f64 {
+        let point = self.sensor_grid_m[p];
+        let last = dist_m(point, self.sensor_m);
+        match self.laser_spot_m {
+            LaserSpot::Single(_) => last,
+            LaserSpot::Confocal => last + dist_m(self.laser_origin_m, point),
+        }
     }
 
     /// The geometry of a cube's registration: the points and normals its pixels see, its
@@ -89,7 +133,7 @@ impl TalGeometry {
             sensor_normals: Some(wide(&reg.normal)),
             sensor_m: reg.camera_m.coords.into(),
             laser_origin_m,
-            laser_spot_m: cal.laser_m.coords.into(),
+            laser_spot_m: LaserSpot::Single(cal.laser_m.coords.into()),
             t_spot_ps: cal.t0_ps,
             time_scale: cal.time_scale,
         }
@@ -209,7 +253,7 @@ mod tests {
             sensor_normals: None,
             sensor_m: [0.0, 0.0, -1.0],
             laser_origin_m: [0.3, 0.4, 0.0],
-            laser_spot_m: [0.0, 0.0, 0.0],
+            laser_spot_m: LaserSpot::Single([0.0, 0.0, 0.0]),
             t_spot_ps: 100.0,
             time_scale: 1.0,
         }
@@ -264,5 +308,34 @@ mod tests {
             assert_eq!(g.sensor_grid_m, geo.sensor_grid_m);
             assert_eq!(g.laser_origin_m, geo.laser_origin_m);
         }
+    }
+
+    #[test]
+    fn a_confocal_capture_adds_no_first_bounce_and_its_clock_path_holds_both_legs() {
+        let mut geo = geometry(3, 2);
+        geo.laser_spot_m = LaserSpot::Confocal;
+        geo.t_spot_ps = 0.0;
+        assert_eq!(geo.first_bounce_m(), 0.0);
+        for frame in [TimeFrame::World, TimeFrame::Camera] {
+            let c = cube(frame);
+            let cap = TalCapture::from_cube(&c, &geo);
+            assert_eq!(cap.laser_grid_xyz_m, LaserSpot::Confocal);
+            // 110 ps of light from the laser's origin (camera) or the wall point (world).
+            assert!((cap.t_start_m - 110.0 * C_M_PER_PS).abs() < 1e-15);
+            let (back, g) = cap.to_cube();
+            assert_eq!(back.data, c.data);
+            assert_eq!(back.frame, frame);
+            assert!((back.axis.t0_ps - c.axis.t0_ps).abs() < 1e-9);
+            assert_eq!(g.laser_spot_m, LaserSpot::Confocal);
+        }
+        // Pixel (x 2, y 1) sees (0.2, 0.2, 1): to the sensor (0, 0, -1) and from the laser's
+        // origin (0.3, 0.4, 0).
+        let p = nalgebra::Vector3::<f64>::new(0.2, 0.2, 1.0);
+        let want = (p - nalgebra::Vector3::new(0.0, 0.0, -1.0)).norm()
+            + (p - nalgebra::Vector3::new(0.3, 0.4, 0.0)).norm();
+        assert!((geo.clock_path_m(3 + 2) - want).abs() < 1e-12);
+        geo.laser_spot_m = LaserSpot::Single([0.0; 3]);
+        let last = (p - nalgebra::Vector3::new(0.0, 0.0, -1.0)).norm();
+        assert!((geo.clock_path_m(3 + 2) - last).abs() < 1e-12);
     }
 }

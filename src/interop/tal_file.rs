@@ -2,12 +2,13 @@
 //! `tal.io.write_capture` writes): root datasets `H` (float32, `(T, Sx, Sy)`), `H_format`,
 //! `sensor_grid_format`, `laser_grid_format` (enum or integer, one element), `sensor_xyz`,
 //! `laser_xyz` (3), `sensor_grid_xyz`, `sensor_grid_normals` (`(Sx, Sy, 3)`),
-//! `laser_grid_xyz` (`(1, 1, 3)`), `delta_t`, `t_start` (scalars, metres of optical path) and
+//! `laser_grid_xyz` (`(1, 1, 3)`, or `(Sx, Sy, 3)` equal to the sensor grid for a confocal
+//! scan: y-tal's `is_confocal`), `delta_t`, `t_start` (scalars, metres of optical path) and
 //! `t_accounts_first_and_last_bounces` (bool). y-tal refuses any other root key, so femto
 //! writes only these. Also the cube group `tal` ([`super::tal::GROUP`]) that keeps a capture's
 //! geometry inside a femto cube.
 
-use super::tal::{TalCapture, TalGeometry, GROUP};
+use super::tal::{LaserSpot, TalCapture, TalGeometry, GROUP};
 use super::InteropError;
 use crate::container::{AttrValue, DataBuf, GroupData};
 use rust_hdf5::{DatatypeMessage, H5Dataset, H5File, HBool};
@@ -90,7 +91,14 @@ pub fn write_tal(path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
         }
         enum_like("sensor_grid_format", GRID_FORMAT_X_Y_3)?;
         f64s("laser_xyz", &[3], &cap.laser_xyz_m)?;
-        f64s("laser_grid_xyz", &[1, 1, 3], &cap.laser_grid_xyz_m)?;
+        match cap.laser_grid_xyz_m {
+            LaserSpot::Single(spot) => f64s("laser_grid_xyz", &[1, 1, 3], &spot)?,
+            LaserSpot::Confocal => f64s(
+                "laser_grid_xyz",
+                &[cap.sx, cap.sy, 3],
+                &flat(&cap.sensor_grid_xyz_m),
+            )?,
+        }
         enum_like("laser_grid_format", GRID_FORMAT_X_Y_3)?;
         f64s("delta_t", &[], &[cap.delta_t_m])?;
         f64s("t_start", &[], &[cap.t_start_m])?;
@@ -250,18 +258,22 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         _ => None,
     };
     let (lshape, lv) = read("laser_grid_xyz")?;
-    if lv.len() != 3 {
+    let laser_grid_xyz_m = if lv.len() == 3 {
+        LaserSpot::Single([lv[0], lv[1], lv[2]])
+    } else if lshape == [sx, sy, 3] && is_confocal_grid(&lv, &sensor_grid_xyz_m) {
+        LaserSpot::Confocal
+    } else {
         let what = if lshape.starts_with(&[sx, sy]) {
-            "a confocal capture (a laser point per sensor point)"
+            "a laser point per sensor point that is not the sensor point (a custom pairing)"
         } else {
             "several laser points"
         };
         return Err(invalid(
             path,
             "laser_grid_xyz",
-            format!("shape {lshape:?}: {what}; femto's cube has one laser spot (split the capture in y-tal: get_single_subdata_from_laser_point)"),
+            format!("shape {lshape:?}: {what}; femto reads one laser spot or a confocal scan (split the capture in y-tal: get_single_subdata_from_laser_point)"),
         ));
-    }
+    };
     let delta_t_m = scalar("delta_t")?;
     if delta_t_m <= 0.0 {
         return Err(invalid(
@@ -282,12 +294,23 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         sensor_grid_xyz_m,
         sensor_grid_normals,
         laser_xyz_m: point("laser_xyz")?,
-        laser_grid_xyz_m: [lv[0], lv[1], lv[2]],
+        laser_grid_xyz_m,
     })
 }
 
+/// Whether a laser grid (flat `x, y, z` triples) is the sensor grid, as y-tal's
+/// `NLOSCaptureData.is_confocal` decides it (`numpy.allclose`: `|a - b| <= 1e-8 + 1e-5 |b|`).
+fn is_confocal_grid(laser: &[f64], sensor: &[[f64; 3]]) -> bool {
+    laser.len() == 3 * sensor.len()
+        && laser
+            .iter()
+            .zip(sensor.iter().flatten())
+            .all(|(&a, &b)| (a - b).abs() <= 1e-8 + 1e-5 * b.abs())
+}
+
 /// The cube group that keeps `geo` (datasets `sensor_grid_m`, `sensor_normals` `(ny, nx, 3)`;
-/// attributes `sensor_m`, `laser_origin_m`, `laser_spot_m`, `t_spot_ps`, `time_scale`).
+/// attributes `sensor_m`, `laser_origin_m`, `t_spot_ps`, `time_scale`, and `laser_spot_m`, or
+/// `confocal = 1` for a confocal scan).
 pub fn geometry_group(geo: &TalGeometry, nx: usize, ny: usize) -> GroupData {
     let flat = |v: &[[f64; 3]]| DataBuf::F64(v.iter().flatten().copied().collect());
     let mut datasets = vec![(
@@ -308,12 +331,14 @@ pub fn geometry_group(geo: &TalGeometry, nx: usize, ny: usize) -> GroupData {
                 "laser_origin_m".into(),
                 AttrValue::F64Array(geo.laser_origin_m.to_vec()),
             ),
-            (
-                "laser_spot_m".into(),
-                AttrValue::F64Array(geo.laser_spot_m.to_vec()),
-            ),
             ("t_spot_ps".into(), AttrValue::F64(geo.t_spot_ps)),
             ("time_scale".into(), AttrValue::F64(geo.time_scale)),
+            match geo.laser_spot_m {
+                LaserSpot::Single(spot) => {
+                    ("laser_spot_m".into(), AttrValue::F64Array(spot.to_vec()))
+                }
+                LaserSpot::Confocal => ("confocal".into(), AttrValue::I64(1)),
+            },
         ],
         datasets,
     }
@@ -358,8 +383,31 @@ pub fn geometry_from_group(
         sensor_normals: grid("sensor_normals")?,
         sensor_m: point("sensor_m")?,
         laser_origin_m: point("laser_origin_m")?,
-        laser_spot_m: point("laser_spot_m")?,
+        laser_spot_m: match data.attr("confocal") {
+            Some(AttrValue::I64(1)) => LaserSpot::Confocal,
+            None => LaserSpot::Single(point("laser_spot_m")?),
+            Some(_) => return Err(invalid(path, &key("confocal"), "expected the integer 1")),
+        },
         t_spot_ps: number("t_spot_ps")?,
         time_scale: number("time_scale")?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_laser_grid_is_confocal_when_numpy_allclose_says_so() {
+        let sensor = [[0.0, 0.0, 1.0], [0.1, 0.0, 1.0]];
+        let same: Vec<f64> = sensor.iter().flatten().copied().collect();
+        assert!(is_confocal_grid(&same, &sensor));
+        let mut near = same.clone();
+        near[3] += 1e-9;
+        assert!(is_confocal_grid(&near, &sensor), "within atol 1e-8");
+        let mut custom = same.clone();
+        custom[3] = 0.2;
+        assert!(!is_confocal_grid(&custom, &sensor), "a custom pairing");
+        assert!(!is_confocal_grid(&same[..3], &sensor), "one point");
+    }
 }

@@ -2,10 +2,12 @@
 //! pixel, with the distances of a registration (seed Eq. 2, physics.md:
 //! `t_world = t_camera - eta |p - o| / c`; the kernel is [`crate::unwarp::unwarp_rows`]).
 //!
-//! The distances and `eta` come from the cube's `registration` group, or from a calibration
-//! and a mesh (the cube's pixels are taken to be that camera's pixels and the rays are cast
-//! anew). The registration used is stored in the output, so that the reverse direction can
-//! undo it. The output time axis covers every shifted sample, aligned with the input's bins,
+//! The distances and `eta` come from the cube's `registration` group, else from its `tal`
+//! group (a y-tal capture: each pixel's sensor point and the sensor's origin, eta 1; for a
+//! confocal scan the pixel's own first bounce, laser origin to wall point, is removed too, see
+//! [`crate::interop::tal`]), or from a calibration and a mesh (the cube's pixels are taken to
+//! be that camera's pixels and the rays are cast anew). The registration used is stored in the
+//! output (the `tal` group is carried over), so that the reverse direction can undo it. The output time axis covers every shifted sample, aligned with the input's bins,
 //! unless one is given. Pixels the registration marks as seeing nothing are masked, whatever
 //! their distance says. The cube is streamed by row slabs; the output keeps the input's
 //! compression and provenance notes (the laser wavelength `laser_nm` among them) unless told
@@ -17,6 +19,8 @@ use crate::camera::Calibration;
 use crate::container::{CubeCompression, CubeMeta, CubeReader, CubeWriter, GroupData, Provenance};
 use crate::cube::{row_slabs, TimeAxis, TimeFrame};
 use crate::geometry::bvh::Bvh;
+use crate::interop::geometry_from_group;
+use crate::interop::tal::{self, LaserSpot};
 use crate::limits::check_memory;
 use crate::store::registration::{self, StoredRegistration};
 use crate::unwarp::{covering_axis, unwarp_rows, Direction};
@@ -72,8 +76,9 @@ fn check_unwarp_memory(
 /// Where the per-pixel distances come from.
 #[derive(Clone, Copy)]
 pub enum Distances<'a> {
-    /// The cube's own `registration` group (written by `femto calibrate`).
-    Registration,
+    /// The cube's own geometry: its `registration` group (written by `femto calibrate`), else
+    /// its `tal` group (written by `femto ingest` of a y-tal capture).
+    Stored,
     /// Rays cast anew through `calibration` into `mesh`.
     Cast {
         calibration: &'a Calibration,
@@ -164,11 +169,10 @@ pub fn unwarp_file(
         });
     }
 
-    let (stored, group) = load_registration(&reader, input, &meta, distances)?;
-    let eta = stored.calibration.eta;
     let mask = reader.read_mask()?;
-    let reg = &stored.registration;
-    let dist = masked_distances(nx * ny, &reg.mask, &reg.dist_m, mask.as_deref());
+    let paths = load_paths(&reader, input, &meta, distances)?;
+    let eta = paths.eta;
+    let dist = masked_distances(nx * ny, &paths.valid, &paths.dist_m, mask.as_deref());
     let dist_range_m = finite_range_m(&dist);
     let axis = output_axis(
         input,
@@ -182,14 +186,7 @@ pub fn unwarp_file(
 
     let provenance = Provenance {
         command_line: options.command_line.clone(),
-        notes: unwarp_notes(
-            &meta.notes,
-            meta.frame,
-            direction,
-            input,
-            distances,
-            &stored.mesh,
-        ),
+        notes: unwarp_notes(&meta.notes, meta.frame, direction, input, &paths.described),
     };
     let compression = options
         .compression
@@ -216,7 +213,9 @@ pub fn unwarp_file(
     let out_mask = stream_slabs(&reader, &mut writer, &slabs, progress)?;
     drop(reader);
     writer.write_mask(&out_mask)?;
-    writer.write_group(registration::GROUP, &group)?;
+    if let Some(group) = &paths.registration_group {
+        writer.write_group(registration::GROUP, group)?;
+    }
     writer.finish()?;
     Ok(Unwarped {
         nx,
@@ -232,17 +231,34 @@ pub fn unwarp_file(
     })
 }
 
-/// The registration [`unwarp_file`] uses and the group it stores in the output: cast anew
-/// through a calibration into a mesh, or read from the cube's own group. Refuses a cube with
-/// no group to read, and a registration whose size is not the cube's.
-fn load_registration(
+/// The per-pixel paths between the clocks that [`unwarp_file`] removes (or adds), with where
+/// they came from.
+struct ClockPaths {
+    /// Optical path between the two clocks per pixel `[y][x]`, metres (in the medium: the
+    /// shift is `eta * dist / c`).
+    dist_m: Vec<f32>,
+    /// 1 where the geometry gives the pixel a path.
+    valid: Vec<u8>,
+    eta: f64,
+    /// The registration group the output gets (None: the source's `tal` group is carried
+    /// over as it is).
+    registration_group: Option<GroupData>,
+    /// Where the paths came from, for the provenance note `unwarp.distances`.
+    described: String,
+}
+
+/// The paths [`unwarp_file`] uses: cast anew through a calibration into a mesh, or read from
+/// the cube's own `registration` group, else its `tal` group. Refuses a cube with no group to
+/// read, and a geometry whose size is not the cube's.
+fn load_paths(
     reader: &CubeReader,
     input: &Path,
     meta: &CubeMeta,
     distances: Distances<'_>,
-) -> Result<(StoredRegistration, GroupData), StageError> {
+) -> Result<ClockPaths, StageError> {
     let (nx, ny) = (meta.nx, meta.ny);
-    let (stored, group): (StoredRegistration, GroupData) = match distances {
+    let has = |g: &str| meta.groups.iter().any(|n| n == g);
+    let (stored, group, described) = match distances {
         Distances::Cast {
             calibration,
             calibration_name,
@@ -261,10 +277,14 @@ fn load_registration(
                 mesh: mesh_name.to_string(),
                 fit: None,
             };
-            (stored, group)
+            let described = format!("cast through {calibration_name} into {mesh_name}");
+            (stored, group, described)
         }
-        Distances::Registration => {
-            if !meta.groups.iter().any(|g| g == registration::GROUP) {
+        Distances::Stored if !has(registration::GROUP) && has(tal::GROUP) => {
+            return tal_paths(reader, input, nx, ny);
+        }
+        Distances::Stored => {
+            if !has(registration::GROUP) {
                 return Err(StageError::Input {
                     path: input.display().to_string(),
                     message: format!(
@@ -275,10 +295,15 @@ fn load_registration(
                 });
             }
             let group = reader.read_group(registration::GROUP)?;
-            (registration::from_group(input, &group)?, group)
+            let stored = registration::from_group(input, &group)?;
+            (
+                stored,
+                group,
+                format!("/{} group of the source", registration::GROUP),
+            )
         }
     };
-    let reg = &stored.registration;
+    let reg = stored.registration;
     if (reg.nx, reg.ny) != (nx, ny) {
         return Err(StageError::Input {
             path: input.display().to_string(),
@@ -288,7 +313,48 @@ fn load_registration(
             ),
         });
     }
-    Ok((stored, group))
+    Ok(ClockPaths {
+        dist_m: reg.dist_m,
+        valid: reg.mask,
+        eta: stored.calibration.eta,
+        registration_group: Some(group),
+        described,
+    })
+}
+
+/// The paths of a cube's `tal` group: each pixel's sensor point to the sensor's origin, and
+/// for a confocal scan the laser's origin to the point as well ([`tal::TalGeometry::clock_path_m`]).
+fn tal_paths(
+    reader: &CubeReader,
+    input: &Path,
+    nx: usize,
+    ny: usize,
+) -> Result<ClockPaths, StageError> {
+    let group = reader.read_group(tal::GROUP)?;
+    let geo = geometry_from_group(input, &group, nx, ny).map_err(|e| StageError::Input {
+        path: input.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let dist_m: Vec<f32> = (0..nx * ny).map(|p| geo.clock_path_m(p) as f32).collect();
+    let valid = dist_m.iter().map(|d| u8::from(d.is_finite())).collect();
+    let described = match geo.laser_spot_m {
+        LaserSpot::Confocal => format!(
+            "/{} group of the source (confocal: sensor point to sensor and laser origin to \
+             sensor point, eta 1)",
+            tal::GROUP
+        ),
+        LaserSpot::Single(_) => format!(
+            "/{} group of the source (sensor point to sensor, eta 1)",
+            tal::GROUP
+        ),
+    };
+    Ok(ClockPaths {
+        dist_m,
+        valid,
+        eta: 1.0,
+        registration_group: None,
+        described,
+    })
 }
 
 /// The distance of each of the `n_pixels` pixels, metres, NaN where the registration's mask (`reg_mask`) or the
@@ -365,8 +431,7 @@ fn unwarp_notes(
     from: TimeFrame,
     direction: Direction,
     input: &Path,
-    distances: Distances<'_>,
-    mesh: &str,
+    distances: &str,
 ) -> Vec<(String, String)> {
     let mut notes: Vec<(String, String)> = input_notes
         .iter()
@@ -378,15 +443,7 @@ fn unwarp_notes(
         format!("{} -> {}", from, direction.target_frame()),
     ));
     notes.push(("unwarp.source".into(), input.display().to_string()));
-    notes.push((
-        "unwarp.distances".into(),
-        match distances {
-            Distances::Cast {
-                calibration_name, ..
-            } => format!("cast through {calibration_name} into {mesh}"),
-            Distances::Registration => format!("/{} group of the source", registration::GROUP),
-        },
-    ));
+    notes.push(("unwarp.distances".into(), distances.to_string()));
     notes
 }
 
@@ -522,8 +579,7 @@ mod tests {
             TimeFrame::Camera,
             Direction::CameraToWorld,
             Path::new("cam.h5"),
-            Distances::Registration,
-            "mesh.obj",
+            "/registration group of the source",
         );
         let keys: Vec<&str> = n.iter().map(|(k, _)| k.as_str()).collect();
         assert_eq!(
