@@ -358,6 +358,21 @@ fn a_confocal_capture_unwarps_both_legs_and_round_trips_exactly() {
             );
         }
     }
+    // Rendered with no calibration and no mesh: the wall grid stands for them (the camera
+    // looks straight at the wall), and the echo lights the frames.
+    let frames = d.join("frames");
+    let run = FemtoCmd::new()
+        .args(["render", "--cube", arg(&world), "--out", arg(&frames)])
+        .args(["--capture-view", "--size", "16x12", "--frame-count", "20"])
+        .ok();
+    assert!(!run.stderr.contains("entirely black"), "{}", run.stderr);
+    let lit = (0..20)
+        .filter(|k| {
+            let png = image::open(frames.join(format!("frame_{k:05}.png"))).unwrap();
+            png.to_rgb8().pixels().any(|p| p.0.iter().any(|&c| c > 0))
+        })
+        .count();
+    assert!(lit > 0, "some frame shows the echo");
     // The world-time cube exports as y-tal's False clock, still confocal.
     let wback = d.join("wback.hdf5");
     FemtoCmd::new()

@@ -47,7 +47,7 @@ use crate::ingest::assemble::ingest;
 use crate::ingest::plan::{IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput};
 use crate::pipeline::calibrate::{calibrate_cube, write_calibration, CalibrateOptions, Calibrated};
 use crate::pipeline::pyramid::{pyramid_file, PyramidOptions};
-use crate::pipeline::render::{open_render_inputs, RenderInputs};
+use crate::pipeline::render::{open_render_inputs, RenderInputs, SceneGeometry};
 use crate::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions};
 use crate::pipeline::Quiet;
 use crate::render::RenderScene;
@@ -287,13 +287,11 @@ pub(crate) fn run_chain(
     // 5. Pyramid: the pyramid stage with its defaults, then the render stage's inputs.
     let render = stages.run(&format!("{label}pyramid"), "temporal prefix sums", || {
         pyramid_file(&world_path, &PyramidOptions::default(), &Quiet)?;
-        Ok(open_render_inputs(
-            &world_path,
-            None,
-            &calib_path,
-            &mesh_path,
-            None,
-        )?)
+        let geometry = SceneGeometry::Files {
+            calibration: &calib_path,
+            mesh: &mesh_path,
+        };
+        Ok(open_render_inputs(&world_path, None, geometry, None)?)
     })?;
 
     let commands = commands(data_dir, &paths, truth.laser_m, &options);

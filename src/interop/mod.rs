@@ -7,6 +7,7 @@
 //! | `tal_file` | y-tal's HDF5 layout (`tal.io.read_capture`'s `HDF5_TAL`): [`read_tal`], [`write_tal`], [`is_tal_capture`] |
 //! | [`mitransient`] | mitransient's transient array `(H, W, T, C)` in optical path length into a cube, colour channels collapsed as asked |
 //! | `npy` | the NumPy `.npy` reader under [`mitransient`] |
+//! | [`wall_view`] | a capture camera and a wall mesh for a cube that knows only its wall grid (what `femto render` uses without `--calibration` and `--mesh`) |
 //! | `stage` | the stages `femto export` and `femto ingest` call: [`export_tal`], [`ingest_tal`], [`ingest_mitransient`] |
 //!
 //! Clocks (physics.md, "Units and clocks"): y-tal and mitransient bin light by optical path
@@ -21,9 +22,11 @@ mod npy;
 mod stage;
 pub mod tal;
 mod tal_file;
+mod wall_view;
 
 pub use stage::{export_tal, ingest_mitransient, ingest_tal, LaserOrigin, TalExport};
 pub use tal_file::{geometry_from_group, geometry_group, is_tal_capture, read_tal, write_tal};
+pub use wall_view::wall_view;
 
 use std::path::PathBuf;
 

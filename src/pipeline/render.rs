@@ -16,6 +16,8 @@ use crate::container::{self, CubeMeta};
 use crate::cube::TimeFrame;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::load::load_mesh;
+use crate::geometry::TriangleMesh;
+use crate::interop::{geometry_from_group, tal, wall_view};
 use crate::limits::check_memory;
 use crate::pyramid::Pyramid;
 use crate::relativity::Radiometry;
@@ -184,13 +186,26 @@ impl RenderInputs {
     }
 }
 
+/// Where the renderer's capture camera and scene geometry come from.
+#[derive(Clone, Copy, Debug)]
+pub enum SceneGeometry<'a> {
+    /// A calibration TOML and a mesh file (`--calibration`, `--mesh`).
+    Files {
+        calibration: &'a Path,
+        mesh: &'a Path,
+    },
+    /// The cube's own `tal` group (a y-tal capture, a confocal scan of a relay wall): its wall
+    /// grid, seen by the camera of [`crate::interop::wall_view`].
+    Wall,
+}
+
 /// Open a world-time cube (its stored pyramid, or `pyramid_file`, or prefix sums built in
-/// memory), its calibration and mesh. `laser_nm`: the wavelength, when the caller knows it.
+/// memory) and its calibration and mesh, from files or from the cube's wall grid.
+/// `laser_nm`: the wavelength, when the caller knows it.
 pub fn open_render_inputs(
     cube_path: &Path,
     pyramid_file: Option<&Path>,
-    calibration_path: &Path,
-    mesh_path: &Path,
+    geometry: SceneGeometry<'_>,
     laser_nm: Option<f64>,
 ) -> Result<RenderInputs, StageError> {
     // Errors name the flag that gave the file (the file's own messages name the file).
@@ -200,22 +215,31 @@ pub fn open_render_inputs(
             message: e.to_string(),
         }
     };
-    let calibration = Calibration::load(calibration_path)
-        .map_err(StageError::from)
-        .map_err(flagged(StageOption::Calibration))?;
-    let mesh = load_mesh(mesh_path)
-        .map_err(StageError::from)
-        .map_err(flagged(StageOption::Mesh))?;
-    if mesh.triangles.is_empty() {
-        return Err(flagged(StageOption::Mesh)(StageError::Input {
-            path: mesh_path.display().to_string(),
-            message: "the mesh has no triangles".into(),
-        }));
-    }
-    let bvh = Bvh::new(mesh);
     let meta = container::read_meta(cube_path)
         .map_err(StageError::from)
         .map_err(flagged(StageOption::Cube))?;
+    let (calibration, mesh, calibration_name) = match geometry {
+        SceneGeometry::Files { calibration, mesh } => {
+            let cal = Calibration::load(calibration)
+                .map_err(StageError::from)
+                .map_err(flagged(StageOption::Calibration))?;
+            let m = load_mesh(mesh)
+                .map_err(StageError::from)
+                .map_err(flagged(StageOption::Mesh))?;
+            if m.triangles.is_empty() {
+                return Err(flagged(StageOption::Mesh)(StageError::Input {
+                    path: mesh.display().to_string(),
+                    message: "the mesh has no triangles".into(),
+                }));
+            }
+            (cal, m, calibration.display().to_string())
+        }
+        SceneGeometry::Wall => {
+            let (cal, m) = wall_geometry(cube_path, &meta)?;
+            (cal, m, cube_path.display().to_string())
+        }
+    };
+    let bvh = Bvh::new(mesh);
     if meta.frame != TimeFrame::World {
         return Err(flagged(StageOption::Cube)(StageError::Input {
             path: cube_path.display().to_string(),
@@ -230,7 +254,7 @@ pub fn open_render_inputs(
     let k = &calibration.intrinsics;
     if (meta.nx, meta.ny) != (k.width, k.height) {
         return Err(flagged(StageOption::Calibration)(StageError::Input {
-            path: calibration_path.display().to_string(),
+            path: calibration_name,
             message: format!(
                 "intrinsics are for {} x {} pixels, but {} is {} x {}",
                 k.width,
@@ -280,6 +304,34 @@ pub fn open_render_inputs(
         pyramid,
         laser,
         notes,
+    })
+}
+
+/// The camera and mesh of the wall grid in `cube_path`'s `tal` group ([`SceneGeometry::Wall`]).
+fn wall_geometry(
+    cube_path: &Path,
+    meta: &CubeMeta,
+) -> Result<(Calibration, TriangleMesh), StageError> {
+    let refuse = |message: String| StageError::Option {
+        name: StageOption::Calibration,
+        message: format!("{}: {message}", cube_path.display()),
+    };
+    if !meta.groups.iter().any(|g| g == tal::GROUP) {
+        return Err(refuse(format!(
+            "no calibration given and no /{} group (the wall point of each pixel, from a y-tal \
+             capture or a confocal scan): give --calibration CAL.toml --mesh MESH",
+            tal::GROUP
+        )));
+    }
+    let group = container::read_group(cube_path, tal::GROUP)?;
+    let geo = geometry_from_group(cube_path, &group, meta.nx, meta.ny)
+        .map_err(|e| refuse(e.to_string()))?;
+    wall_view(&geo, meta.nx, meta.ny).map_err(|why| {
+        refuse(format!(
+            "the /{} group's wall grid cannot stand for a capture camera ({why}): give \
+             --calibration CAL.toml --mesh MESH",
+            tal::GROUP
+        ))
     })
 }
 
