@@ -11,6 +11,11 @@
    exported and read by tal.io.read_capture: H is the cube transposed, delta_t = dt c /
    time_scale, t_start = (t0 - calibration t0) c / time_scale, sensor_grid_xyz equal to the
    registration's point_m within 1e-9 m, laser_grid_xyz its laser_m.
+4. A confocal capture written by y-tal (laser_grid_xyz = sensor_grid_xyz, so that
+   NLOSCaptureData.is_confocal() is True) is ingested, unwarped (both wall legs removed: each
+   pixel's pulse, placed at its own laser leg + last bounce + a 0.6 m echo, lands at the echo)
+   and exported back: tal.io.read_capture gives the same H, t_start, delta_t, and a capture
+   that y-tal still calls confocal.
 """
 
 import os
@@ -163,8 +168,74 @@ def check_registered_export(femto, work, failures):
         failures.append(f"registered export: laser spot off by {spot_err} m")
 
 
+def check_confocal(femto, work, failures):
+    import tal
+    from tal.enums import GridFormat, HFormat
+    from tal.io.capture_data import NLOSCaptureData
+
+    nt, sx, sy = 500, 4, 3
+    delta_t = 0.01
+    gx, gy = np.meshgrid(np.linspace(-0.3, 0.3, sx), np.linspace(-0.2, 0.2, sy), indexing="ij")
+    grid = np.stack([gx, gy, np.ones_like(gx)], axis=-1)
+    sensor = np.array([0.1, -0.2, -0.5])
+    laser = np.array([-0.3, 0.1, -0.4])
+    legs = np.linalg.norm(grid - laser, axis=-1) + np.linalg.norm(grid - sensor, axis=-1)
+    echo = 0.6
+    h = np.zeros((nt, sx, sy), np.float32)
+    for x in range(sx):
+        for y in range(sy):
+            h[int((legs[x, y] + echo) // delta_t), x, y] = 1 + x + 10 * y
+    d = NLOSCaptureData()
+    d.H = h
+    d.H_format = HFormat.T_Sx_Sy
+    d.sensor_grid_xyz = grid.astype(np.float32)
+    d.sensor_grid_normals = np.broadcast_to(np.float32([0, 0, -1]), (sx, sy, 3)).copy()
+    d.sensor_grid_format = GridFormat.X_Y_3
+    d.laser_grid_xyz = grid.astype(np.float32)
+    d.laser_grid_normals = d.sensor_grid_normals.copy()
+    d.laser_grid_format = GridFormat.X_Y_3
+    d.sensor_xyz = sensor.astype(np.float32)
+    d.laser_xyz = laser.astype(np.float32)
+    d.delta_t = np.float32(delta_t)
+    d.t_start = np.float32(0.0)
+    d.t_accounts_first_and_last_bounces = True
+    src = os.path.join(work, "confocal.hdf5")
+    tal.io.write_capture(src, d)
+    if not tal.io.read_capture(src).is_confocal():
+        failures.append("confocal: y-tal does not call its own capture confocal (test setup)")
+    cube = os.path.join(work, "confocal.h5")
+    world = os.path.join(work, "confocal_world.h5")
+    back = os.path.join(work, "confocal_back.hdf5")
+    run(femto, "ingest", src, "-o", cube)
+    run(femto, "unwarp", cube, "-o", world)
+    run(femto, "export", "--to", "tal", cube, "-o", back)
+    r = tal.io.read_capture(back)
+    herr = float(np.abs(np.asarray(r.H) - h).max()) if np.shape(r.H) == h.shape else None
+    with h5py.File(world, "r") as f:
+        w = f["cube"][...].astype(np.float64)
+        a = f["cube"].attrs
+        t = float(a["t0_ps"]) + (np.arange(w.shape[2]) + 0.5) * float(a["dt_ps"])
+    mean_ps = (w * t).sum(axis=2) / w.sum(axis=2)
+    want_ps = echo / C_M_PER_PS
+    bin_ps = delta_t / C_M_PER_PS
+    worst = float(np.abs(mean_ps - want_ps).max())
+    print(f"tal: confocal y-tal capture {h.shape} -> femto ingest, unwarp: pulses at the echo "
+          f"{want_ps:.1f} ps within {worst:.2f} ps (a bin is {bin_ps:.1f} ps); export -> "
+          f"tal.io.read_capture: H max |diff| {herr}, is_confocal {r.is_confocal()}, t_start "
+          f"{float(r.t_start):.9g}, delta_t {float(r.delta_t):.9g}")
+    if herr is None or herr != 0.0:
+        failures.append(f"confocal export: H differs ({herr})")
+    if not r.is_confocal():
+        failures.append("confocal export: y-tal does not read it as confocal")
+    if not (close(r.delta_t, delta_t, 1e-7) and abs(float(r.t_start)) < 1e-9):
+        failures.append(f"confocal export: delta_t {r.delta_t} t_start {r.t_start}")
+    if worst > bin_ps:
+        failures.append(f"confocal unwarp: a pulse {worst} ps from the echo (both legs not removed)")
+
+
 def check(femto, workdir):
     failures = []
+    check_confocal(femto, workdir, failures)
     for accounts in (False, True):
         check_ingest_and_back(femto, workdir, accounts, failures)
     check_registered_export(femto, workdir, failures)
