@@ -47,7 +47,7 @@
 //! count says; femto does not silently drop the rest).
 //!
 //! The same header in a TIFF's ImageDescription ([`read_hpd_tiff`]) goes through the same
-//! [`parse_comment`] and [`build_image`]: its tables are at byte offsets of the TIFF file.
+//! [`parse_comment`] and `build_image`: its tables are at byte offsets of the TIFF file.
 //!
 //! Writer ([`write_img`]): 16- or 32-bit unsigned, a comment with `[Application]`,
 //! `[Acquisition]` (`AcqMode=2`, one exposure, no corrections: every key rosettasciio's

@@ -274,7 +274,7 @@ pub fn read_streak(path: &Path, transpose: bool) -> Result<StreakImage, FormatEr
             let raw = match ext.as_str() {
                 "png" => raster::read_png(path)?,
                 "tif" | "tiff" => match hamamatsu::read_hpd_tiff(path, transpose)? {
-                    hamamatsu::TiffImage::Hpd(image) => return Ok(image),
+                    hamamatsu::TiffImage::Hpd(image) => return Ok(*image),
                     hamamatsu::TiffImage::Plain(raw) => raw,
                 },
                 "exr" => raster::read_exr(path)?,

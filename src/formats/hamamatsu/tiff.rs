@@ -6,7 +6,7 @@
 //! float32 little-endian row times at byte `offset` of the TIFF file, after the image data,
 //! and `[Acquisition] areSource` says which rows of that table the image holds
 //! (`hamamatsu/scaling.rs`). Everything after the pixels are decoded is the `.img` path
-//! ([`super::build_image`]): the axes, Focus mode and uncalibrated units, the settings.
+//! (`build_image`): the axes, Focus mode and uncalibrated units, the settings.
 //!
 //! A TIFF is HPD-TA when its ImageDescription starts with `[Application]`, the first section
 //! HPD-TA writes, or parses as sections among which `[Scaling]`, `[Streak camera]` or
@@ -52,7 +52,7 @@ pub fn hpd_tiff_header(
 /// A TIFF as [`read_hpd_tiff`] reads it.
 pub enum TiffImage {
     /// An HPD-TA TIFF: the image with its axes and `img_meta`, laid out as asked.
-    Hpd(StreakImage),
+    Hpd(Box<StreakImage>),
     /// Any other TIFF: its pixels as stored, for the caller to lay out.
     Plain(RasterPixels),
 }
@@ -86,5 +86,6 @@ pub fn read_hpd_tiff(path: &Path, transpose: bool) -> Result<TiffImage, FormatEr
         data,
         pixel_type,
     };
-    build_image(path, pixels, header, &bytes, transpose).map(TiffImage::Hpd)
+    build_image(path, pixels, header, &bytes, transpose)
+        .map(|image| TiffImage::Hpd(Box::new(image)))
 }
