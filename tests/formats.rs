@@ -48,9 +48,9 @@ fn operate_mode_reads_with_the_documented_values() {
         ]
     );
     let meta = img.img_meta.as_ref().unwrap();
-    assert_eq!(meta.header.comment_len, 3311);
+    assert_eq!(meta.img_header().unwrap().comment_len, 3311);
     assert_eq!(meta.comment.len(), 3311);
-    assert_eq!(meta.header.file_type, ImgFileType::U32);
+    assert_eq!(meta.img_header().unwrap().file_type, ImgFileType::U32);
     for section in [
         "Application",
         "Camera",
@@ -73,10 +73,13 @@ fn operate_mode_reads_with_the_documented_values() {
         AxisScaling::Table {
             unit,
             byte_offset,
+            table_len,
+            first_entry,
             values,
         } => {
             assert_eq!(unit, "us");
             assert_eq!(*byte_offset, 1382319);
+            assert_eq!((*table_len, *first_entry), (512, 0));
             assert_eq!(values.len(), 512);
             for (v, want) in values.iter().zip(us) {
                 assert_eq!(*v as f32, want);
@@ -135,17 +138,18 @@ fn focus_mode_has_an_uncalibrated_vertical_axis() {
 }
 
 #[test]
-fn real_file_transposed_refuses_a_wavelength_time_axis() {
+fn real_file_transposed_has_no_wavelength_time_axis() {
     let Some(path) = hamamatsu_file("operate_mode.img") else {
         return;
     };
-    // Transposed, the file's X axis (nm) would be time: the reader must say so.
-    let err = read_streak(&path, true).unwrap_err();
-    assert!(matches!(err, FormatError::UnknownUnit { .. }), "{err}");
-    let msg = err.to_string();
+    // Transposed, the file's X axis (nm) would be time: a wavelength is no time, so the
+    // image is read without a time axis and says which key.
+    let img = read_streak(&path, true).unwrap();
+    assert!(img.time_axis_ps.is_none());
+    let why = img.img_meta.unwrap().time_uncalibrated.unwrap();
     assert!(
-        msg.contains("operate_mode.img") && msg.contains("\"nm\""),
-        "{msg}"
+        why.contains("ScalingXUnit=\"nm\"") && why.contains("not a time unit"),
+        "{why}"
     );
 }
 
@@ -610,7 +614,8 @@ fn img_reader_says_what_it_does_not_know() {
             "truncated",
         ),
         (
-            patched_img(d, "count.img", |b| replace_once(b, ",0003\"", ",0004\"")),
+            // A table shorter than the image (a longer one is cropped by areSource).
+            patched_img(d, "count.img", |b| replace_once(b, ",0003\"", ",0002\"")),
             "size mismatch",
         ),
     ];

@@ -1,4 +1,5 @@
-//! Hamamatsu HPD-TA `.img` streak images: reader with typed metadata, and a writer.
+//! Hamamatsu HPD-TA streak images: the `.img` reader with typed metadata and its writer, and
+//! the HPD-TA header shared with HPD-TA TIFF files (`hamamatsu/tiff.rs`).
 //!
 //! Container (little-endian), as HPD-TA 9.x writes it:
 //!
@@ -33,10 +34,20 @@
 //! `[Scaling]` key, a file type or a time unit that the reader does not know is an error,
 //! never a guess.
 //!
-//! An axis that is not calibrated leaves [`StreakImage::time_axis_ps`] empty (never a guessed
-//! scale) and [`ImgMeta::time_uncalibrated`] names the header keys that say so; `[Streak
-//! camera] Time Range` may be a duration (`"20 us"`) or a bare sweep-range index (`"4"`),
-//! kept as [`ImgMeta::time_range_index`] (see `hamamatsu/settings.rs`).
+//! A time axis that is not calibrated leaves [`StreakImage::time_axis_ps`] empty (never a
+//! guessed scale) and [`ImgMeta::time_uncalibrated`] names the header keys that say so:
+//! `[Streak camera] Mode="Focus"` (the sweep is off, whatever `[Scaling]` says), a pixel or
+//! length unit (`""`, `px`, `nm`, ...; another unknown unit is an error), or a table that is
+//! not in the file (`ScalingYScalingFile` names another file, or is absent). `[Streak camera]
+//! Time Range` may be a duration (`"20 us"`) or a bare sweep-range index (`"4"`), kept as
+//! [`ImgMeta::time_range_index`] (see `hamamatsu/settings.rs`).
+//!
+//! One image per file: a header announcing several images or additional channels is refused
+//! in one line (rosettasciio's reader reads the first `width x height` pixels whatever the
+//! count says; femto does not silently drop the rest).
+//!
+//! The same header in a TIFF's ImageDescription ([`read_hpd_tiff`]) goes through the same
+//! [`parse_comment`] and `build_image`: its tables are at byte offsets of the TIFF file.
 //!
 //! Writer ([`write_img`]): 16- or 32-bit unsigned, a comment with `[Application]`,
 //! `[Acquisition]` (`AcqMode=2`, one exposure, no corrections: every key rosettasciio's
@@ -45,18 +56,24 @@
 //! table after the pixels. Values are rounded to the nearest integer (half away from zero)
 //! and clamped to `0..=2^bits - 1`; the number clamped at the top is returned.
 //!
-//! The reader is here; the comment's settings in `hamamatsu/settings.rs`, the writer in
+//! The reader is here; the `[Scaling]` axes in `hamamatsu/scaling.rs`, the comment's settings
+//! in `hamamatsu/settings.rs`, the TIFF container in `hamamatsu/tiff.rs`, the writer in
 //! `hamamatsu/write.rs`, the unit tests in `hamamatsu/tests.rs`.
 
 use super::{AxisTable, FormatError, PixelType, StreakImage};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod scaling;
 mod settings;
+mod tiff;
 mod write;
+use scaling::{axis_values, check_scaling_keys, make_axes_increase, parse_axis_scaling};
+pub use scaling::{is_non_time_unit, time_unit_to_ps, AxisScaling};
 use settings::comment_meta;
 #[cfg(test)]
 use settings::{parse_time_range, parse_time_value, TimeRange};
+pub use tiff::{hpd_tiff_header, read_hpd_tiff, TiffImage};
 pub use write::write_img;
 
 /// Length of the fixed header.
@@ -126,27 +143,23 @@ pub struct ImgHeader {
     pub timestamp: f64,
 }
 
-/// How one file axis is scaled (`[Scaling]`, as stored, before any reversal).
+/// The container an HPD-TA image came in.
 #[derive(Clone, Debug, PartialEq)]
-pub enum AxisScaling {
-    /// No calibration: sensor pixels (no `[Scaling]` entry, or type 1 without a unit).
-    Pixels,
-    /// Type 1 with a unit: value of pixel `i` is `scale * i` (HPD-TA records no offset).
-    Linear { scale: f64, unit: String },
-    /// Type 2: one float32 value per pixel at `byte_offset`, in file order and file unit.
-    Table {
-        unit: String,
-        byte_offset: u64,
-        values: Vec<f64>,
-    },
+pub enum HpdContainer {
+    /// An `.img` file, with its fixed header.
+    Img(ImgHeader),
+    /// A TIFF whose ImageDescription holds the HPD-TA header: the image's columns and rows.
+    Tiff { width: usize, height: usize },
 }
 
-/// Everything an `.img` file says besides its pixels.
+/// Everything an HPD-TA file (`.img`, or a TIFF with the HPD-TA header) says besides its
+/// pixels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImgMeta {
-    /// The fixed header.
-    pub header: ImgHeader,
-    /// The comment text as stored (NUL padding removed).
+    /// The container and, for `.img` files, the fixed header.
+    pub container: HpdContainer,
+    /// The comment text as stored (NUL padding removed): the `.img` comment or the TIFF's
+    /// ImageDescription.
     pub comment: String,
     /// The comment parsed: section name -> key -> value (quotes removed).
     pub sections: BTreeMap<String, BTreeMap<String, String>>,
@@ -190,47 +203,99 @@ impl ImgMeta {
             .map(String::as_str)
     }
 
+    /// The `.img` header, for `.img` files.
+    pub fn img_header(&self) -> Option<&ImgHeader> {
+        match &self.container {
+            HpdContainer::Img(h) => Some(h),
+            HpdContainer::Tiff { .. } => None,
+        }
+    }
+
+    /// Columns and rows as the file stores them.
+    pub fn stored_size(&self) -> (usize, usize) {
+        match &self.container {
+            HpdContainer::Img(h) => (h.width, h.height),
+            HpdContainer::Tiff { width, height } => (*width, *height),
+        }
+    }
+
+    /// Whether `[Streak camera] Mode` is `Focus`: the sweep is off, so the rows are not time.
+    pub fn focus_mode(&self) -> bool {
+        self.mode
+            .as_deref()
+            .is_some_and(|m| m.trim().eq_ignore_ascii_case("focus"))
+    }
+
     /// The header keys that leave the time axis uncalibrated, in words, for messages: e.g.
-    /// `[Scaling] ScalingYType=1 with ScalingYUnit="" (sensor rows)` and, when the time range
-    /// is a sweep-range index, `[Streak camera] Time Range="4" (a sweep-range index, not a
+    /// `[Streak camera] Mode="Focus" (no sweep)`, `[Scaling] ScalingYType=1 with
+    /// ScalingYUnit="nm" (not a time unit)`, `[Scaling] ScalingYType=2 with
+    /// ScalingYScalingFile="t.dat" (a table outside this file)` and, when the time range is
+    /// a sweep-range index, `[Streak camera] Time Range="4" (a sweep-range index, not a
     /// duration)`. Meant for an image read without a time axis.
     pub fn uncalibrated_time(&self) -> String {
         let axis = self.time_file_axis;
         let key = |suffix: &str| format!("Scaling{axis}{suffix}");
-        let scaling = match (
-            self.sections.get("Scaling"),
-            self.get("Scaling", &key("Type")),
-        ) {
-            (None, _) => "no [Scaling] section".to_string(),
-            (Some(_), None) => format!("no [Scaling] {}", key("Type")),
-            (Some(_), Some(kind)) => format!(
-                "[Scaling] {}={kind} with {}={:?} (sensor {})",
-                key("Type"),
-                key("Unit"),
-                self.get("Scaling", &key("Unit")).unwrap_or(""),
-                if axis == 'Y' { "rows" } else { "columns" }
-            ),
+        let scaling = if axis == 'Y' {
+            &self.scaling_y
+        } else {
+            &self.scaling_x
         };
-        match self.time_range_index {
-            Some(i) => format!(
-                "{scaling}; [Streak camera] Time Range=\"{i}\" (a sweep-range index, not a \
-                 duration)"
-            ),
-            None => scaling,
+        let with_unit = |kind: &str, unit: &str, what: &str| {
+            format!(
+                "[Scaling] {}={kind} with {}={unit:?} ({what})",
+                key("Type"),
+                key("Unit")
+            )
+        };
+        let mut parts = Vec::new();
+        if self.focus_mode() {
+            parts.push(format!(
+                "[Streak camera] Mode={:?} (no sweep: the {} are not time)",
+                self.mode.as_deref().unwrap_or(""),
+                if axis == 'Y' { "rows" } else { "columns" }
+            ));
         }
-    }
-}
-
-/// Picoseconds per unit for the time units HPD-TA writes (`None` if unknown).
-pub fn time_unit_to_ps(unit: &str) -> Option<f64> {
-    match unit.trim() {
-        "fs" => Some(1e-3),
-        "ps" => Some(1.0),
-        "ns" => Some(1e3),
-        "us" | "\u{b5}s" | "\u{3bc}s" => Some(1e6),
-        "ms" => Some(1e9),
-        "s" => Some(1e12),
-        _ => None,
+        let sensor = if axis == 'Y' {
+            "sensor rows"
+        } else {
+            "sensor columns"
+        };
+        let scaling_part = match (self.sections.get("Scaling"), scaling) {
+            (None, _) => Some("no [Scaling] section".to_string()),
+            (Some(_), AxisScaling::Pixels) => Some(match self.get("Scaling", &key("Type")) {
+                None => format!("no [Scaling] {}", key("Type")),
+                Some(kind) => with_unit(
+                    kind,
+                    self.get("Scaling", &key("Unit")).unwrap_or(""),
+                    sensor,
+                ),
+            }),
+            (Some(_), AxisScaling::External { file: None, .. }) => Some(format!(
+                "[Scaling] {}=2 with no {} (no table)",
+                key("Type"),
+                key("ScalingFile")
+            )),
+            (Some(_), AxisScaling::External { file: Some(f), .. }) => Some(format!(
+                "[Scaling] {}=2 with {}={f:?} (a table outside this file)",
+                key("Type"),
+                key("ScalingFile")
+            )),
+            (Some(_), AxisScaling::Linear { unit, .. }) if time_unit_to_ps(unit).is_none() => {
+                Some(with_unit("1", unit, "not a time unit"))
+            }
+            (Some(_), AxisScaling::Table { unit, .. }) if time_unit_to_ps(unit).is_none() => {
+                Some(with_unit("2", unit, "not a time unit"))
+            }
+            // A time calibration that Focus mode overrides.
+            (Some(_), _) => None,
+        };
+        parts.extend(scaling_part);
+        if let Some(i) = self.time_range_index {
+            parts.push(format!(
+                "[Streak camera] Time Range=\"{i}\" (a sweep-range index, not a duration)"
+            ));
+        }
+        parts.join("; ")
     }
 }
 
@@ -429,7 +494,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<ImgHeader, FormatError> {
 
 /// Decode the comment bytes: UTF-8 when valid (HPD-TA 9 writes `Enconding=UTF-8`), else
 /// Latin-1 (older files, where `µ` is the byte 0xB5). Trailing NUL padding is removed.
-fn decode_comment(raw: &[u8]) -> String {
+pub(crate) fn decode_comment(raw: &[u8]) -> String {
     let trimmed = match raw.iter().rposition(|&b| b != 0) {
         Some(last) => &raw[..=last],
         None => &[],
@@ -439,151 +504,6 @@ fn decode_comment(raw: &[u8]) -> String {
         Err(_) => trimmed.iter().map(|&b| b as char).collect(),
     }
 }
-
-/// Read the scaling of one axis (`axis` is 'X' or 'Y', `len` its pixel count).
-fn parse_axis_scaling(
-    path: &Path,
-    sections: &BTreeMap<String, BTreeMap<String, String>>,
-    axis: char,
-    len: usize,
-    bytes: &[u8],
-) -> Result<AxisScaling, FormatError> {
-    let Some(scaling) = sections.get("Scaling") else {
-        return Ok(AxisScaling::Pixels);
-    };
-    let key = |suffix: &str| format!("Scaling{axis}{suffix}");
-    let get = |suffix: &str| scaling.get(&key(suffix)).map(|v| v.trim());
-    let bad = |suffix: &str, value: &str, expected: &str| FormatError::BadValue {
-        path: path.to_path_buf(),
-        section: "Scaling".into(),
-        key: key(suffix),
-        value: value.to_string(),
-        expected: expected.to_string(),
-    };
-    let Some(kind) = get("Type") else {
-        if ["Scale", "Unit", "ScalingFile"]
-            .iter()
-            .any(|s| get(s).is_some())
-        {
-            return Err(bad(
-                "Type",
-                "",
-                "missing while other Scaling entries are present",
-            ));
-        }
-        return Ok(AxisScaling::Pixels);
-    };
-    let unit = get("Unit").unwrap_or("").to_string();
-    match kind {
-        "1" => {
-            if unit.is_empty() || ["px", "pixel", "pixels"].contains(&unit.to_lowercase().as_str())
-            {
-                return Ok(AxisScaling::Pixels);
-            }
-            let raw = get("Scale").ok_or_else(|| bad("Scale", "", "missing for linear scaling"))?;
-            let scale: f64 = raw
-                .parse()
-                .ok()
-                .filter(|s: &f64| s.is_finite() && *s != 0.0)
-                .ok_or_else(|| bad("Scale", raw, "a finite non-zero number"))?;
-            Ok(AxisScaling::Linear { scale, unit })
-        }
-        "2" => {
-            let raw = get("ScalingFile")
-                .ok_or_else(|| bad("ScalingFile", "", "missing for table scaling"))?;
-            let expected = "\"#offset,count\" (a table inside this file)";
-            let (offset_s, count_s) = raw
-                .strip_prefix('#')
-                .and_then(|r| r.split_once(','))
-                .ok_or_else(|| bad("ScalingFile", raw, expected))?;
-            let byte_offset: u64 = offset_s
-                .trim()
-                .parse()
-                .map_err(|_| bad("ScalingFile", raw, expected))?;
-            let count: usize = count_s
-                .trim()
-                .parse()
-                .map_err(|_| bad("ScalingFile", raw, expected))?;
-            if count != len {
-                return Err(FormatError::SizeMismatch {
-                    path: path.to_path_buf(),
-                    what: format!("{axis} axis table length (Scaling{axis}ScalingFile)"),
-                    expected: len,
-                    found: count,
-                });
-            }
-            let end = byte_offset.saturating_add(4 * count as u64);
-            if end > bytes.len() as u64 {
-                return Err(FormatError::Truncated {
-                    path: path.to_path_buf(),
-                    what: format!("the {axis} axis table at byte {byte_offset}"),
-                    needed: end,
-                    available: bytes.len() as u64,
-                });
-            }
-            let start = byte_offset as usize;
-            let values: Vec<f64> = bytes[start..start + 4 * count]
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)
-                .collect();
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(bad(
-                    "ScalingFile",
-                    raw,
-                    &format!("a table of finite numbers (value {i} is {})", values[i]),
-                ));
-            }
-            Ok(AxisScaling::Table {
-                unit,
-                byte_offset,
-                values,
-            })
-        }
-        other => Err(FormatError::UnknownScalingType {
-            path: path.to_path_buf(),
-            axis,
-            value: other.to_string(),
-        }),
-    }
-}
-
-/// Per-pixel values of an axis (file order), or `None` when uncalibrated.
-fn axis_values(scaling: &AxisScaling, len: usize) -> Option<(Vec<f64>, String)> {
-    match scaling {
-        AxisScaling::Pixels => None,
-        AxisScaling::Linear { scale, unit } => {
-            Some(((0..len).map(|i| scale * i as f64).collect(), unit.clone()))
-        }
-        AxisScaling::Table { unit, values, .. } => Some((values.clone(), unit.clone())),
-    }
-}
-
-/// +1 for strictly increasing, -1 for strictly decreasing; else the first offending index.
-fn direction(values: &[f64]) -> Result<i8, usize> {
-    if values.len() < 2 {
-        return Ok(1);
-    }
-    let dir = if values[1] > values[0] {
-        1
-    } else if values[1] < values[0] {
-        -1
-    } else {
-        return Err(1);
-    };
-    for i in 1..values.len() {
-        let ok = if dir > 0 {
-            values[i] > values[i - 1]
-        } else {
-            values[i] < values[i - 1]
-        };
-        if !ok {
-            return Err(i);
-        }
-    }
-    Ok(dir)
-}
-
-const SCALING_KEYS: [&str; 4] = ["Type", "Scale", "Unit", "ScalingFile"];
 
 /// Read an HPD-TA `.img` file (see the module doc for the layout and the axis rules).
 pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError> {
@@ -621,12 +541,53 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             offset,
             message,
         })?;
-    check_scaling_keys(path, &sections)?;
-    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, &bytes)?;
-    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, &bytes)?;
+    let data = decode_pixels(header.file_type, &bytes[comment_end..data_end]);
+    let pixel_type = header.file_type.pixel_type();
+    build_image(
+        path,
+        HpdPixels {
+            container: HpdContainer::Img(header),
+            width: w,
+            height: h,
+            data,
+            pixel_type,
+        },
+        (comment, sections),
+        &bytes,
+        transpose,
+    )
+}
 
-    let pixels = &bytes[comment_end..data_end];
-    let mut data = decode_pixels(header.file_type, pixels);
+/// The pixels of an HPD-TA image as its container stores them: `height` rows of `width`.
+pub(crate) struct HpdPixels {
+    pub container: HpdContainer,
+    pub width: usize,
+    pub height: usize,
+    pub data: Vec<f32>,
+    pub pixel_type: PixelType,
+}
+
+/// The image of an HPD-TA file, whatever its container: the `[Scaling]` axes read (tables
+/// from `bytes`, the whole file) and made to increase, the roles assigned (rows are time
+/// unless `transpose`), the time axis converted to ps or left uncalibrated (Focus mode, a
+/// pixel or length unit, a table outside the file), and the settings of the header.
+pub(crate) fn build_image(
+    path: &Path,
+    pixels: HpdPixels,
+    (comment, sections): (String, BTreeMap<String, BTreeMap<String, String>>),
+    bytes: &[u8],
+    transpose: bool,
+) -> Result<StreakImage, FormatError> {
+    let HpdPixels {
+        container,
+        width: w,
+        height: h,
+        mut data,
+        pixel_type,
+    } = pixels;
+    check_scaling_keys(path, &sections)?;
+    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, bytes)?;
+    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, bytes)?;
 
     // Make every calibrated axis increase with the index.
     let mut x_vals = axis_values(&scaling_x, w);
@@ -641,24 +602,9 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
     } else {
         (y_vals, 'Y', x_vals, w, h)
     };
-    let time_axis_ps = match time_vals {
-        None => None,
-        Some((values, unit)) => {
-            let per = time_unit_to_ps(&unit).ok_or_else(|| FormatError::UnknownUnit {
-                path: path.to_path_buf(),
-                what: format!("the time axis (Scaling{time_axis_name}Unit)"),
-                unit: unit.clone(),
-            })?;
-            Some(values.iter().map(|v| v * per).collect())
-        }
-    };
-    let x_axis = space_vals.map(|(values, unit)| AxisTable { values, unit });
-
     let settings = comment_meta(path, &sections)?;
-    let pixel_type = header.file_type.pixel_type();
-
     let mut meta = ImgMeta {
-        header,
+        container,
         comment,
         sections,
         scaling_x,
@@ -675,6 +621,19 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         exposure_time_s: settings.exposure_time_s,
         total_exposure_s: settings.total_exposure_s,
     };
+    let time_axis_ps = match time_vals {
+        _ if meta.focus_mode() => None,
+        None => None,
+        Some((_, unit)) if is_non_time_unit(&unit) => None,
+        Some((values, unit)) => {
+            let per = time_unit_to_ps(&unit).ok_or_else(|| FormatError::UnknownUnit {
+                path: path.to_path_buf(),
+                what: format!("the time axis ([Scaling] Scaling{time_axis_name}Unit)"),
+                unit: unit.clone(),
+            })?;
+            Some(values.iter().map(|v| v * per).collect())
+        }
+    };
     if time_axis_ps.is_none() {
         meta.time_uncalibrated = Some(meta.uncalibrated_time());
     }
@@ -684,34 +643,9 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
         data,
         pixel_type,
         time_axis_ps,
-        x_axis,
+        x_axis: space_vals.map(|(values, unit)| AxisTable { values, unit }),
         img_meta: Some(meta),
     })
-}
-
-/// Refuse a key of the comment's `[Scaling]` section that is not one of [`SCALING_KEYS`] for
-/// the X or Y axis.
-fn check_scaling_keys(
-    path: &Path,
-    sections: &BTreeMap<String, BTreeMap<String, String>>,
-) -> Result<(), FormatError> {
-    if let Some(scaling) = sections.get("Scaling") {
-        for key in scaling.keys() {
-            let known = ['X', 'Y'].iter().any(|a| {
-                SCALING_KEYS
-                    .iter()
-                    .any(|s| *key == format!("Scaling{a}{s}"))
-            });
-            if !known {
-                return Err(FormatError::UnknownKey {
-                    path: path.to_path_buf(),
-                    section: "Scaling".into(),
-                    key: key.clone(),
-                });
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The pixels of an image stored as `file_type` (little-endian), as floats.
@@ -727,56 +661,6 @@ fn decode_pixels(file_type: ImgFileType, pixels: &[u8]) -> Vec<f32> {
             .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")) as f32)
             .collect(),
     }
-}
-
-/// Reverse a decreasing X table (and the columns of `data`, `w` wide) or Y table (and its
-/// rows) so that every calibrated axis increases with the index; returns whether the
-/// columns and the rows were reversed. A table that is not monotonic is an error.
-fn make_axes_increase(
-    path: &Path,
-    data: &mut Vec<f32>,
-    w: usize,
-    x_vals: &mut Option<(Vec<f64>, String)>,
-    y_vals: &mut Option<(Vec<f64>, String)>,
-) -> Result<(bool, bool), FormatError> {
-    let mut columns_reversed = false;
-    let mut rows_reversed = false;
-    if let Some((v, _)) = x_vals.as_mut() {
-        match direction(v) {
-            Ok(1) => {}
-            Ok(_) => {
-                v.reverse();
-                data.chunks_exact_mut(w).for_each(|row| row.reverse());
-                columns_reversed = true;
-            }
-            Err(index) => {
-                return Err(FormatError::NonMonotonicAxis {
-                    path: path.to_path_buf(),
-                    axis: 'X',
-                    index,
-                })
-            }
-        }
-    }
-    if let Some((v, _)) = y_vals.as_mut() {
-        match direction(v) {
-            Ok(1) => {}
-            Ok(_) => {
-                v.reverse();
-                let flipped: Vec<f32> = data.chunks_exact(w).rev().flatten().copied().collect();
-                *data = flipped;
-                rows_reversed = true;
-            }
-            Err(index) => {
-                return Err(FormatError::NonMonotonicAxis {
-                    path: path.to_path_buf(),
-                    axis: 'Y',
-                    index,
-                })
-            }
-        }
-    }
-    Ok((columns_reversed, rows_reversed))
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 //! | extension       | module        | sample types                                          |
 //! |-----------------|---------------|-------------------------------------------------------|
 //! | `.png`          | [`raster`]    | 8- and 16-bit grey (or grey stored as RGB)            |
-//! | `.tif`, `.tiff` | [`raster`]    | 8/16/32-bit unsigned, 16/32-bit signed, 16/32/64-bit float |
+//! | `.tif`, `.tiff` | [`raster`]    | 8/16/32-bit unsigned, 16/32-bit signed, 16/32/64-bit float; an HPD-TA header in the ImageDescription is read as for `.img` ([`hamamatsu::read_hpd_tiff`]) |
 //! | `.exr`          | [`raster`]    | f16, f32, u32 (channel `Y`, or the mean of `R,G,B`)   |
 //! | `.hdr`          | [`raster`]    | Radiance RGBE (the mean of `R,G,B`)                   |
 //! | `.img`          | [`hamamatsu`] | Hamamatsu HPD-TA, 8/16/32-bit, typed metadata and axis tables |
@@ -104,7 +104,7 @@ pub struct StreakImage {
     pub time_axis_ps: Option<Vec<f64>>,
     /// Per-column positions read from the file (HPD-TA X scaling), in the file's unit.
     pub x_axis: Option<AxisTable>,
-    /// The HPD-TA header and comment, for `.img` files.
+    /// The HPD-TA header and comment, for `.img` files and HPD-TA TIFF files.
     pub img_meta: Option<hamamatsu::ImgMeta>,
 }
 
@@ -214,7 +214,7 @@ pub enum FormatError {
         expected: String,
     },
     /// An axis table that is neither strictly increasing nor strictly decreasing.
-    #[error("{}: the {axis} axis table is not monotonic (at index {index})", path.display())]
+    #[error("{}: the {axis} axis table ([Scaling] Scaling{axis}ScalingFile) is neither increasing nor decreasing (at index {index})", path.display())]
     NonMonotonicAxis {
         path: PathBuf,
         axis: char,
@@ -273,7 +273,10 @@ pub fn read_streak(path: &Path, transpose: bool) -> Result<StreakImage, FormatEr
         "png" | "tif" | "tiff" | "exr" | "hdr" => {
             let raw = match ext.as_str() {
                 "png" => raster::read_png(path)?,
-                "tif" | "tiff" => raster::read_tiff(path)?,
+                "tif" | "tiff" => match hamamatsu::read_hpd_tiff(path, transpose)? {
+                    hamamatsu::TiffImage::Hpd(image) => return Ok(*image),
+                    hamamatsu::TiffImage::Plain(raw) => raw,
+                },
                 "exr" => raster::read_exr(path)?,
                 _ => raster::read_hdr(path)?,
             };

@@ -166,12 +166,24 @@ pub fn read_png_grey16_into(
 /// Read the first (and only) image of a TIFF: grey or grey+alpha of any integer or float
 /// sample type, RGB(A) integer with equal channels, or RGB(A) float (mean of R, G, B).
 pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
-    use tiff::decoder::{Decoder, DecodingResult as R};
-    let mut file = std::fs::File::open(path).map_err(io_err(path))?;
+    let file = std::fs::File::open(path).map_err(io_err(path))?;
     let file_bytes = file.metadata().map_err(io_err(path))?.len();
-    check_tiff_directory(path, &mut file, file_bytes)?;
-    std::io::Seek::rewind(&mut file).map_err(io_err(path))?;
-    let mut decoder = Decoder::new(BufReader::new(file)).map_err(|e| decode_err(path, e))?;
+    read_tiff_from(path, BufReader::new(file), file_bytes).map(|(pixels, _)| pixels)
+}
+
+/// [`read_tiff`] from `reader` (the file at `path`, `file_bytes` long), with the raw bytes of
+/// the image's ImageDescription tag (NUL padding included) when it has one: HPD-TA writes
+/// its header there ([`super::hamamatsu::read_hpd_tiff`]).
+pub fn read_tiff_from<R: std::io::Read + std::io::Seek>(
+    path: &Path,
+    mut reader: R,
+    file_bytes: u64,
+) -> Result<(RasterPixels, Option<Vec<u8>>), FormatError> {
+    use tiff::decoder::{Decoder, DecodingResult as R};
+    check_tiff_directory(path, &mut reader, file_bytes)?;
+    reader.rewind().map_err(io_err(path))?;
+    let mut decoder = Decoder::new(reader).map_err(|e| decode_err(path, e))?;
+    let description = tiff_description(path, &mut decoder, file_bytes)?;
     let (w, h) = decoder.dimensions().map_err(|e| decode_err(path, e))?;
     let (width, height) = (w as usize, h as usize);
     let colour = decoder.colortype().map_err(|e| decode_err(path, e))?;
@@ -214,12 +226,43 @@ pub fn read_tiff(path: &Path) -> Result<RasterPixels, FormatError> {
         });
     }
     let (data, pixel_type) = tiff_grey(path, result, width, channels, has_alpha)?;
-    Ok(RasterPixels {
+    let pixels = RasterPixels {
         width,
         height,
         data,
         pixel_type,
-    })
+    };
+    Ok((pixels, description))
+}
+
+/// The raw bytes of the current image's ImageDescription tag, if it has one (read as bytes:
+/// the `tiff` crate's own reading refuses text that is not UTF-8, and older HPD-TA versions
+/// write `µ` in Latin-1). A tag claiming more bytes than the file holds is refused.
+fn tiff_description<R: std::io::Read + std::io::Seek>(
+    path: &Path,
+    decoder: &mut tiff::decoder::Decoder<R>,
+    file_bytes: u64,
+) -> Result<Option<Vec<u8>>, FormatError> {
+    use tiff::tags::Tag;
+    let mut ifd = decoder.image_ifd();
+    let Some(entry) = ifd.find_entry(Tag::ImageDescription) else {
+        return Ok(None);
+    };
+    if entry.count() > file_bytes {
+        return Err(FormatError::Truncated {
+            path: path.to_path_buf(),
+            what: "the TIFF ImageDescription".into(),
+            needed: entry.count(),
+            available: file_bytes,
+        });
+    }
+    let mut buf = vec![0u8; entry.count() as usize];
+    let n = ifd
+        .find_tag_bytes(Tag::ImageDescription, &mut buf, 0)
+        .map_err(|e| decode_err(path, e))?
+        .unwrap_or(0);
+    buf.truncate(n);
+    Ok(Some(buf))
 }
 
 /// The channels of a TIFF colour type (grey, grey+alpha, RGB or RGBA; anything else is an
@@ -360,12 +403,12 @@ fn check_declared_bytes(
 /// before it reads them (266 MB for a 3 kB file whose `SamplesPerPixel` claims 8,323,073
 /// shorts). Entries of unknown type are left to the crate; a directory that cannot be read
 /// here is left to the crate to refuse with its own words.
-fn check_tiff_directory(
+fn check_tiff_directory<F: std::io::Read + std::io::Seek>(
     path: &Path,
-    file: &mut std::fs::File,
+    file: &mut F,
     file_bytes: u64,
 ) -> Result<(), FormatError> {
-    use std::io::{Read, Seek, SeekFrom};
+    use std::io::SeekFrom;
     let mut read_at = |at: u64, n: usize| -> Option<Vec<u8>> {
         let mut buf = vec![0; n];
         file.seek(SeekFrom::Start(at)).ok()?;

@@ -138,10 +138,10 @@ pub enum IngestError {
         t: usize,
         value: f32,
     },
-    /// An HPD-TA `.img` scanline whose time axis the file does not calibrate (`reason`: the
+    /// An HPD-TA scanline (`.img` or TIFF) whose time axis the file does not calibrate (`reason`: the
     /// header keys, e.g. a pixel axis or a bare sweep-range index with no table), and no bin
     /// width given.
-    #[error("{}: the time axis is not calibrated ({reason})", path.display())]
+    #[error("{}: not calibrated in time ({reason})", path.display())]
     ImgTimeUncalibrated { path: PathBuf, reason: String },
     /// No source gives the time axis (no manifest, no `.img` time table, no bin width given).
     #[error(

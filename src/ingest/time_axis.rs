@@ -86,7 +86,8 @@ impl std::fmt::Display for AxisValue {
 pub enum EdgesSource {
     /// The uniform axis of a manifest: `manifest PATH`.
     Manifest(PathBuf),
-    /// The `.img` time table of a scanline: `.img time table of PATH`.
+    /// The HPD-TA time table of a scanline: `.img time table of PATH` for an `.img` file,
+    /// `HPD-TA TIFF time table of PATH` for a TIFF.
     ImgTable(PathBuf),
     /// A sweep calibration table given: `table PATH`.
     SweepTable(PathBuf),
@@ -99,7 +100,11 @@ impl std::fmt::Display for EdgesSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             EdgesSource::Manifest(p) => write!(f, "manifest {}", p.display()),
-            EdgesSource::ImgTable(p) => write!(f, ".img time table of {}", p.display()),
+            EdgesSource::ImgTable(p) => {
+                let img = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("img"));
+                let kind = if img { ".img" } else { "HPD-TA TIFF" };
+                write!(f, "{kind} time table of {}", p.display())
+            }
             EdgesSource::SweepTable(p) => write!(f, "table {}", p.display()),
             EdgesSource::ManifestSweep(p) => write!(f, "sweep bin times of {}", p.display()),
         }

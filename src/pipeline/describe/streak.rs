@@ -4,7 +4,7 @@
 //! object of docs/cube-format.md.
 
 use super::{extension, json_text, line, serialize_path, ValueRange};
-use crate::formats::hamamatsu::ImgMeta;
+use crate::formats::hamamatsu::{HpdContainer, ImgMeta};
 use crate::formats::{read_streak, PixelType};
 use crate::pipeline::StageError;
 use serde::{Serialize, Serializer};
@@ -133,14 +133,23 @@ fn serialize_pixel_type<S: Serializer>(t: &PixelType, s: S) -> Result<S::Ok, S::
     s.serialize_str(pixel_type_name(*t))
 }
 
-/// The `img` object: the header's size and file type, the streak camera's and acquisition's
+/// `img` for an `.img` file, `tiff` for an HPD-TA TIFF.
+fn container_name(m: &ImgMeta) -> &'static str {
+    match m.container {
+        HpdContainer::Img(_) => "img",
+        HpdContainer::Tiff { .. } => "tiff",
+    }
+}
+
+/// The `img` object: the container, the stored size and the `.img` file type, the streak camera's and acquisition's
 /// settings, the comment's section names.
 fn serialize_img<S: Serializer>(img: &Option<ImgMeta>, s: S) -> Result<S::Ok, S::Error> {
     #[derive(Serialize)]
     struct Json<'a> {
+        container: &'static str,
         width: usize,
         height: usize,
-        file_type: i16,
+        file_type: Option<i16>,
         mode: &'a Option<String>,
         time_range_ps: Option<f64>,
         time_range_index: Option<u32>,
@@ -155,9 +164,10 @@ fn serialize_img<S: Serializer>(img: &Option<ImgMeta>, s: S) -> Result<S::Ok, S:
     }
     img.as_ref()
         .map(|m| Json {
-            width: m.header.width,
-            height: m.header.height,
-            file_type: m.header.file_type.code(),
+            container: container_name(m),
+            width: m.stored_size().0,
+            height: m.stored_size().1,
+            file_type: m.img_header().map(|h| h.file_type.code()),
             mode: &m.mode,
             time_range_ps: m.time_range_ps,
             time_range_index: m.time_range_index,
@@ -218,7 +228,7 @@ impl fmt::Display for StreakDescription {
                     f,
                     "time axis",
                     format!(
-                        "not calibrated: {} (femto ingest needs --dt-ps)",
+                        "not calibrated in time: {} (femto ingest needs --dt-ps)",
                         m.time_uncalibrated
                             .as_deref()
                             .unwrap_or("no [Scaling] entry")
@@ -245,10 +255,13 @@ impl fmt::Display for StreakDescription {
                 f,
                 "HPD-TA",
                 format!(
-                    "{} x {} stored, file type {}, mode {}, time range {}, MCP gain {}",
-                    m.header.width,
-                    m.header.height,
-                    m.header.file_type.code(),
+                    "{} x {} stored, {}, mode {}, time range {}, MCP gain {}",
+                    m.stored_size().0,
+                    m.stored_size().1,
+                    match m.img_header() {
+                        Some(h) => format!("file type {}", h.file_type.code()),
+                        None => "header in the TIFF ImageDescription".to_string(),
+                    },
                     m.mode.as_deref().unwrap_or("-"),
                     match (m.time_range_ps, m.time_range_index) {
                         (_, Some(i)) => format!("index {i} (no duration)"),
