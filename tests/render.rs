@@ -1911,8 +1911,7 @@ fn cli_isochrones_of_a_realistic_capture_are_graded_not_one_red() {
     }
     let fraction = close as f64 / compared as f64;
     eprintln!("isochrone times within 2 bins of the truth: {close} of {compared} ({fraction:.3})");
-    // Measured: 1225 of 1262 (0.971); the rest lie on depth edges, where a footprint spans
-    // two surfaces.
+    // Measured: 1225 of 1262 (0.971).
     assert!(compared > w * h / 2, "{compared} pixels compared");
     assert!(fraction >= 0.9, "{fraction}");
 }
