@@ -1648,6 +1648,24 @@ fn coverage_flags_frames_whose_times_miss_the_light() {
                     && text.contains("before the cube's light"),
                 "{text}"
             );
+            // The warning states its threshold and where the cube's last non-zero bin ends,
+            // which the threshold's span leaves out when weak light follows the pulse.
+            let last = miss.last_signal_ps.unwrap();
+            assert!(
+                text.contains(&format!(
+                    "(light above 1 % of the peak of the signal summed over the image lies in \
+                     {:.0}..{:.0} ps; the cube's last non-zero bin ends at {last:.0} ps)",
+                    light.start_ps, light.end_ps
+                )),
+                "{text}"
+            );
+            assert!(last >= light.end_ps, "{last} {light:?}");
+            if *name == "padded axis" {
+                // The tail decays over 1500 ps and is still non-zero at the axis' end.
+                let (_, axis_end_ps) = scene.world_span_ps();
+                assert!(last >= light.end_ps + 10_000.0, "{last} {light:?}");
+                assert!((last - axis_end_ps).abs() < 1e-6, "{last} {axis_end_ps}");
+            }
             assert_eq!(
                 rendered_black(&scene, &early, &s.path),
                 (0..frames).collect::<Vec<_>>()
@@ -1683,4 +1701,217 @@ fn coverage_flags_frames_whose_times_miss_the_light() {
                 .contains("where their cube pixels hold no light"));
         }
     }
+}
+
+/// The tone-mapped display luminance (0..1) of a scene-linear pixel at `exposure`.
+fn display_lum(px: [f32; 3], exposure: f64) -> f64 {
+    color::luminance(color::tone_map(
+        [px[0] as f64, px[1] as f64, px[2] as f64],
+        exposure,
+    ))
+}
+
+#[test]
+fn auto_exposure_shows_the_weak_late_tail_and_keeps_the_direct_pulse_below_white() {
+    use femto::pyramid::PrefixRead;
+    use femto::render::paths::{shortcut_path, Shortcut};
+    use femto::render::{auto_exposure, exposure_for};
+    // The padded cube: a direct pulse (sigma 60 ps) and a tail holding 0.3 of it, decaying
+    // over 1500 ps, so that each bin of the tail is about 30 times weaker than the pulse's.
+    let (bvh, cal, cubes) = sparse_light_cubes();
+    let pyramid = &cubes[1].1;
+    let scene = RenderScene::new(&bvh, cal, pyramid, 670.0).unwrap();
+    let (w, h) = (32usize, 24usize);
+    let s = shortcut_path(&scene, Shortcut::CaptureView, w, h, 1, Some(40.0)).unwrap();
+    let settings = RenderSettings::for_path(&s.path);
+    let exposure = auto_exposure(&scene, &settings.view);
+    // The old exposure: the 99.9th percentile of every positive bin at luminance 1.
+    let nt = pyramid.axis.nt;
+    let old = exposure_for(
+        (0..pyramid.nx * pyramid.ny * nt)
+            .map(|b| pyramid.prefix.pixel(b / nt).bin(b % nt) / pyramid.axis.dt_ps)
+            .collect(),
+    )
+    .unwrap();
+    let frame_at = |offset_ps: f64| {
+        let at = RenderSettings {
+            time_offset_ps: offset_ps,
+            ..settings
+        };
+        render(&scene, &at, &s.path.frame(0))
+    };
+    let hits = capture_hits(&cal, &bvh);
+    let seen: Vec<usize> = (0..w * h).filter(|&i| hits[i].is_some()).collect();
+    let mean_display = |px: &[[f32; 3]], e: f64| {
+        seen.iter().map(|&i| display_lum(px[i], e)).sum::<f64>() / seen.len() as f64
+    };
+    let white = |px: &[[f32; 3]], e: f64| {
+        let n = seen
+            .iter()
+            .filter(|&&i| {
+                let c = color::tone_map([px[i][0] as f64, px[i][1] as f64, px[i][2] as f64], e);
+                color::encode_u8(c).contains(&255)
+            })
+            .count();
+        n as f64 / seen.len() as f64
+    };
+    // The brightest frame of the pulse: the shortcut's own time, give or take 200 ps.
+    let direct = (-5..=5)
+        .map(|k| frame_at(s.time_offset_ps + 40.0 * k as f64))
+        .max_by(|a, b| mean_display(a, 1.0).total_cmp(&mean_display(b, 1.0)))
+        .unwrap();
+    // One decay time later: the tail alone.
+    let late = frame_at(s.time_offset_ps + 1500.0);
+    let (late_new, late_old) = (mean_display(&late, exposure), mean_display(&late, old));
+    let (white_new, direct_new) = (white(&direct, exposure), mean_display(&direct, exposure));
+    eprintln!(
+        "exposure {exposure:.4e} (old {old:.4e}): late frame mean display {late_new:.4} \
+         (old {late_old:.4}); direct frame mean {direct_new:.4}, white {white_new:.4}"
+    );
+    // Measured: 0.054 against 0.013 with the old exposure.
+    assert!(late_new >= 0.04, "late light too dark: {late_new}");
+    assert!(late_new >= 3.0 * late_old, "{late_new} against {late_old}");
+    assert!(
+        white_new <= 0.05,
+        "the direct pulse is white in {white_new} of the pixels"
+    );
+}
+
+#[test]
+fn isochrone_range_probes_the_isochrone_view_whatever_view_it_is_given() {
+    use femto::pipeline::render::{plan, Camera, RenderOptions, ViewKind};
+    use femto::render::isochrone_range;
+    use femto::render::paths::{shortcut_path, Shortcut};
+    let (bvh, cal, cubes) = sparse_light_cubes();
+    let scene = RenderScene::new(&bvh, cal, &cubes[1].1, 670.0).unwrap();
+    let s = shortcut_path(&scene, Shortcut::CaptureView, 32, 24, 2, None).unwrap();
+    let transient = RenderSettings::for_path(&s.path);
+    let iso = isochrone_range(&scene, &transient, &s.path, None);
+    // The arrival times of frame 0's pixels, probed in the isochrone view.
+    let probe = RenderSettings {
+        view: View::Isochrones(iso),
+        ..transient
+    };
+    let times: Vec<f64> = (0..24)
+        .flat_map(|j| (0..32).map(move |i| (i, j)))
+        .filter_map(|(i, j)| probe_pixel(&scene, &probe, &s.path.frame(0), i, j).t_arrival_ps)
+        .collect();
+    let lo = times.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = times.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    assert!(times.len() > 100, "{} pixels with a time", times.len());
+    assert_eq!((iso.t_min_ps, iso.t_max_ps), (lo, hi));
+    // Not the fallback 0..1 ps: the cube scene's arrivals span hundreds of ps.
+    assert!(hi - lo > 100.0, "{iso:?}");
+    // The render stage's plan (femto render, femto view) resolves the same range.
+    let options = RenderOptions {
+        size: Some((32, 24)),
+        frame_count: Some(2),
+        view: ViewKind::Isochrones,
+        ..RenderOptions::default()
+    };
+    let planned = plan(&scene, &Camera::Shortcut(Shortcut::CaptureView), &options).unwrap();
+    match planned.settings.view {
+        View::Isochrones(p) => assert_eq!((p.t_min_ps, p.t_max_ps), (lo, hi)),
+        v => panic!("planned view {v:?}"),
+    }
+}
+
+#[test]
+fn cli_isochrones_of_a_realistic_capture_are_graded_not_one_red() {
+    // Issue: femto render --view isochrones drew a noisy capture as red speckle (its range
+    // was 0..1 ps, contours every 0.1 ps). The capture view's isochrones of the realistic
+    // chain must use the blue-to-red ramp: fewer than half of the pixels pure red.
+    let fx = cli::realistic_chain("48x36");
+    let r = &fx.root;
+    let out = r.join("iso");
+    let run = FemtoCmd::new()
+        .current_dir(r)
+        .args([
+            "render",
+            "--cube",
+            "world.h5",
+            "--calibration",
+            "cube.calibration.toml",
+        ])
+        .arg("--mesh")
+        .arg(r.join("cap").join("scene.glb"))
+        .args(["--capture-view", "--size", "48x36", "--frame-count", "1"])
+        .args(["--view", "isochrones", "--out"])
+        .arg(&out)
+        .output();
+    assert_ok(&run);
+    let img = image::open(out.join("frame_00000.png")).unwrap().to_rgb8();
+    let n = img.pixels().count() as f64;
+    let red = img
+        .pixels()
+        .filter(|p| p[0] > 200 && p[1] < 60 && p[2] < 60)
+        .count() as f64
+        / n;
+    let blue = img.pixels().filter(|p| p[2] > 200 && p[0] < 60).count() as f64 / n;
+    eprintln!("isochrones: {red:.3} of the pixels red, {blue:.3} blue");
+    assert!(red < 0.5, "{red} of the pixels red");
+    assert!(blue > 0.02, "{blue} of the pixels blue");
+
+    // The times the isochrones colour (the direct light's arrival at the camera, at the
+    // capture pose) against the simulation's noise-free direct light, truth_direct.h5
+    // (camera time of the true calibration, t0 0, scale 1): its centroid over each pixel's
+    // footprint, the footprint's mean arrival.
+    let inputs = femto::pipeline::render::open_render_inputs(
+        &r.join("world.h5"),
+        None,
+        &r.join("cube.calibration.toml"),
+        &r.join("cap").join("scene.glb"),
+        None,
+    )
+    .unwrap();
+    let scene = inputs.scene().unwrap();
+    let truth = femto::container::read_cube(&r.join("cap").join("truth_direct.h5")).unwrap();
+    let (w, h) = (truth.nx, truth.ny);
+    let path = femto::render::paths::shortcut_path(
+        &scene,
+        femto::render::paths::Shortcut::CaptureView,
+        w,
+        h,
+        1,
+        None,
+    )
+    .unwrap()
+    .path;
+    let settings = RenderSettings {
+        view: View::Isochrones(Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        }),
+        ..RenderSettings::for_path(&path)
+    };
+    let (mut compared, mut close) = (0usize, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            let s = probe_pixel(&scene, &settings, &path.frame(0), x, y);
+            let (Some(t_iso), false) = (s.t_arrival_ps, s.rgb == [0.02; 3]) else {
+                continue; // no hit, or a point the laser does not see
+            };
+            let p = truth.profile(x, y);
+            let total: f64 = p.iter().map(|&v| v as f64).sum();
+            if total <= 0.0 {
+                continue;
+            }
+            let t_truth = p
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| v as f64 * truth.axis.bin_centre_ps(i))
+                .sum::<f64>()
+                / total;
+            compared += 1;
+            if (t_iso - t_truth).abs() <= 2.0 * truth.axis.dt_ps {
+                close += 1;
+            }
+        }
+    }
+    let fraction = close as f64 / compared as f64;
+    eprintln!("isochrone times within 2 bins of the truth: {close} of {compared} ({fraction:.3})");
+    // Measured: 1225 of 1262 (0.971).
+    assert!(compared > w * h / 2, "{compared} pixels compared");
+    assert!(fraction >= 0.9, "{fraction}");
 }

@@ -83,8 +83,11 @@ pub struct RenderArgs {
     #[arg(long, value_name = "VIEW", default_value = "transient", ignore_case = true,
           value_parser = EnumArg::<ViewArg>::new())]
     pub view: ViewArg,
-    /// Exposure multiplier relative to the automatic exposure (which puts the brightest
-    /// 0.1 % of the capture at half of the display range).
+    /// Exposure multiplier relative to the automatic exposure, which shows the log-average
+    /// of the capture's lit bins (those more than 5 robust sigmas above its noise floor) at
+    /// mid-grey (luminance 0.18) and its brightest 0.1 % between luminance 1 and 16 (0.5 and
+    /// 0.94 of the display range), so that weak late light (echoes, multi-bounce) shows
+    /// beside the direct pulse.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub exposure: f64,
     /// Contour spacing of the isochrone view, ps (default: a round value giving 10 to 25

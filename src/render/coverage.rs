@@ -299,6 +299,10 @@ pub struct Coverage {
     /// Where the cube holds light, world time ([`light_span`] at [`LIGHT_FRACTION`]); None
     /// for a cube without signal.
     pub light_ps: Option<LightSpan>,
+    /// The end of the cube's last non-zero bin, world time
+    /// ([`RenderScene::last_signal_world_ps`]): the warning names it beside `light_ps`, whose
+    /// threshold leaves out weak late light.
+    pub last_signal_ps: Option<f64>,
     /// The time offset the frames were predicted with ([`RenderSettings::time_offset_ps`]).
     pub time_offset_ps: f64,
 }
@@ -360,12 +364,24 @@ fn ranges_text(runs: &[Range<usize>]) -> String {
 
 impl fmt::Display for Coverage {
     /// One line per class of black frames, e.g. `frames 0..49 of 100 see world times 0..400
-    /// ps, before the cube's light (1650..2900 ps): a time offset of about 1650 ps shows it`;
-    /// nothing when every frame is predicted lit.
+    /// ps, before the cube's light (light above 1 % of the peak of the signal summed over the
+    /// image lies in 1650..2900 ps; the cube's last non-zero bin ends at 8192 ps): a time
+    /// offset of about 1650 ps shows it`; nothing when every frame is predicted lit.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let threshold = format!(
+            "light above {} % of the peak of the signal summed over the image",
+            LIGHT_FRACTION * 100.0
+        );
+        let last = match self.last_signal_ps {
+            Some(t) => format!("the cube's last non-zero bin ends at {t:.0} ps"),
+            None => "the cube holds no non-zero bin".to_string(),
+        };
         let light = match self.light_ps {
-            Some(l) => format!("{:.0}..{:.0} ps", l.start_ps, l.end_ps),
-            None => "none".to_string(),
+            Some(l) => format!(
+                "{threshold} lies in {:.0}..{:.0} ps; {last}",
+                l.start_ps, l.end_ps
+            ),
+            None => format!("no {threshold}; {last}"),
         };
         let suggestion = self
             .suggested_time_offset_ps()
@@ -375,10 +391,7 @@ impl fmt::Display for Coverage {
         for (class, what) in [
             (FrameLight::Before, "before the cube's light"),
             (FrameLight::After, "after the cube's light"),
-            (
-                FrameLight::Dark,
-                "where their cube pixels hold no light; the cube's light is",
-            ),
+            (FrameLight::Dark, "where their cube pixels hold no light"),
         ] {
             let runs = self.runs(class);
             if runs.is_empty() {
@@ -497,6 +510,7 @@ pub fn predict_coverage(
         samples_per_frame: pixels.len(),
         frames: predicted,
         light_ps: light,
+        last_signal_ps: scene.last_signal_world_ps(),
         time_offset_ps: settings.time_offset_ps,
     })
 }
@@ -562,6 +576,7 @@ mod tests {
                 start_ps: 3.6,
                 end_ps: 5.0,
             }),
+            last_signal_ps: Some(8192.0),
             time_offset_ps: 100.0,
         };
         assert_eq!(c.runs(Before), vec![2..4, 6..7]);
@@ -572,7 +587,7 @@ mod tests {
         assert!((c.suggested_time_offset_ps().unwrap() - 101.6).abs() < 1e-9);
         let text = c.to_string();
         assert!(text.starts_with(
-            "frames 2..4, 6..7 of 10 see world times 2..7 ps, before the cube's light (4..5 ps): a time offset of about 102 ps"
+            "frames 2..4, 6..7 of 10 see world times 2..7 ps, before the cube's light (light above 1 % of the peak of the signal summed over the image lies in 4..5 ps; the cube's last non-zero bin ends at 8192 ps): a time offset of about 102 ps"
         ), "{text}");
         assert_eq!(text.lines().count(), 2);
     }

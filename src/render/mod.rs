@@ -117,10 +117,12 @@
 //! pixel records the occluder anyway.
 
 pub mod coverage;
+pub mod exposure;
 pub mod frame;
 pub mod paths;
 pub mod views;
 
+pub use exposure::{auto_exposure, exposure_for, lit_exposure, LitExposure};
 pub use frame::{probe_pixel, render_frame, render_frame_reusing_rays, FrameRays, PixelSample};
 pub use views::Isochrones;
 
@@ -564,6 +566,23 @@ impl<'a> RenderScene<'a> {
             .then(|| Point3::new(h.point[0] as f64, h.point[1] as f64, h.point[2] as f64))
     }
 
+    /// The end of the last bin, over the pixels the cube's mask keeps, that holds a non-zero
+    /// value, in physical world time; None when every bin is zero. Weak late light counts
+    /// as much as the direct pulse here, unlike [`coverage::LightProfile::span`].
+    pub fn last_signal_world_ps(&self) -> Option<f64> {
+        let n = self.world.axis.nt + 1;
+        let mask = self.world.mask.as_deref();
+        let last_bin = self
+            .prefix
+            .par_chunks(n)
+            .enumerate()
+            .filter(|(pix, _)| mask.is_none_or(|m| m[*pix] != 0))
+            .filter_map(|(_, p)| p.windows(2).rposition(|w| w[1] != w[0]))
+            .max()?;
+        let a = &self.world.axis;
+        Some(self.world_time_ps(a.t0_ps + (last_bin + 1) as f64 * a.dt_ps))
+    }
+
     /// Pixel `(x, y)`'s expanded prefix sums, `nt + 1` values.
     #[inline]
     fn pixel_prefix(&self, x: usize, y: usize) -> &[f64] {
@@ -698,66 +717,28 @@ pub fn render_sequence<E: From<RenderError>>(
     Ok(())
 }
 
-/// The automatic exposure for `view`: the reciprocal of the 99.9th percentile of what a
-/// camera at rest would show, so that the brightest 0.1 % of it reaches luminance 1 (0.5
-/// after tone mapping). Transient and naive views: the signal density of the cube's non-zero
-/// bins (value / bin width, over a deterministic subsample of at most about 2^20 bins).
-/// Integrated view: the pixels' time integrals. Isochrones: 1. Depends on the cube only, so
-/// every part of a split render gets the same exposure. Falls back to 1 for an all-zero cube.
-pub fn auto_exposure(scene: &RenderScene, view: &View) -> f64 {
-    let slot = match view {
-        View::Isochrones(_) => return 1.0,
-        View::Integrated => &scene.auto_exposures[1],
-        View::Transient | View::Naive => &scene.auto_exposures[0],
-    };
-    *slot.get_or_init(|| auto_exposure_uncached(scene, view))
-}
-
-fn auto_exposure_uncached(scene: &RenderScene, view: &View) -> f64 {
-    let w = scene.world;
-    let nt = w.axis.nt;
-    let values: Vec<f64> = match view {
-        View::Isochrones(_) => return 1.0,
-        View::Integrated => (0..w.nx * w.ny)
-            .map(|p| w.prefix.pixel(p).total())
-            .collect(),
-        View::Transient | View::Naive => {
-            let bins = w.nx * w.ny * nt;
-            let step = (bins / (1 << 20)).max(1);
-            (0..bins)
-                .step_by(step)
-                .map(|b| {
-                    let (pix, i) = (b / nt, b % nt);
-                    w.prefix.pixel(pix).bin(i) / w.axis.dt_ps
-                })
-                .collect()
-        }
-    };
-    exposure_for(values).unwrap_or(1.0)
-}
-
-/// The exposure that brings the 99.9th percentile of `values` (their positive, finite ones)
-/// to 1: its reciprocal. None when no value is positive and finite.
-pub fn exposure_for(mut values: Vec<f64>) -> Option<f64> {
-    values.retain(|&v| v > 0.0 && v.is_finite());
-    if values.is_empty() {
-        return None;
-    }
-    let k = ((values.len() as f64 * 0.999) as usize).min(values.len() - 1);
-    let (_, q, _) = values.select_nth_unstable_by(k, f64::total_cmp);
-    Some(1.0 / *q)
-}
-
 /// The range of first-arrival times that [`View::Isochrones`] colour-codes for `path`:
 /// the smallest and largest arrival time over the pixels of frame 0 (whatever range is
 /// rendered, so split renders agree), with contour lines every `contour_ps` (None: a round
-/// spacing giving 10 to 25 intervals, [`views::round_contour_ps`]).
+/// spacing giving 10 to 25 intervals, [`views::round_contour_ps`]). The pixels are probed
+/// in the isochrone view whatever view `settings` holds (only that view computes arrival
+/// times; probing another gave no time at all and the fallback range 0..1 ps, which drew
+/// every pixel red under contour lines 0.1 ps apart). Falls back to 0..1 ps only when no
+/// pixel of frame 0 sees the scene.
 pub fn isochrone_range(
     scene: &RenderScene,
     settings: &RenderSettings,
     path: &CameraPath,
     contour_ps: Option<f64>,
 ) -> Isochrones {
+    let settings = &RenderSettings {
+        view: View::Isochrones(Isochrones {
+            t_min_ps: 0.0,
+            t_max_ps: 1.0,
+            contour_ps: 1.0,
+        }),
+        ..*settings
+    };
     let state = path.frame(0);
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
