@@ -1856,14 +1856,17 @@ fn cli_isochrones_of_a_realistic_capture_are_graded_not_one_red() {
     // capture pose) against the simulation's noise-free direct light, truth_direct.h5
     // (camera time of the true calibration, t0 0, scale 1): its centroid over each pixel's
     // footprint, the footprint's mean arrival.
-    let inputs = femto::pipeline::render::open_render_inputs(
-        &r.join("world.h5"),
-        None,
-        &r.join("cube.calibration.toml"),
-        &r.join("cap").join("scene.glb"),
-        None,
-    )
-    .unwrap();
+    let (calibration, mesh) = (
+        r.join("cube.calibration.toml"),
+        r.join("cap").join("scene.glb"),
+    );
+    let geometry = femto::pipeline::render::SceneGeometry::Files {
+        calibration: &calibration,
+        mesh: &mesh,
+    };
+    let inputs =
+        femto::pipeline::render::open_render_inputs(&r.join("world.h5"), None, geometry, None)
+            .unwrap();
     let scene = inputs.scene().unwrap();
     let truth = femto::container::read_cube(&r.join("cap").join("truth_direct.h5")).unwrap();
     let (w, h) = (truth.nx, truth.ny);
