@@ -6,7 +6,6 @@
 //! | [`tal`] | a y-tal capture in memory ([`tal::TalCapture`]) and its conversion to and from a cube with its geometry ([`tal::TalGeometry`]: sensor grid, laser origin and spot) |
 //! | `tal_file` | y-tal's HDF5 layout (`tal.io.read_capture`'s `HDF5_TAL`): [`read_tal`], [`write_tal`], [`is_tal_capture`] |
 //! | [`mitransient`] | mitransient's transient array `(H, W, T, C)` in optical path length into a cube, colour channels collapsed as asked |
-//! | `npy` | the NumPy `.npy` reader under [`mitransient`] |
 //! | `stage` | the stages `femto export` and `femto ingest` call: [`export_tal`], [`ingest_tal`], [`ingest_mitransient`] |
 //!
 //! Clocks (physics.md, "Units and clocks"): y-tal and mitransient bin light by optical path
@@ -17,7 +16,6 @@
 //! (laser origin to spot), which the conversions add or remove with the laser origin.
 
 pub mod mitransient;
-mod npy;
 mod stage;
 pub mod tal;
 mod tal_file;
@@ -49,6 +47,9 @@ pub enum InteropError {
         key: String,
         message: String,
     },
+    /// An array file femto could not read (`.npy`; the message names the file).
+    #[error(transparent)]
+    Reader(#[from] crate::readers::ReaderError),
     /// A cube file femto could not read (the message names the file).
     #[error(transparent)]
     Container(#[from] crate::container::ContainerError),
