@@ -186,3 +186,381 @@ fn spad_histogram_takes_its_bin_width_and_masks_the_clipped_bin() {
     assert_eq!(c.mask.as_deref(), Some(&[1u8][..]));
     refused(&spad, &out_new(&dir), &["--dt-ps", "1"], "--dt-ps");
 }
+
+/// A version-1 `.npy` file: `descr`, order, shape, raw values.
+fn npy(shape: &[usize], descr: &str, fortran: bool, raw: &[u8]) -> Vec<u8> {
+    let dims: Vec<String> = shape.iter().map(|n| n.to_string()).collect();
+    let tuple = if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
+    let order = if fortran { "True" } else { "False" };
+    let mut h = format!("{{'descr': '{descr}', 'fortran_order': {order}, 'shape': {tuple}, }}");
+    while !(10 + h.len() + 1).is_multiple_of(64) {
+        h.push(' ');
+    }
+    h.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(h.len() as u16).to_le_bytes());
+    out.extend_from_slice(h.as_bytes());
+    out.extend_from_slice(raw);
+    out
+}
+
+/// The value of element (i, j, k) of the synthetic arrays.
+fn v(i: usize, j: usize, k: usize) -> u8 {
+    (50 * i + 10 * j + k) as u8
+}
+
+/// The bytes of the synthetic (2, 3, 4) array in C or column-major order, each value
+/// written by `put` in its type.
+fn raw_of(fortran: bool, put: &dyn Fn(u8, &mut Vec<u8>)) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut idx = Vec::new();
+    for i in 0..2 {
+        for j in 0..3 {
+            for k in 0..4 {
+                idx.push((i, j, k));
+            }
+        }
+    }
+    if fortran {
+        idx.sort_by_key(|&(i, j, k)| (k, j, i));
+    }
+    for (i, j, k) in idx {
+        put(v(i, j, k), &mut out);
+    }
+    out
+}
+
+fn check_cube(c: &Cube) {
+    assert_eq!((c.ny, c.nx, c.nt()), (2, 3, 4));
+    for i in 0..2 {
+        for j in 0..3 {
+            for k in 0..4 {
+                assert_eq!(at(c, i, j, k), f32::from(v(i, j, k)), "({i}, {j}, {k})");
+            }
+        }
+    }
+}
+
+#[test]
+fn npy_of_every_dtype_order_and_byte_order_is_row_column_bin() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("a.npy");
+    let out = dir.path().join("a.h5");
+    type Put = fn(u8, &mut Vec<u8>, bool);
+    let kinds: [(&str, Put); 11] = [
+        ("u1", |x, o, _| o.push(x)),
+        ("i1", |x, o, _| o.push(x as i8 as u8)),
+        ("u2", |x, o, b| {
+            o.extend(if b {
+                u16::from(x).to_be_bytes()
+            } else {
+                u16::from(x).to_le_bytes()
+            })
+        }),
+        ("i2", |x, o, b| {
+            o.extend(if b {
+                i16::from(x).to_be_bytes()
+            } else {
+                i16::from(x).to_le_bytes()
+            })
+        }),
+        ("u4", |x, o, b| {
+            o.extend(if b {
+                u32::from(x).to_be_bytes()
+            } else {
+                u32::from(x).to_le_bytes()
+            })
+        }),
+        ("i4", |x, o, b| {
+            o.extend(if b {
+                i32::from(x).to_be_bytes()
+            } else {
+                i32::from(x).to_le_bytes()
+            })
+        }),
+        ("u8", |x, o, b| {
+            o.extend(if b {
+                u64::from(x).to_be_bytes()
+            } else {
+                u64::from(x).to_le_bytes()
+            })
+        }),
+        ("i8", |x, o, b| {
+            o.extend(if b {
+                i64::from(x).to_be_bytes()
+            } else {
+                i64::from(x).to_le_bytes()
+            })
+        }),
+        ("f2", |x, o, b| {
+            let h = half::f16::from_f32(f32::from(x));
+            o.extend(if b { h.to_be_bytes() } else { h.to_le_bytes() })
+        }),
+        ("f4", |x, o, b| {
+            o.extend(if b {
+                f32::from(x).to_be_bytes()
+            } else {
+                f32::from(x).to_le_bytes()
+            })
+        }),
+        ("f8", |x, o, b| {
+            o.extend(if b {
+                f64::from(x).to_be_bytes()
+            } else {
+                f64::from(x).to_le_bytes()
+            })
+        }),
+    ];
+    for (code, put) in kinds {
+        for big in [false, true] {
+            for fortran in [false, true] {
+                let order = match (code.ends_with('1'), big) {
+                    (true, _) => '|',
+                    (false, true) => '>',
+                    (false, false) => '<',
+                };
+                let raw = raw_of(fortran, &|x, o| put(x, o, big));
+                std::fs::write(
+                    &p,
+                    npy(&[2, 3, 4], &format!("{order}{code}"), fortran, &raw),
+                )
+                .unwrap();
+                check_cube(&ingest(&p, &out, &["--dt-ps", "2"]));
+            }
+        }
+    }
+    // 2-D: one scanline (x, t), or (t, x) with --transpose.
+    let raw: Vec<u8> = (0..6u8).collect();
+    std::fs::write(&p, npy(&[2, 3], "|u1", false, &raw)).unwrap();
+    let c = ingest(&p, &out, &["--dt-ps", "2"]);
+    assert_eq!((c.ny, c.nx, c.nt()), (1, 2, 3));
+    assert_eq!(c.profile(1, 0), [3.0, 4.0, 5.0]);
+    let c = ingest(&p, &out, &["--dt-ps", "2", "--transpose"]);
+    assert_eq!((c.ny, c.nx, c.nt()), (1, 3, 2));
+    assert_eq!(c.profile(1, 0), [1.0, 4.0]);
+    // Integers above 2^24 are rounded, recorded and warned about.
+    let big: Vec<u8> = [16_777_217u32, 1]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    std::fs::write(&p, npy(&[1, 2], "<u4", false, &big)).unwrap();
+    let o = femto(&[
+        "ingest",
+        p.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--dt-ps",
+        "1",
+    ]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("2^24"));
+    let meta = read_meta(&out).unwrap();
+    assert!(note(&meta, "ingest.inexact_values")
+        .unwrap()
+        .starts_with("1 integer"));
+}
+
+#[test]
+fn mat_v5_plain_compressed_and_v73_keep_matlab_indexing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.h5");
+    let raw = raw_of(true, &|x, o| o.extend(u16::from(x).to_le_bytes()));
+    let width = 0.35f64.to_le_bytes();
+    for compress in [false, true] {
+        let p = dir.path().join(format!("v5_{compress}.mat"));
+        let bytes = femto::readers::mat::v5_bytes(
+            &[
+                ("width", &[1, 1], 6, 9, &width),
+                ("rect", &[2, 3, 4], 6, 4, &raw),
+            ],
+            compress,
+        );
+        std::fs::write(&p, bytes).unwrap();
+        let c = ingest(&p, &out, &["--dt-ps", "4"]);
+        check_cube(&c);
+        assert_eq!(note(&read_meta(&out).unwrap(), "mat.width"), Some("0.35"));
+        refused(
+            &p,
+            &out_new(&dir),
+            &["--dt-ps", "4", "--dataset", "nope"],
+            "rect",
+        );
+    }
+    // v7.3: HDF5 after a 512-byte user block; HDF5 dims are MATLAB's reversed.
+    let p = dir.path().join("v73.mat");
+    {
+        let f = rust_hdf5::H5File::options()
+            .userblock(512)
+            .create(&p)
+            .unwrap();
+        let ds = f
+            .new_dataset::<u16>()
+            .shape([4, 3, 2])
+            .create("rect")
+            .unwrap();
+        let vals: Vec<u16> = raw
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .collect();
+        ds.write_raw(&vals).unwrap();
+        ds.new_attr::<rust_hdf5::VarLenUnicode>()
+            .shape(())
+            .create("MATLAB_class")
+            .unwrap()
+            .write_string("uint16")
+            .unwrap();
+        let w = f
+            .new_dataset::<f64>()
+            .shape([1, 1])
+            .create("width")
+            .unwrap();
+        w.write_raw(&[0.35f64]).unwrap();
+        w.new_attr::<rust_hdf5::VarLenUnicode>()
+            .shape(())
+            .create("MATLAB_class")
+            .unwrap()
+            .write_string("double")
+            .unwrap();
+        f.close().unwrap();
+    }
+    let mut bytes = std::fs::read(&p).unwrap();
+    bytes[..19].copy_from_slice(b"MATLAB 7.3 MAT-file");
+    std::fs::write(&p, bytes).unwrap();
+    check_cube(&ingest(&p, &out, &["--dt-ps", "4"]));
+    assert_eq!(note(&read_meta(&out).unwrap(), "mat.width"), Some("0.35"));
+}
+
+/// A HyperSpy file of one signal (2, 3, 4) u16 with the time axis `time` (attributes or an
+/// explicit array) as axis-2.
+fn hspy(p: &Path, scale: f64, values: Option<&[f64]>) {
+    let f = rust_hdf5::H5File::create(p).unwrap();
+    f.root_group()
+        .set_attr_string("file_format", "HyperSpy")
+        .unwrap();
+    let g = f
+        .create_group("Experiments")
+        .unwrap()
+        .create_group("s")
+        .unwrap();
+    let raw = raw_of(false, &|x, o| o.extend(u16::from(x).to_le_bytes()));
+    let vals: Vec<u16> = raw
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .collect();
+    g.new_dataset::<u16>()
+        .shape([2, 3, 4])
+        .create("data")
+        .unwrap()
+        .write_raw(&vals)
+        .unwrap();
+    for (i, (name, units)) in [("Y", "um"), ("X", "um"), ("Time", "ns")]
+        .iter()
+        .enumerate()
+    {
+        let a = g.create_group(&format!("axis-{i}")).unwrap();
+        a.set_attr_string("name", name).unwrap();
+        a.set_attr_string("units", units).unwrap();
+        match (i, values) {
+            (2, Some(v)) => {
+                let d = a
+                    .new_dataset::<f64>()
+                    .shape([v.len()])
+                    .create("axis")
+                    .unwrap();
+                d.write_raw(v).unwrap();
+            }
+            _ => {
+                a.set_attr_numeric("scale", &if i == 2 { scale } else { 0.5 })
+                    .unwrap();
+                a.set_attr_numeric("offset", &1.0f64).unwrap();
+            }
+        }
+    }
+    f.close().unwrap();
+}
+
+#[test]
+fn hspy_axes_uniform_explicit_and_non_uniform_and_absurd_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, out) = (dir.path().join("s.hspy"), dir.path().join("s.h5"));
+    hspy(&p, 0.004, None);
+    let c = ingest(&p, &out, &[]);
+    check_cube(&c);
+    assert!((c.axis.dt_ps - 4.0).abs() < 1e-9 && (c.axis.t0_ps - 1000.0).abs() < 1e-9);
+    // An explicit uniform axis becomes the same axis.
+    hspy(&p, 0.0, Some(&[1.0, 1.004, 1.008, 1.012]));
+    let c = ingest(&p, &out, &[]);
+    check_cube(&c);
+    assert!((c.axis.dt_ps - 4.0).abs() < 1e-9);
+    // A non-uniform one is resampled onto its span, each pixel's integral kept.
+    hspy(&p, 0.0, Some(&[1.0, 1.002, 1.008, 1.012]));
+    let c = ingest(&p, &out, &[]);
+    assert_eq!(c.nt(), 4);
+    let total: f64 = (0..4).map(|k| f64::from(at(&c, 1, 2, k))).sum();
+    let want: f64 = (0..4).map(|k| f64::from(v(1, 2, k))).sum();
+    assert!((total - want).abs() < 1e-4, "{total} vs {want}");
+    assert!(note(&read_meta(&out).unwrap(), "ingest.time_axis")
+        .unwrap()
+        .contains("resampled"));
+    for bad in [f64::NAN, 0.0, -0.004, 1e-300] {
+        hspy(&p, bad, None);
+        refused(&p, &out_new(&dir), &[], "axis-2");
+    }
+    hspy(&p, 0.0, Some(&[1.0, f64::NAN, 1.008, 1.012]));
+    refused(&p, &out_new(&dir), &[], "axis-2");
+}
+
+#[test]
+fn truncated_and_corrupt_files_are_one_line_exit_2_and_nothing_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = out_new(&dir);
+    // .npy: truncated values, bad magic, bad dtype.
+    let p = dir.path().join("t.npy");
+    let good = npy(&[2, 3, 4], "<u2", false, &[0; 48]);
+    std::fs::write(&p, &good[..good.len() - 3]).unwrap();
+    refused(&p, &out, &["--dt-ps", "1"], "t.npy");
+    std::fs::write(&p, [b"\x93NUMPX".as_slice(), &good[6..]].concat()).unwrap();
+    refused(&p, &out, &["--dt-ps", "1"], "npy header");
+    std::fs::write(&p, npy(&[2], "<c8", false, &[0; 16])).unwrap();
+    refused(&p, &out, &["--dt-ps", "1"], "dtype");
+    // .mat: truncated, corrupt header.
+    let p = dir.path().join("t.mat");
+    let raw = [0u8; 48];
+    let m = femto::readers::mat::v5_bytes(&[("a", &[2, 3, 4], 11, 4, &raw)], true);
+    std::fs::write(&p, &m[..m.len() - 20]).unwrap();
+    refused(&p, &out, &["--dt-ps", "1"], "t.mat");
+    std::fs::write(&p, [b"MATLAB 4.0".as_slice(), &m[10..]].concat()).unwrap();
+    refused(&p, &out, &["--dt-ps", "1"], "mat header");
+    // .hspy: truncated.
+    let p = dir.path().join("t.hspy");
+    hspy(&p, 0.004, None);
+    let b = std::fs::read(&p).unwrap();
+    std::fs::write(&p, &b[..b.len() / 2]).unwrap();
+    refused(&p, &out, &[], "t.hspy");
+    // Plain HDF5: an absurd recorded bin width; a file cut short.
+    let p = dir.path().join("t.h5");
+    for width in [0.0, f64::NAN, -1.0, 1e-300] {
+        let f = rust_hdf5::H5File::create(&p).unwrap();
+        f.new_dataset::<u16>()
+            .shape([5, 1])
+            .create("counts")
+            .unwrap()
+            .write_raw(&[1u16; 5])
+            .unwrap();
+        f.new_dataset::<f64>()
+            .shape([1usize; 0])
+            .create("timebin_width_ps")
+            .unwrap()
+            .write_raw(&[width])
+            .unwrap();
+        f.close().unwrap();
+        refused(&p, &out, &[], "timebin_width_ps");
+    }
+    let b = std::fs::read(&p).unwrap();
+    std::fs::write(&p, &b[..b.len() - 40]).unwrap();
+    refused(&p, &out, &[], "t.h5");
+}
