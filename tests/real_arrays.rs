@@ -564,3 +564,24 @@ fn truncated_and_corrupt_files_are_one_line_exit_2_and_nothing_written() {
     std::fs::write(&p, &b[..b.len() - 40]).unwrap();
     refused(&p, &out, &[], "t.h5");
 }
+
+#[test]
+fn info_describes_array_files_and_what_ingest_needs() {
+    let (Some(mat), Some(spad)) = (
+        shared::file("data/real/lct/data_s_u.mat"),
+        shared::file("data/real/spad/spad_data_1.hdf5"),
+    ) else {
+        return;
+    };
+    let o = femto(&["info", mat.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("variable rect_data"), "{text}");
+    assert!(text.contains("[64, 64, 2048] uint16"), "{text}");
+    assert!(text.contains("--dt-ps"), "{text}");
+    let o = femto(&["info", spad.to_str().unwrap(), "--json"]);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["kind"], "array");
+    assert_eq!(j["nt"], 901);
+    assert_eq!(j["source"], "dataset /counts");
+}
