@@ -1,15 +1,20 @@
-//! The inputs of `femto ingest` that other tools write: a y-tal capture (HDF5) and a
-//! mitransient transient array (`.npy`). Their flags, their detection, and the call to the
-//! library's stages ([`femto::interop::ingest_tal`], [`femto::interop::ingest_mitransient`]).
-//! They hold rendered or already assembled data, so the streak corrections of `ingest`
-//! (dark, flat, sweep, jitter, power, saturation) do not apply and their flags are refused.
+//! The inputs of `femto ingest` that other tools write: a y-tal capture (HDF5), a
+//! mitransient transient array (`.npy` with its binning), and array files as labs save them
+//! (`.npy`, `.mat`, `.hspy`, plain HDF5 datasets: [`femto::readers`]). Their flags, their
+//! detection, and the call to the library's stages ([`femto::interop::ingest_tal`],
+//! [`femto::interop::ingest_mitransient`], [`femto::ingest::arrays::ingest_array`]). They
+//! hold rendered or already assembled data, so the streak corrections of `ingest` (dark,
+//! flat, sweep, jitter, power) do not apply and their flags are refused; `--saturation`
+//! applies to all of them.
 
 use super::ingest::IngestArgs;
 use clap::{Args, ValueEnum};
 use femto::container::Provenance;
 use femto::cube::TimeFrame;
+use femto::ingest::arrays::{ingest_array, ArrayIngest, Confocal};
 use femto::interop::mitransient::{Channels, OplBinning};
 use femto::interop::{ingest_mitransient, ingest_tal, is_tal_capture};
+use femto::readers::{Format, ReadOptions};
 use std::path::Path;
 
 /// Another tool's file as input.
@@ -19,6 +24,9 @@ pub enum Foreign {
     Tal,
     /// A mitransient transient array (H, W, T, C) saved with np.save.
     Mitransient,
+    /// An assembled x-y-t array: .npy, .mat (v5, v7.3), .hspy, or an HDF5 dataset
+    /// (A[i, j, k] is row i, column j, bin k).
+    Array,
 }
 
 /// How colour channels become one value.
@@ -59,6 +67,13 @@ pub struct InteropArgs {
     /// mitransient: the render's clock [default: camera].
     #[arg(long, value_enum)]
     pub opl_clock: Option<OplClock>,
+    /// Array files: a confocal capture (each pixel's laser point is its own wall point);
+    /// needs --wall-size-m.
+    #[arg(long)]
+    pub confocal: bool,
+    /// Array files with --confocal: the full side of the scanned square wall patch, metres.
+    #[arg(long)]
+    pub wall_size_m: Option<f64>,
 }
 
 /// Which foreign input `args` names, if any.
@@ -67,34 +82,57 @@ fn kind(args: &IngestArgs) -> Option<Foreign> {
         return Some(f);
     }
     let path = Path::new(&args.input);
-    let npy = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
-    if npy {
-        return Some(Foreign::Mitransient);
+    let i = &args.interop;
+    let format = Format::sniff(path);
+    if format == Some(Format::Npy) {
+        let opl = i.start_opl_m.is_some() || i.bin_width_opl_m.is_some();
+        let mitransient = opl || i.channels.is_some() || i.opl_clock.is_some();
+        return Some(if mitransient {
+            Foreign::Mitransient
+        } else {
+            Foreign::Array
+        });
     }
     // y-tal's H is (T, Sx, Sy), not a stack of (ny, nt, nx) streak images: read as a capture.
     let tal_dataset = args
         .dataset
         .as_deref()
         .is_none_or(|d| d.trim_start_matches('/') == "H");
-    (tal_dataset && path.is_file() && is_tal_capture(path)).then_some(Foreign::Tal)
+    if tal_dataset && path.is_file() && is_tal_capture(path) {
+        return Some(Foreign::Tal);
+    }
+    match (format, args.dataset.as_deref()) {
+        (Some(Format::Mat | Format::Hspy), _) => Some(Foreign::Array),
+        // A 3-D dataset whose group records no time axis is a stack of streak images.
+        (Some(Format::Hdf5Array), Some(d)) if femto::readers::is_streak_stack(path, d) => None,
+        (Some(Format::Hdf5Array), _) => Some(Foreign::Array),
+        _ => None,
+    }
 }
 
 /// The streak-capture flags given, which do not apply to another tool's file.
-fn streak_flags(args: &IngestArgs) -> Vec<&'static str> {
+fn streak_flags(args: &IngestArgs, kind: Foreign) -> Vec<&'static str> {
+    let array = kind == Foreign::Array;
     let given = [
         (args.rows.is_some(), "--rows"),
-        (args.dt_ps.is_some(), "--dt-ps"),
-        (args.t0_ps.is_some(), "--t0-ps"),
+        (args.dt_ps.is_some() && !array, "--dt-ps"),
+        (args.t0_ps.is_some() && !array, "--t0-ps"),
         (args.resample_time, "--resample-time"),
-        (args.transpose, "--transpose"),
+        (args.transpose && !array, "--transpose"),
         (args.dark.is_some(), "--dark"),
         (args.flat.is_some(), "--flat"),
         (args.sweep_table.is_some(), "--sweep-table"),
         (args.jitter, "--jitter"),
         (args.power_ref.is_some(), "--power-ref"),
-        (args.saturation.is_some(), "--saturation"),
+        (
+            args.saturation.is_some() && kind == Foreign::Mitransient,
+            "--saturation",
+        ),
+        (args.interop.confocal && !array, "--confocal"),
+        (
+            args.interop.wall_size_m.is_some() && !array,
+            "--wall-size-m",
+        ),
         (args.allow_missing, "--allow-missing"),
         (args.value_scale.is_some(), "--value-scale"),
         (args.compression.is_some(), "--compression"),
@@ -119,7 +157,24 @@ pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
             .map(|(_, f)| *f)
             .collect();
         if given.is_empty() {
-            return None;
+            let confocal = [
+                (i.confocal, "--confocal"),
+                (i.wall_size_m.is_some(), "--wall-size-m"),
+            ];
+            let c: Vec<&str> = confocal
+                .iter()
+                .filter(|(g, _)| *g)
+                .map(|(_, f)| *f)
+                .collect();
+            if c.is_empty() {
+                return None;
+            }
+            return Some(Err(anyhow::anyhow!(
+                "{}: only for array files (.npy, .mat, .hspy, HDF5 datasets); {} is a streak \
+                 capture",
+                c.join(", "),
+                args.input
+            )));
         }
         return Some(Err(anyhow::anyhow!(
             "{}: only for a mitransient array (.npy, or --from mitransient); {} is a streak \
@@ -136,8 +191,9 @@ fn ingest(args: &IngestArgs, kind: Foreign) -> anyhow::Result<()> {
     let name = match kind {
         Foreign::Tal => "a y-tal capture",
         Foreign::Mitransient => "a mitransient array",
+        Foreign::Array => "an array file",
     };
-    let refused = streak_flags(args);
+    let refused = streak_flags(args, kind);
     if !refused.is_empty() {
         anyhow::bail!(
             "{}: {name}, whose data are assembled already; {} apply only to streak captures",
@@ -164,8 +220,9 @@ fn ingest(args: &IngestArgs, kind: Foreign) -> anyhow::Result<()> {
                     input.display()
                 );
             }
-            ingest_tal(input, out, &provenance)?
+            ingest_tal(input, out, args.saturation, &provenance)?
         }
+        Foreign::Array => return ingest_arrays(args, input, out, &provenance),
         Foreign::Mitransient => {
             let i = &args.interop;
             let (Some(start_opl_m), Some(bin_width_opl_m)) = (i.start_opl_m, i.bin_width_opl_m)
@@ -205,6 +262,88 @@ fn ingest(args: &IngestArgs, kind: Foreign) -> anyhow::Result<()> {
             TimeFrame::Camera => "camera",
             TimeFrame::World => "world",
         },
+        out.display()
+    );
+    Ok(())
+}
+
+/// `--from array` or a detected array file: [`ingest_array`].
+fn ingest_arrays(
+    args: &IngestArgs,
+    input: &Path,
+    out: &Path,
+    provenance: &Provenance,
+) -> anyhow::Result<()> {
+    let i = &args.interop;
+    let mitransient = [
+        (i.start_opl_m.is_some(), "--start-opl-m"),
+        (i.bin_width_opl_m.is_some(), "--bin-width-opl-m"),
+        (i.channels.is_some(), "--channels"),
+        (i.opl_clock.is_some(), "--opl-clock"),
+    ];
+    if let Some((_, f)) = mitransient.iter().find(|(g, _)| *g) {
+        anyhow::bail!("{}: {f} is only for a mitransient array", input.display());
+    }
+    let confocal = match (i.confocal, i.wall_size_m) {
+        (true, Some(m)) => Some(Confocal { wall_size_m: m }),
+        (false, None) => None,
+        (true, None) => anyhow::bail!(
+            "{}: --confocal needs --wall-size-m M (the full side of the scanned wall patch)",
+            input.display()
+        ),
+        (false, Some(_)) => anyhow::bail!(
+            "{}: --wall-size-m is the wall patch of a confocal capture; give --confocal too",
+            input.display()
+        ),
+    };
+    let format = Format::sniff(input).ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: not an array file (.npy, .mat, .hspy, or HDF5)",
+            input.display()
+        )
+    })?;
+    let opts = ArrayIngest {
+        read: ReadOptions {
+            dataset: args.dataset.clone(),
+            transpose: args.transpose,
+        },
+        dt_ps: args.dt_ps,
+        t0_ps: args.t0_ps,
+        saturation: args.saturation,
+        confocal,
+    };
+    let r = ingest_array(input, format, out, &opts, provenance)?;
+    if r.inexact > 0 {
+        eprintln!(
+            "femto: warning: {}: {} integer values above 2^24 were rounded to float32 (largest \
+             {}); recorded as ingest.inexact_values",
+            input.display(),
+            r.inexact,
+            r.largest_inexact
+        );
+    }
+    let source = if r.source.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", r.source)
+    };
+    let masked = if args.saturation.is_some() {
+        format!(", {} saturated pixel(s) masked", r.saturated_pixels)
+    } else {
+        String::new()
+    };
+    println!(
+        "ingested {}{source}, {}: {} x {} pixels, {} bins of {} ps from {} ps (camera time; \
+         {}){masked}{} -> {}",
+        r.format.name(),
+        r.dtype.name(),
+        r.nx,
+        r.ny,
+        r.axis.nt,
+        r.axis.dt_ps,
+        r.axis.t0_ps,
+        r.time_axis,
+        if confocal.is_some() { ", confocal" } else { "" },
         out.display()
     );
     Ok(())

@@ -17,6 +17,7 @@
 //! Errors of both steps are [`IngestError`]; each message names the file (and the row, the
 //! pixel or the size) that is wrong.
 
+pub mod arrays;
 pub mod assemble;
 pub mod corrections;
 pub mod plan;

@@ -11,9 +11,9 @@
 //! the sensor: camera time (`camera_unwarp = false`, the integrator's default), or world
 //! time when the scene was rendered with `camera_unwarp = true`.
 
-use super::npy::read_npy;
 use super::InteropError;
 use crate::cube::{Cube, TimeAxis, TimeFrame};
+use crate::readers::npy::read_npy;
 use crate::units::C_M_PER_PS;
 use std::path::Path;
 
@@ -148,8 +148,8 @@ pub fn read_transient_npy(
 
 #[cfg(test)]
 mod tests {
-    use super::super::npy::npy_bytes;
     use super::*;
+    use crate::readers::npy::npy_bytes;
 
     #[test]
     fn channels_collapse_and_path_length_becomes_picoseconds() {

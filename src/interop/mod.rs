@@ -6,7 +6,6 @@
 //! | [`tal`] | a y-tal capture in memory ([`tal::TalCapture`]) and its conversion to and from a cube with its geometry ([`tal::TalGeometry`]: sensor grid, laser origin and spot) |
 //! | `tal_file` | y-tal's HDF5 layout (`tal.io.read_capture`'s `HDF5_TAL`): [`read_tal`], [`write_tal`], [`is_tal_capture`] |
 //! | [`mitransient`] | mitransient's transient array `(H, W, T, C)` in optical path length into a cube, colour channels collapsed as asked |
-//! | `npy` | the NumPy `.npy` reader under [`mitransient`] |
 //! | [`wall_view`] | a capture camera and a wall mesh for a cube that knows only its wall grid (what `femto render` uses without `--calibration` and `--mesh`) |
 //! | `stage` | the stages `femto export` and `femto ingest` call: [`export_tal`], [`ingest_tal`], [`ingest_mitransient`] |
 //!
@@ -18,7 +17,6 @@
 //! (laser origin to spot), which the conversions add or remove with the laser origin.
 
 pub mod mitransient;
-mod npy;
 mod stage;
 pub mod tal;
 mod tal_file;
@@ -52,6 +50,9 @@ pub enum InteropError {
         key: String,
         message: String,
     },
+    /// An array file femto could not read (`.npy`; the message names the file).
+    #[error(transparent)]
+    Reader(#[from] crate::readers::ReaderError),
     /// A cube file femto could not read (the message names the file).
     #[error(transparent)]
     Container(#[from] crate::container::ContainerError),

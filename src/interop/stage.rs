@@ -8,6 +8,8 @@ use super::tal_file::{geometry_from_group, geometry_group, read_tal, write_tal};
 use super::InteropError;
 use crate::container::{self, Provenance};
 use crate::cube::{Cube, TimeFrame};
+use crate::ingest::corrections::saturation_mask;
+use crate::ingest::plan::SaturationInput;
 use crate::store::registration;
 use std::path::Path;
 
@@ -138,12 +140,44 @@ fn write_cube_file(
 
 /// Ingest the y-tal capture at `input` into the cube file `out`, its geometry in the `tal`
 /// group; the cube is in world time when the capture's clock starts at the laser spot
-/// (`t_accounts_first_and_last_bounces = False`), else in camera time.
-pub fn ingest_tal(input: &Path, out: &Path, provenance: &Provenance) -> Result<Cube, InteropError> {
+/// (`t_accounts_first_and_last_bounces = False`), else in camera time. With `saturation`
+/// (a level: y-tal's `H` is read as floats, so `auto` is refused), a pixel with a bin at or
+/// above the level is masked, as streak ingest masks it.
+pub fn ingest_tal(
+    input: &Path,
+    out: &Path,
+    saturation: Option<SaturationInput>,
+    provenance: &Provenance,
+) -> Result<Cube, InteropError> {
+    let level = match saturation {
+        None => None,
+        Some(SaturationInput::Level(v)) if v.is_finite() && v > 0.0 => Some(v),
+        Some(s) => {
+            return Err(InteropError::Invalid {
+                path: input.to_path_buf(),
+                key: "--saturation".into(),
+                message: format!("{s:?}: y-tal's H is read as floats; give a finite level > 0"),
+            })
+        }
+    };
     let capture = read_tal(input)?;
-    let (cube, geo) = capture.to_cube();
+    let (mut cube, geo) = capture.to_cube();
+    let mut provenance = provenance.clone();
+    if let Some(level) = level {
+        let (nx, nt) = (cube.nx, cube.nt());
+        let mask: Vec<u8> = cube
+            .data
+            .chunks(nx * nt)
+            .flat_map(|row| saturation_mask(row, nx, nt, level as f32))
+            .collect();
+        let masked = mask.iter().filter(|&&m| m == 0).count();
+        provenance = provenance
+            .with_note("ingest.saturation_level", format!("{level} (given)"))
+            .with_note("ingest.saturated_pixels", masked.to_string());
+        cube.mask = Some(mask);
+    }
     let group = geometry_group(&geo, cube.nx, cube.ny);
-    let provenance = provenance.clone().with_note(
+    let provenance = provenance.with_note(
         "ingest.source",
         format!(
             "y-tal capture {} (t_accounts_first_and_last_bounces = {})",

@@ -58,6 +58,9 @@ pub enum StageError {
     /// A cube, pyramid or group file could not be read or written.
     #[error(transparent)]
     Container(#[from] crate::container::ContainerError),
+    /// An array file (`.npy`, `.mat`, `.hspy`, HDF5 dataset) could not be read.
+    #[error(transparent)]
+    Reader(#[from] crate::readers::ReaderError),
     /// A stored group (registration, pyramid) is malformed.
     #[error(transparent)]
     Store(#[from] crate::store::StoreError),

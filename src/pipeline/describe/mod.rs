@@ -7,12 +7,14 @@
 //! by their extension. One module per kind: [`cube`], with its [`registration`] and
 //! [`pyramid`] groups (a pyramid side file too), [`mesh`], [`streak`].
 
+pub mod array;
 pub mod cube;
 pub mod mesh;
 pub mod pyramid;
 pub mod registration;
 pub mod streak;
 
+pub use array::ArrayDescription;
 pub use cube::CubeDescription;
 pub use mesh::{MaterialArea, MeshDescription};
 pub use pyramid::{PrefixLayout, PyramidSummary, SideFileDescription};
@@ -52,6 +54,9 @@ pub enum Description {
     /// A streak image (.png, .tif, .tiff, .exr, .hdr, .img).
     #[serde(rename = "streak_image")]
     StreakImage(StreakDescription),
+    /// An array file `femto ingest` reads (.npy, .mat, .hspy, an HDF5 dataset).
+    #[serde(rename = "array")]
+    Array(ArrayDescription),
 }
 
 impl Description {
@@ -69,6 +74,7 @@ impl fmt::Display for Description {
             Description::PyramidSideFile(d) => d.fmt(f),
             Description::Mesh(d) => d.fmt(f),
             Description::StreakImage(d) => d.fmt(f),
+            Description::Array(d) => d.fmt(f),
         }
     }
 }
@@ -94,13 +100,24 @@ pub fn describe_file(
                 path, &groups,
             )?));
         }
+        let has_cube = groups.has_cube();
         drop(groups);
+        if !has_cube {
+            if let Some(format) = crate::readers::Format::sniff(path) {
+                return Ok(Description::Array(array::describe_array(path, format)?));
+            }
+        }
         // A cube, or not ours: then the cube reader says why.
         return Ok(Description::Cube(cube::describe_cube(path, progress)?));
     }
     let ext = extension(path);
     if MESH_EXTENSIONS.contains(&ext.as_str()) {
         return Ok(Description::Mesh(mesh::describe_mesh(path)?));
+    }
+    if let Some(format @ (crate::readers::Format::Npy | crate::readers::Format::Mat)) =
+        crate::readers::Format::sniff(path)
+    {
+        return Ok(Description::Array(array::describe_array(path, format)?));
     }
     if crate::formats::streak_extension(path).is_some() {
         return Ok(Description::StreakImage(streak::describe_streak(

@@ -1,0 +1,124 @@
+//! Describing an array file as `femto ingest` reads it ([`crate::readers`]): `.npy`, `.mat`,
+//! `.hspy`, a plain HDF5 dataset, with its shape, stored type, which variable or dataset,
+//! its axes with units, and what ingest would ask for. Also a y-tal capture and an HDF5
+//! stack of streak images, named as such. The JSON form is the `array` object of
+//! docs/cube-format.md.
+
+use super::{line, serialize_path};
+use crate::pipeline::StageError;
+use crate::readers::{self, Format, ReadOptions, TimeSpec};
+use serde::Serialize;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An array file.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArrayDescription {
+    #[serde(serialize_with = "serialize_path")]
+    pub file: PathBuf,
+    /// `NumPy array`, `MATLAB file`, `HyperSpy signal`, `HDF5 dataset`.
+    pub format: String,
+    /// The variable, signal or dataset read (empty for `.npy`).
+    pub source: String,
+    pub stored_shape: Vec<usize>,
+    pub dtype: String,
+    /// The cube it becomes: rows, columns, bins.
+    pub ny: usize,
+    pub nx: usize,
+    pub nt: usize,
+    /// The time axis recorded, in words.
+    pub time_axis: String,
+    /// The column and row axes: `name (units): scale, offset` or `n values`.
+    pub x_axis: Option<String>,
+    pub y_axis: Option<String>,
+    /// Values kept as cube attributes (`mat.width`).
+    pub attributes: Vec<(String, String)>,
+    /// The flags `femto ingest` needs for it (empty: none).
+    pub ingest_needs: String,
+}
+
+fn axis_text(a: &readers::Axis) -> String {
+    match (&a.values, a.scale, a.offset) {
+        (Some(v), _, _) => format!("{} ({}): {} explicit values", a.name, a.units, v.len()),
+        (None, Some(s), Some(o)) => format!("{} ({}): scale {s}, offset {o}", a.name, a.units),
+        _ => format!("{} ({})", a.name, a.units),
+    }
+}
+
+/// Describe the array file at `path` (read as `format`).
+pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, StageError> {
+    let c = readers::open(path, format, &ReadOptions::default())?;
+    let (time_axis, needs) = match &c.time {
+        TimeSpec::Uniform { t0_ps, dt_ps } => (
+            format!("{dt_ps} ps bins from {t0_ps} ps ({})", c.time_source),
+            String::new(),
+        ),
+        TimeSpec::Width { dt_ps } => (
+            format!("{dt_ps} ps bins, start not recorded ({})", c.time_source),
+            "--t0-ps PS (default 0)".into(),
+        ),
+        TimeSpec::Table(t) => (
+            format!(
+                "{} non-uniform bin starts, {} .. {} ps (resampled on ingest)",
+                t.len(),
+                t[0],
+                t[t.len() - 1]
+            ),
+            String::new(),
+        ),
+        TimeSpec::Uncalibrated { reason } => {
+            (reason.clone(), "--dt-ps PS [--t0-ps PS, default 0]".into())
+        }
+    };
+    Ok(ArrayDescription {
+        file: path.to_path_buf(),
+        format: format.name().into(),
+        source: c.source,
+        stored_shape: c.stored_shape,
+        dtype: c.dtype.name().into(),
+        ny: c.ny,
+        nx: c.nx,
+        nt: c.nt,
+        time_axis,
+        x_axis: c.x.as_ref().map(axis_text),
+        y_axis: c.y.as_ref().map(axis_text),
+        attributes: c.attributes,
+        ingest_needs: needs,
+    })
+}
+
+impl fmt::Display for ArrayDescription {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        line(f, "file", self.file.display())?;
+        line(f, "kind", format!("array file: {}", self.format))?;
+        if !self.source.is_empty() {
+            line(f, "reads", &self.source)?;
+        }
+        line(
+            f,
+            "stored",
+            format!("{:?} {}", self.stored_shape, self.dtype),
+        )?;
+        line(
+            f,
+            "cube",
+            format!("{} x {} x {} (ny, nx, nt)", self.ny, self.nx, self.nt),
+        )?;
+        line(f, "time axis", &self.time_axis)?;
+        if let Some(x) = &self.x_axis {
+            line(f, "x axis", x)?;
+        }
+        if let Some(y) = &self.y_axis {
+            line(f, "y axis", y)?;
+        }
+        for (k, v) in &self.attributes {
+            line(f, "attribute", format!("{k} = {v}"))?;
+        }
+        let needs = if self.ingest_needs.is_empty() {
+            "nothing more (femto ingest FILE -o CUBE.h5)"
+        } else {
+            &self.ingest_needs
+        };
+        line(f, "ingest needs", needs)
+    }
+}

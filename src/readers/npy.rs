@@ -1,0 +1,204 @@
+//! The NumPy `.npy` format (versions 1-3), femto's one `.npy` parser: the magic `\x93NUMPY`,
+//! a version, a header length, a Python dict literal (`descr`, `fortran_order`, `shape`) and
+//! the values. Read: C and Fortran order; `u1 u2 u4 u8 i1 i2 i4 i8 f2 f4 f8`, little- and
+//! big-endian (`<`, `>`, `|` for one byte). Structured, complex, boolean and object arrays
+//! are refused.
+//!
+//! Hand-written rather than a crate: the format is a 10-byte preamble and a one-line dict
+//! (the `npyz` crate would read it, at the price of a dependency for 100 lines).
+
+use super::array::{element_count, Array};
+use super::dtype::{decode, Dtype};
+use super::ReaderError;
+use std::path::Path;
+
+/// The value of `key` in the header dict, as written (`'<f4'`, `False`, `(16, 16, 32, 3)`).
+fn dict_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
+    let at = header
+        .find(&format!("'{key}'"))
+        .or_else(|| header.find(&format!("\"{key}\"")))?;
+    let start = at + key.len() + 2;
+    let rest = header[start..].trim_start().strip_prefix(':')?.trim_start();
+    let end = if rest.starts_with('(') {
+        rest.find(')')? + 1
+    } else {
+        rest.find([',', '}']).unwrap_or(rest.len())
+    };
+    Some(rest[..end].trim())
+}
+
+/// The type and byte order of a `descr` such as `<u2`, `>f8`, `|u1`.
+fn parse_descr(descr: &str) -> Option<(Dtype, bool)> {
+    let mut chars = descr.chars();
+    let order = chars.next()?;
+    let big = match order {
+        '<' | '|' | '=' => false,
+        '>' => true,
+        _ => return None,
+    };
+    let kind = chars.next()?;
+    let size: usize = chars.as_str().parse().ok()?;
+    let dtype = match kind {
+        'u' => Dtype::from_parts(false, false, size)?,
+        'i' => Dtype::from_parts(false, true, size)?,
+        'f' => Dtype::from_parts(true, true, size)?,
+        _ => return None,
+    };
+    // One-byte types have no byte order; wider ones must say it.
+    (order != '|' || size == 1).then_some((dtype, big))
+}
+
+/// Read the `.npy` file at `path`.
+pub fn read_npy(path: &Path) -> Result<Array, ReaderError> {
+    let bytes = std::fs::read(path).map_err(|source| ReaderError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_npy(path, &bytes)
+}
+
+/// The `.npy` header of `bytes`: shape, type, byte order, Fortran order, data offset.
+pub(super) struct NpyHeader {
+    pub shape: Vec<usize>,
+    pub dtype: Dtype,
+    pub big_endian: bool,
+    pub fortran_order: bool,
+    pub data_start: usize,
+}
+
+/// Parse the header of a `.npy` file's bytes.
+pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<NpyHeader, ReaderError> {
+    let bad = |m: String| ReaderError::invalid(path, "npy header", m);
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad("not a .npy file (no \\x93NUMPY magic)".into()));
+    }
+    let (header_len, start) = match bytes[6] {
+        1 => (
+            usize::from(u16::from_le_bytes([bytes[8], bytes[9]])),
+            10usize,
+        ),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes")) as usize,
+            12,
+        ),
+        v => return Err(bad(format!("version {v} is not read (1 to 3 are)"))),
+    };
+    let header = bytes
+        .get(start..start.saturating_add(header_len))
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .ok_or_else(|| bad("truncated or non-text header".into()))?;
+    let descr_text = dict_value(header, "descr").ok_or_else(|| bad("no 'descr'".into()))?;
+    let descr = descr_text.trim_matches(['\'', '"']);
+    let (dtype, big_endian) = parse_descr(descr).ok_or_else(|| {
+        bad(format!(
+            "dtype {descr_text} is not read (integers u1-u8, i1-i8 and floats f2, f4, f8, \
+             either byte order, are)"
+        ))
+    })?;
+    let fortran_order = match dict_value(header, "fortran_order") {
+        Some("False") => false,
+        Some("True") => true,
+        other => return Err(bad(format!("fortran_order {other:?}"))),
+    };
+    let shape_text = dict_value(header, "shape").ok_or_else(|| bad("no 'shape'".into()))?;
+    let shape: Vec<usize> = shape_text
+        .trim_matches(['(', ')'])
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.trim_end_matches('L').parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad(format!("shape {shape_text}")))?;
+    Ok(NpyHeader {
+        shape,
+        dtype,
+        big_endian,
+        fortran_order,
+        data_start: start + header_len,
+    })
+}
+
+/// Parse a whole `.npy` file's bytes into a C-order array.
+pub fn parse_npy(path: &Path, bytes: &[u8]) -> Result<Array, ReaderError> {
+    let h = parse_header(path, bytes)?;
+    let count = element_count(&h.shape).ok_or_else(|| {
+        ReaderError::invalid(path, "npy header", format!("shape {:?} overflows", h.shape))
+    })?;
+    let data = &bytes[h.data_start..];
+    let want = count.checked_mul(h.dtype.size());
+    if want != Some(data.len()) {
+        return Err(ReaderError::invalid(
+            path,
+            "npy data",
+            format!(
+                "{} bytes of values for shape {:?} of {} ({} expected): truncated or padded",
+                data.len(),
+                h.shape,
+                h.dtype.name(),
+                want.map_or("too many".to_string(), |w| w.to_string())
+            ),
+        ));
+    }
+    let decoded = decode(data, h.dtype, h.big_endian);
+    Ok(Array::new(h.shape, h.dtype, decoded, h.fortran_order))
+}
+
+/// A `.npy` file's bytes: version 1, `descr` as given, the raw values in the order given.
+#[cfg(test)]
+pub(crate) fn npy_bytes_raw(shape: &[usize], descr: &str, fortran: bool, raw: &[u8]) -> Vec<u8> {
+    let dims: Vec<String> = shape.iter().map(|n| n.to_string()).collect();
+    let tuple = if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
+    let order = if fortran { "True" } else { "False" };
+    let mut header =
+        format!("{{'descr': '{descr}', 'fortran_order': {order}, 'shape': {tuple}, }}");
+    while !(10 + header.len() + 1).is_multiple_of(64) {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    out.extend_from_slice(raw);
+    out
+}
+
+/// A C-order little-endian float32 `.npy` file's bytes.
+#[cfg(test)]
+pub(crate) fn npy_bytes(shape: &[usize], values: &[f32]) -> Vec<u8> {
+    let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    npy_bytes_raw(shape, "<f4", false, &raw)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_float32_array_reads_back_and_bad_headers_are_refused() {
+        let p = Path::new("x.npy");
+        let a = parse_npy(p, &npy_bytes(&[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.5])).unwrap();
+        assert_eq!(a.shape, [2, 3]);
+        assert_eq!(a.values, [1.0, 2.0, 3.0, 4.0, 5.0, 6.5]);
+        let mut b = npy_bytes(&[2, 3], &[0.0; 6]);
+        b.pop();
+        assert!(parse_npy(p, &b).is_err());
+        assert!(parse_npy(p, b"PNG").is_err());
+        assert!(parse_npy(p, &npy_bytes_raw(&[1], "<c8", false, &[0; 8])).is_err());
+        assert!(parse_npy(p, &npy_bytes_raw(&[1], "|u2", false, &[0; 2])).is_err());
+    }
+
+    #[test]
+    fn fortran_order_and_big_endian_integers_read_as_numpy_indexes_them() {
+        let p = Path::new("x.npy");
+        // A (2, 3) array A[i, j] = 10 i + j, stored by columns, big-endian u2.
+        let by_columns = [0u16, 10, 1, 11, 2, 12];
+        let raw: Vec<u8> = by_columns.iter().flat_map(|v| v.to_be_bytes()).collect();
+        let a = parse_npy(p, &npy_bytes_raw(&[2, 3], ">u2", true, &raw)).unwrap();
+        assert_eq!(a.dtype, Dtype::U16);
+        assert_eq!(a.values, [0.0, 1.0, 2.0, 10.0, 11.0, 12.0]);
+    }
+}
