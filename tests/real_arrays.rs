@@ -103,8 +103,14 @@ fn lct_data_s_u_mat_reads_as_scipy_indexes_it_and_records_the_confocal_wall() {
     assert_eq!(at(&c, 0, 63, 5), 1197.0);
     assert_eq!(at(&c, 0, 52, 0), 2017.0);
     let meta = read_meta(&out).unwrap();
-    assert_eq!(note(&meta, "confocal"), Some("true"));
     assert_eq!(note(&meta, "wall_size_m"), Some("0.7"));
+    // The wall: a 0.7 m square of 64 x 64 points, each pixel its own laser point.
+    let group = femto::container::read_group(&out, "tal").unwrap();
+    let geo = femto::interop::geometry_from_group(&out, &group, 64, 64).unwrap();
+    assert_eq!(geo.laser_spot_m, femto::interop::tal::LaserSpot::Confocal);
+    let step = 0.7 / 64.0;
+    assert!((geo.sensor_grid_m[0][0] - (step / 2.0 - 0.35)).abs() < 1e-12);
+    assert!((geo.sensor_grid_m[64 * 64 - 1][1] - (0.35 - step / 2.0)).abs() < 1e-12);
     assert_eq!(note(&meta, "mat.width"), Some("0.35"));
 }
 

@@ -74,6 +74,15 @@ pub struct InteropArgs {
     /// Array files with --confocal: the full side of the scanned square wall patch, metres.
     #[arg(long)]
     pub wall_size_m: Option<f64>,
+    /// Array files with --confocal: where the laser and detector are, X,Y,Z metres, the wall
+    /// being the plane z = 0 centred on the origin (needed to unwarp a camera-time cube).
+    #[arg(long, value_parser = super::values::point, allow_hyphen_values = true)]
+    pub device_m: Option<[f64; 3]>,
+    /// Array files: the clock of the file's time: camera (what the detector recorded) or
+    /// world (it starts at each pixel's own point, as in most public confocal NLOS data,
+    /// whose time zero is at the wall) [default: camera].
+    #[arg(long, value_enum)]
+    pub clock: Option<super::values::Clock>,
 }
 
 /// Which foreign input `args` names, if any.
@@ -133,6 +142,8 @@ fn streak_flags(args: &IngestArgs, kind: Foreign) -> Vec<&'static str> {
             args.interop.wall_size_m.is_some() && !array,
             "--wall-size-m",
         ),
+        (args.interop.device_m.is_some() && !array, "--device-m"),
+        (args.interop.clock.is_some() && !array, "--clock"),
         (args.allow_missing, "--allow-missing"),
         (args.value_scale.is_some(), "--value-scale"),
         (args.compression.is_some(), "--compression"),
@@ -160,6 +171,8 @@ pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
             let confocal = [
                 (i.confocal, "--confocal"),
                 (i.wall_size_m.is_some(), "--wall-size-m"),
+                (i.device_m.is_some(), "--device-m"),
+                (i.clock.is_some(), "--clock"),
             ];
             let c: Vec<&str> = confocal
                 .iter()
@@ -284,8 +297,17 @@ fn ingest_arrays(
     if let Some((_, f)) = mitransient.iter().find(|(g, _)| *g) {
         anyhow::bail!("{}: {f} is only for a mitransient array", input.display());
     }
+    if i.device_m.is_some() && !i.confocal {
+        anyhow::bail!(
+            "{}: --device-m places a confocal scan's device; give --confocal too",
+            input.display()
+        );
+    }
     let confocal = match (i.confocal, i.wall_size_m) {
-        (true, Some(m)) => Some(Confocal { wall_size_m: m }),
+        (true, Some(m)) => Some(Confocal {
+            wall_size_m: m,
+            device_m: i.device_m,
+        }),
         (false, None) => None,
         (true, None) => anyhow::bail!(
             "{}: --confocal needs --wall-size-m M (the full side of the scanned wall patch)",
@@ -311,6 +333,10 @@ fn ingest_arrays(
         t0_ps: args.t0_ps,
         saturation: args.saturation,
         confocal,
+        clock: match i.clock {
+            Some(super::values::Clock::World) => TimeFrame::World,
+            _ => TimeFrame::Camera,
+        },
     };
     let r = ingest_array(input, format, out, &opts, provenance)?;
     if r.inexact > 0 {
@@ -333,7 +359,7 @@ fn ingest_arrays(
         String::new()
     };
     println!(
-        "ingested {}{source}, {}: {} x {} pixels, {} bins of {} ps from {} ps (camera time; \
+        "ingested {}{source}, {}: {} x {} pixels, {} bins of {} ps from {} ps ({} time; \
          {}){masked}{} -> {}",
         r.format.name(),
         r.dtype.name(),
@@ -342,8 +368,13 @@ fn ingest_arrays(
         r.axis.nt,
         r.axis.dt_ps,
         r.axis.t0_ps,
+        opts.clock,
         r.time_axis,
-        if confocal.is_some() { ", confocal" } else { "" },
+        if confocal.is_some() {
+            ", confocal (the wall grid in the tal group)"
+        } else {
+            ""
+        },
         out.display()
     );
     Ok(())

@@ -63,4 +63,4 @@ pub use schema::{
 };
 pub use stack::read_image_stack;
 pub use update::{write_groups, GroupUpdate, StagedFile};
-pub use write::{write_cube, write_cube_with_units, CubeWriter};
+pub use write::{write_cube, write_cube_with_groups, write_cube_with_units, CubeWriter};

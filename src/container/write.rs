@@ -358,6 +358,27 @@ pub fn write_cube(path: &Path, cube: &Cube, provenance: &Provenance) -> Result<(
     write_cube_with_units(path, cube, DEFAULT_UNITS, provenance)
 }
 
+/// Write `cube` and its extra `groups` to `path` atomically: both go into a staged file that
+/// is renamed onto `path` only when all are in.
+pub fn write_cube_with_groups(
+    path: &Path,
+    cube: &Cube,
+    provenance: &Provenance,
+    groups: &[(&str, GroupData)],
+) -> Result<()> {
+    let io = |source| ContainerError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    crate::atomic::write_atomically_with(path, io, |tmp| {
+        write_cube(tmp, cube, provenance)?;
+        if !groups.is_empty() {
+            super::write_groups(tmp, groups)?;
+        }
+        Ok(())
+    })
+}
+
 /// Write `cube` to `path` atomically, recording `units` for its values.
 ///
 /// On failure any earlier file at `path` is left untouched and no temporary file remains.

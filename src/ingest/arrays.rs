@@ -1,7 +1,7 @@
 //! The ingest route of array files ([`crate::readers`]: `.npy`, `.mat`, `.hspy`, plain
 //! HDF5): the [`Capture`] read becomes a cube on a uniform camera-time axis, with the
-//! saturation mask of streak ingest, the confocal flag, and the file's other axes and
-//! scalars as cube attributes; written atomically.
+//! saturation mask of streak ingest, a confocal scan's wall (the `tal` group), and the file's
+//! other axes and scalars as cube attributes; written atomically.
 //!
 //! The time axis, in order: the one the file records (a bin width given that contradicts it
 //! is refused); a recorded bin width with the start given (default 0 ps); a non-uniform
@@ -14,18 +14,48 @@ use crate::cube::{Cube, TimeAxis, TimeFrame};
 use crate::ingest::corrections::saturation_mask;
 use crate::ingest::plan::SaturationInput;
 use crate::ingest::time_axis::edges_from_starts;
+use crate::interop::geometry_group;
+use crate::interop::tal::{self, LaserSpot, TalGeometry};
 use crate::readers::{self, Axis, Capture, Format, ReadOptions, ReaderError, TimeSpec};
 use std::path::Path;
 
 /// A confocal capture: each pixel's laser point is its own wall point (O'Toole et al.
-/// 2018), on a square wall patch `wall_size_m` on a side.
+/// 2018), on a square wall patch `wall_size_m` on a side. Recorded as the cube's `tal` group
+/// ([`Confocal::geometry`]), which `femto unwarp`, `femto export --to tal` and `femto render`
+/// read.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Confocal {
     pub wall_size_m: f64,
+    /// Where the laser and the detector are (one device, as in a confocal system), metres;
+    /// None when the file does not say (a world-time cube needs none; `femto unwarp` of a
+    /// camera-time one refuses without it).
+    pub device_m: Option<[f64; 3]>,
+}
+
+impl Confocal {
+    /// The wall of an `nx` x `ny` scan: the plane z = 0, centred on the origin, pixel `(x, y)`
+    /// at `((x + 0.5) / nx - 1/2, (y + 0.5) / ny - 1/2, 0)` times the side, normals towards
+    /// z < 0, where the device is expected; laser and sensor at the device (NaN: unknown).
+    pub fn geometry(&self, nx: usize, ny: usize) -> TalGeometry {
+        let w = self.wall_size_m;
+        let at = |i: usize, n: usize| ((i as f64 + 0.5) / n as f64 - 0.5) * w;
+        let device = self.device_m.unwrap_or([f64::NAN; 3]);
+        TalGeometry {
+            sensor_grid_m: (0..nx * ny)
+                .map(|p| [at(p % nx, nx), at(p / nx, ny), 0.0])
+                .collect(),
+            sensor_normals: Some(vec![[0.0, 0.0, -1.0]; nx * ny]),
+            sensor_m: device,
+            laser_origin_m: device,
+            laser_spot_m: LaserSpot::Confocal,
+            t_spot_ps: 0.0,
+            time_scale: 1.0,
+        }
+    }
 }
 
 /// What to do with an array file.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ArrayIngest {
     pub read: ReadOptions,
     /// Bin width and start, ps, for files that record none (or no start).
@@ -33,6 +63,23 @@ pub struct ArrayIngest {
     pub t0_ps: Option<f64>,
     pub saturation: Option<SaturationInput>,
     pub confocal: Option<Confocal>,
+    /// The clock of the file's time: camera (what the detector recorded, the default) or
+    /// world (the time already starts at each pixel's point: both wall legs removed, as in
+    /// most public confocal NLOS data).
+    pub clock: TimeFrame,
+}
+
+impl Default for ArrayIngest {
+    fn default() -> Self {
+        ArrayIngest {
+            read: ReadOptions::default(),
+            dt_ps: None,
+            t0_ps: None,
+            saturation: None,
+            confocal: None,
+            clock: TimeFrame::Camera,
+        }
+    }
 }
 
 /// What [`ingest_array`] wrote.
@@ -241,6 +288,16 @@ pub fn ingest_array(
                 format!("{}: must be a positive size in metres", c.wall_size_m),
             ));
         }
+        if let Some(d) = c
+            .device_m
+            .filter(|d| d.iter().any(|v| !(v.is_finite() && v.abs() < 1e4)))
+        {
+            return Err(flag(
+                input,
+                "--device-m",
+                format!("{d:?}: must be three finite coordinates in metres"),
+            ));
+        }
     }
     let c = readers::open(input, format, &opts.read)?;
     if let Some(i) = c.samples.iter().position(|v| !v.is_finite()) {
@@ -311,7 +368,6 @@ pub fn ingest_array(
     }
     notes.extend(c.attributes.iter().cloned());
     if let Some(conf) = opts.confocal {
-        notes.push(("confocal".into(), "true".into()));
         notes.push(("wall_size_m".into(), conf.wall_size_m.to_string()));
     }
     let mut provenance = provenance.clone();
@@ -332,10 +388,18 @@ pub fn ingest_array(
         nx: c.nx,
         ny: c.ny,
         axis,
-        frame: TimeFrame::Camera,
+        frame: opts.clock,
         data: resampled.unwrap_or(c.samples),
         mask,
     };
-    container::write_cube(out, &cube, &provenance)?;
+    let groups: Vec<(&str, container::GroupData)> = opts
+        .confocal
+        .map(|conf| {
+            let geo = conf.geometry(cube.nx, cube.ny);
+            (tal::GROUP, geometry_group(&geo, cube.nx, cube.ny))
+        })
+        .into_iter()
+        .collect();
+    container::write_cube_with_groups(out, &cube, &provenance, &groups)?;
     Ok(report)
 }

@@ -114,30 +114,6 @@ pub fn export_tal(
     })
 }
 
-/// Write `cube` with `groups` to `out`: the cube atomically, then its groups.
-fn write_cube_file(
-    out: &Path,
-    cube: &Cube,
-    provenance: &Provenance,
-    groups: &[(&str, container::GroupData)],
-) -> Result<(), InteropError> {
-    // The cube and its groups go to a staged file renamed onto `out` only when both are in.
-    crate::atomic::write_atomically_with(
-        out,
-        |source| InteropError::Io {
-            path: out.to_path_buf(),
-            source,
-        },
-        |tmp| {
-            container::write_cube(tmp, cube, provenance)?;
-            if !groups.is_empty() {
-                container::write_groups(tmp, groups)?;
-            }
-            Ok(())
-        },
-    )
-}
-
 /// Ingest the y-tal capture at `input` into the cube file `out`, its geometry in the `tal`
 /// group; the cube is in world time when the capture's clock starts at the laser spot
 /// (`t_accounts_first_and_last_bounces = False`), else in camera time. With `saturation`
@@ -189,7 +165,7 @@ pub fn ingest_tal(
             }
         ),
     );
-    write_cube_file(out, &cube, &provenance, &[(GROUP, group)])?;
+    container::write_cube_with_groups(out, &cube, &provenance, &[(GROUP, group)])?;
     Ok(cube)
 }
 
@@ -212,6 +188,6 @@ pub fn ingest_mitransient(
             binning.bin_width_opl_m
         ),
     );
-    write_cube_file(out, &cube, &provenance, &[])?;
+    container::write_cube(out, &cube, &provenance)?;
     Ok(cube)
 }
