@@ -72,7 +72,7 @@ pub struct IngestArgs {
     /// separate sweep with its own trigger). A shift is applied only where it exceeds 4
     /// standard errors. Measured on a simulated realistic capture (cube scene, 320 x 240,
     /// 64 paths per pixel, 2 ps rms jitter): 1.1 ps rms left, 3.0 ps at most, of which the
-    /// row-to-row part 0.5 ps rms, 1.2 ps at most; the slow part of the jitter cannot be told
+    /// row-to-row part 0.5 ps rms, 1.9 ps at most; the slow part of the jitter cannot be told
     /// from the scene's tilt and stays. Costs a second pass over the scanlines.
     #[arg(long, overrides_with = "no_jitter")]
     pub jitter: bool,

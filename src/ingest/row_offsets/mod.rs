@@ -38,13 +38,13 @@
 //! simulator's `cube` scene (320 x 240 x 256 bins of 4 ps, 64 paths per pixel,
 //! `--realistic`: 2 ps jitter, 3 % power), against the manifest's truth: jitter rms 2.07 ->
 //! 1.14 ps, max 6.34 -> 2.97 ps (the slow part); its row-to-row part (less a 3-row
-//! smoothing) 1.76 -> 0.47 ps rms, max 5.05 -> 1.23 ps; 211 of 240 rows shifted, none made
+//! smoothing) 1.76 -> 0.49 ps rms, max 5.05 -> 1.88 ps; 211 of 240 rows shifted, none made
 //! worse by more than 2 ps. Two glitches of 3 and 2 bins (4 ps) in the real confocal capture
 //! `data/real/lct/data_s_u.mat`: 12.36 +- 0.38 and 7.86 +- 0.34 ps, no other row moved. With
 //! no jitter: no row moved. Laser power (log integrals): pixel integrals vary with the scene
-//! from row to row about as much as 3 % power does, so only 34 of the 240 rows are
-//! significant: gains correlating 0.48 with the truth, scanline-to-scanline error 3.11 % ->
-//! 2.33 %; a reference region (`PowerRef::Region`) is what normalises such a capture.
+//! from row to row about as much as 3 % power does, so only 46 of the 240 rows are
+//! significant (Gaussian prior, [`RowOffsetFit::gaussian`]): gains correlating 0.51 with the
+//! truth, scanline-to-scanline error 3.11 % -> 2.38 %; a reference region (`PowerRef::Region`) is what normalises such a capture.
 
 mod report;
 mod robust;
@@ -99,15 +99,31 @@ pub struct RowOffsetFit {
     pub huber_k: f64,
     /// Fewest measured pixels for a row to get an estimate (others get `None`).
     pub min_pixels: usize,
+    /// Degrees of freedom of the Student-t prior on each offset: small for offsets that
+    /// come as rare large glitches as well as white noise (trigger jitter), infinite for a
+    /// Gaussian prior (laser power, which drifts but does not jump).
+    pub prior_dof: f64,
+}
+
+impl RowOffsetFit {
+    /// The fit for laser power: a Gaussian prior ([`RowOffsetFit::prior_dof`] infinite).
+    pub fn gaussian() -> Self {
+        RowOffsetFit {
+            prior_dof: f64::INFINITY,
+            ..RowOffsetFit::default()
+        }
+    }
 }
 
 impl Default for RowOffsetFit {
-    /// 30 re-weightings, Huber threshold 2.5, at least 3 pixels.
+    /// 30 re-weightings, Huber threshold 2.5, at least 3 pixels, a Student-t prior of 2
+    /// degrees of freedom.
     fn default() -> Self {
         RowOffsetFit {
             iterations: 30,
             huber_k: 2.5,
             min_pixels: 3,
+            prior_dof: 2.0,
         }
     }
 }

@@ -6,8 +6,9 @@
 //! standard error of its median residual) plus `model_s2_i` (the scene model's error there:
 //! how far the row's other prediction windows miss). The offsets minimise
 //! `sum_i rho(r_i - (A o)_i) / var_i + sum_y alpha_y o_y^2`, with Huber's `rho` (threshold
-//! `huber_k` standard errors) and a Student-t prior of `NU` degrees of freedom and scale
-//! `sigma` on each offset, by iterative re-weighting: `alpha_y = (NU + 1) / (NU sigma^2 +
+//! `huber_k` standard errors) and a Student-t prior of `prior_dof` degrees of freedom (2 for jitter; infinite, a
+//! Gaussian, for laser power, which drifts but does not jump) and scale
+//! `sigma` on each offset, by iterative re-weighting: `alpha_y = (nu + 1) / (nu sigma^2 +
 //! o_y^2)`. A Gaussian prior (Tikhonov) of the spread `sigma` shrinks a lone 12 ps glitch to
 //! nothing when most rows are quiet (`sigma`, estimated by moments, is then near 0); the
 //! t-prior's precision falls as `1 / o^2`, so a large offset that the data call for keeps
@@ -25,9 +26,6 @@ use super::{solve_banded, RowOffsetFit, BAND};
 
 /// An offset is applied when it exceeds this many standard errors.
 pub const SIGNIFICANCE: f64 = 4.0;
-
-/// Degrees of freedom of the Student-t prior on each offset.
-const NU: f64 = 2.0;
 
 /// Median of `|z|` for a standard normal `z`, squared: the median of a chi-square with one
 /// degree of freedom (0.4549), for the moment estimate of `sigma`.
@@ -130,8 +128,13 @@ pub fn solve_robust(eqs: &[Equation], ny: usize, fit: &RowOffsetFit) -> Solution
     let mut offsets = vec![0.0f64; ny];
     for _ in 0..fit.iterations.max(1) {
         offsets = solve(eqs, &weights, &prior);
+        let nu = fit.prior_dof;
         for (p, o) in prior.iter_mut().zip(&offsets) {
-            *p = (NU + 1.0) / (NU * sigma2 + o * o);
+            *p = if nu.is_finite() {
+                (nu + 1.0) / (nu * sigma2 + o * o)
+            } else {
+                1.0 / sigma2
+            };
         }
         for (e, w) in eqs.iter().zip(weights.iter_mut()) {
             let z = e.misfit(&offsets).abs() / e.variance().sqrt();
