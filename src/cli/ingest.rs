@@ -7,7 +7,7 @@
 use super::values;
 use clap::Args;
 use femto::container::{CubeCompression, Provenance};
-use femto::ingest::assemble::{self, rms, Pass};
+use femto::ingest::assemble::{self, Pass};
 use femto::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
@@ -69,9 +69,11 @@ pub struct IngestArgs {
     #[arg(long)]
     pub no_manifest_corrections: bool,
     /// Estimate and remove per-scanline trigger jitter (the default: every scanline is a
-    /// separate sweep with its own trigger; on a realistic capture with 2 ps rms of jitter it
-    /// leaves about 1 ps rms, 2 ps at most; the slow part of the jitter cannot be told from the
-    /// scene's tilt and stays). Costs a second pass over the scanlines.
+    /// separate sweep with its own trigger). A shift is applied only where it exceeds 4
+    /// standard errors. Measured on a simulated realistic capture (cube scene, 320 x 240,
+    /// 64 paths per pixel, 2 ps rms jitter): 1.1 ps rms left, 3.0 ps at most, of which the
+    /// row-to-row part 0.5 ps rms, 1.9 ps at most; the slow part of the jitter cannot be told
+    /// from the scene's tilt and stays. Costs a second pass over the scanlines.
     #[arg(long, overrides_with = "no_jitter")]
     pub jitter: bool,
     /// Keep the scanlines' trigger jitter (one pass; for captures without jitter).
@@ -79,7 +81,9 @@ pub struct IngestArgs {
     pub no_jitter: bool,
     /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
     /// that sees a fixed part of the scene in every scanline, or 'auto' (each pixel's
-    /// integral against the same pixel in the neighbouring scanlines).
+    /// integral against the same pixel in the neighbouring scanlines; a gain is applied only
+    /// where it exceeds 4 standard errors: on the simulated realistic capture above, 3 %
+    /// power, it removes about a quarter of the scanline-to-scanline error).
     #[arg(long, value_parser = values::power_ref)]
     pub power_ref: Option<PowerRef>,
     /// Mask saturated pixels: a level (value units) or 'auto' (the sample type's maximum).
@@ -342,16 +346,12 @@ pub fn run(args: IngestArgs) -> anyhow::Result<()> {
     } else {
         println!("corrections: {}", s.corrections.join("; "));
     }
-    if let Some(shifts) = &s.jitter_shifts_ps {
-        let max = shifts.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        println!(
-            "jitter estimates: rms {:.3} ps, largest {:.3} ps (per scanline in the cube's \
-             ingest.jitter_shifts_ps)",
-            rms(shifts),
-            max
-        );
+    if let Some((_, report)) = &s.jitter {
+        report.lines().iter().for_each(|l| println!("{l}"));
     }
-    if let Some(gains) = &s.power_gains {
+    if let Some((_, report)) = &s.power {
+        report.lines().iter().for_each(|l| println!("{l}"));
+    } else if let Some(gains) = &s.power_gains {
         let usable: Vec<f64> = gains.iter().flatten().copied().collect();
         let (lo, hi) = usable
             .iter()

@@ -56,7 +56,9 @@ use std::path::{Path, PathBuf};
 
 use super::corrections::power_gains;
 use super::plan::{DarkCorrection, IngestPlan, PowerCorrection, RowSource};
-use super::row_offsets::estimate_row_offsets;
+use super::row_offsets::{
+    estimate_row_offsets, jitter_report, power_report, OffsetReport, RowOffset,
+};
 use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
@@ -99,6 +101,11 @@ pub struct IngestSummary {
     /// Laser power gain of each scanline, when power normalisation was on (`None` for rows
     /// that could not be normalised).
     pub power_gains: Option<Vec<Option<f64>>>,
+    /// Each scanline's jitter estimate (ps) with its standard error, when jitter removal was
+    /// on (`None`: not estimated), and the report of it.
+    pub jitter: Option<(Vec<Option<RowOffset>>, OffsetReport)>,
+    /// The same for automatic laser power normalisation (log gains).
+    pub power: Option<(Vec<Option<RowOffset>>, OffsetReport)>,
     /// Passes over the scanlines (1, or 2 with power normalisation or jitter removal).
     pub passes: usize,
     /// The corrections applied, in order, with their parameters.
@@ -279,6 +286,8 @@ pub fn ingest(
         masked_pixels: final_mask.iter().filter(|&&m| m == 0).count(),
         jitter_shifts_ps: globals.shifts_ps.clone(),
         power_gains: globals.gains.clone(),
+        jitter: globals.jitter_report(plan),
+        power: globals.power_report(plan),
         passes: if plan.needs_two_passes() { 2 } else { 1 },
         corrections: plan.corrections(),
     })
@@ -346,13 +355,26 @@ fn first_pass(
         Some(PowerCorrection::Region(_)) => globals.gains = Some(power_gains(&factors)),
         Some(PowerCorrection::Auto(fit)) => {
             let offsets = estimate_row_offsets(&log_integrals, nx, fit);
-            globals.gains = Some(offsets.iter().map(|o| o.map(|o| (-o).exp())).collect());
+            // A row whose log gain could not be estimated is masked (gain `None`).
+            globals.gains = Some(
+                offsets
+                    .iter()
+                    .map(|o| o.map(|o| (-o.applied).exp()))
+                    .collect(),
+            );
+            globals.power_offsets = Some(offsets);
         }
         None => {}
     }
     if let Some(fit) = &plan.jitter {
         let offsets = estimate_row_offsets(&edges, nx, fit);
-        globals.shifts_ps = Some(offsets.iter().map(|o| o.unwrap_or(0.0)).collect());
+        globals.shifts_ps = Some(
+            offsets
+                .iter()
+                .map(|o| o.map_or(0.0, |o| o.applied))
+                .collect(),
+        );
+        globals.jitter_offsets = Some(offsets);
     }
     Ok(FirstPass {
         scratch,
@@ -419,4 +441,34 @@ pub(super) struct Globals {
     pub(super) gains: Option<Vec<Option<f64>>>,
     /// Trigger delay of each scanline, ps (jitter removal).
     pub(super) shifts_ps: Option<Vec<f64>>,
+    /// The jitter estimates behind `shifts_ps` (`None`: a scanline not estimated).
+    pub(super) jitter_offsets: Option<Vec<Option<RowOffset>>>,
+    /// The log power estimates behind `gains` (`--power-ref auto`).
+    pub(super) power_offsets: Option<Vec<Option<RowOffset>>>,
+}
+
+impl Globals {
+    /// The jitter estimates and their report.
+    pub(super) fn jitter_report(
+        &self,
+        plan: &IngestPlan,
+    ) -> Option<(Vec<Option<RowOffset>>, OffsetReport)> {
+        let o = self.jitter_offsets.as_ref()?;
+        Some((
+            o.clone(),
+            jitter_report(o, plan.truth.jitter_shifts_ps.as_deref()),
+        ))
+    }
+
+    /// The automatic power estimates and their report.
+    pub(super) fn power_report(
+        &self,
+        plan: &IngestPlan,
+    ) -> Option<(Vec<Option<RowOffset>>, OffsetReport)> {
+        let o = self.power_offsets.as_ref()?;
+        Some((
+            o.clone(),
+            power_report(o, plan.truth.power_factors.as_deref()),
+        ))
+    }
 }

@@ -4,6 +4,7 @@
 
 use super::Globals;
 use crate::ingest::plan::{DarkCorrection, IngestPlan, PowerCorrection, RowSource};
+use crate::ingest::row_offsets::OffsetReport;
 
 /// The provenance notes of an ingest.
 pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String)> {
@@ -69,6 +70,14 @@ pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String
     if let Some(g) = &globals.gains {
         n.push(("ingest.power_gains".into(), json(serde_json::json!(g))));
     }
+    if let Some((o, report)) = globals.power_report(plan) {
+        let se: Vec<Option<f64>> = o.iter().map(|o| o.map(|o| o.std_error)).collect();
+        n.push((
+            "ingest.power_std_errors".into(),
+            json(serde_json::json!(se)),
+        ));
+        n.extend(report_notes("power", &report));
+    }
     if let Some(s) = &plan.sweep {
         n.push(("ingest.sweep".into(), s.source.to_string()));
         n.push((
@@ -79,6 +88,14 @@ pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String
     if let Some(s) = &globals.shifts_ps {
         n.push(("ingest.jitter_shifts_ps".into(), json(serde_json::json!(s))));
         n.push(("ingest.jitter_rms_ps".into(), rms(s).to_string()));
+    }
+    if let Some((o, report)) = globals.jitter_report(plan) {
+        let se: Vec<Option<f64>> = o.iter().map(|o| o.map(|o| o.std_error)).collect();
+        n.push((
+            "ingest.jitter_std_errors_ps".into(),
+            json(serde_json::json!(se)),
+        ));
+        n.extend(report_notes("jitter", &report));
     }
     if let Some(s) = &plan.saturation {
         n.push((
@@ -101,4 +118,19 @@ pub fn rms(values: &[f64]) -> f64 {
         return 0.0;
     }
     (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+/// `ingest.NAME_summary`, `ingest.NAME_truth` and `ingest.NAME_not_estimated` of a report.
+fn report_notes(name: &str, r: &OffsetReport) -> Vec<(String, String)> {
+    let mut n = vec![(format!("ingest.{name}_summary"), r.summary.clone())];
+    if let Some(t) = &r.truth {
+        n.push((format!("ingest.{name}_truth"), t.clone()));
+    }
+    if !r.not_estimated.is_empty() {
+        n.push((
+            format!("ingest.{name}_not_estimated"),
+            r.not_estimated.join("; "),
+        ));
+    }
+    n
 }

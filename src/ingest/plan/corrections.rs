@@ -227,7 +227,7 @@ pub fn flat(path: Option<&Path>, c: &Capture) -> Result<Option<FlatCorrection>, 
 pub fn power(input: Option<PowerRef>, c: &Capture) -> Result<Option<PowerCorrection>, IngestError> {
     Ok(match input {
         None => None,
-        Some(PowerRef::Auto) => Some(PowerCorrection::Auto(RowOffsetFit::default())),
+        Some(PowerRef::Auto) => Some(PowerCorrection::Auto(RowOffsetFit::gaussian())),
         Some(PowerRef::Region(region)) => {
             region
                 .check(c.nx, c.nt)
@@ -422,7 +422,7 @@ mod tests {
         assert_eq!(power(None, &c).unwrap(), None);
         assert_eq!(
             power(Some(PowerRef::Auto), &c).unwrap(),
-            Some(PowerCorrection::Auto(RowOffsetFit::default()))
+            Some(PowerCorrection::Auto(RowOffsetFit::gaussian()))
         );
         let inside = RefRegion {
             x0: 0,

@@ -70,7 +70,7 @@ use std::path::PathBuf;
 
 use crate::cube::TimeAxis;
 use crate::formats::PixelType;
-use crate::ingest::row_offsets::RowOffsetFit;
+use crate::ingest::row_offsets::{RowOffsetFit, RowTruth};
 use crate::ingest::time_axis::edges_are_uniform;
 use crate::ingest::IngestError;
 use crate::limits::check_memory;
@@ -135,6 +135,9 @@ pub struct IngestPlan {
     pub saturation: Option<SaturationCorrection>,
     /// Scanlines without a file, filled by interpolation and masked.
     pub missing: Vec<usize>,
+    /// The true jitter and laser power a simulated capture's manifest records (to report the
+    /// corrections' residual against).
+    pub truth: RowTruth,
 }
 
 impl IngestPlan {
@@ -200,6 +203,14 @@ impl IngestPlan {
             jitter: options.jitter.then(RowOffsetFit::default),
             saturation,
             missing,
+            truth: listed
+                .manifest
+                .as_ref()
+                .map(|(m, _)| RowTruth {
+                    jitter_shifts_ps: m.imperfections.jitter.as_ref().map(|j| j.shifts_ps.clone()),
+                    power_factors: m.imperfections.power.as_ref().map(|p| p.factors.clone()),
+                })
+                .unwrap_or_default(),
         };
         check_memory(
             plan.memory_estimate(),
