@@ -591,3 +591,153 @@ fn info_describes_array_files_and_what_ingest_needs() {
     assert_eq!(j["nt"], 901);
     assert_eq!(j["source"], "dataset /counts");
 }
+
+/// The real-data jitter check (tools/sparse_jitter_check.py does the same with numpy):
+/// the real confocal capture `data_s_u.mat` written as 64 PNG16 scanline files (scanline y =
+/// rect_data(y, :, :), 64 columns by 2048 time rows), scanline 20 recorded 3 bins late and
+/// scanline 41 two bins late (the rows rolled in are zero), ingested with default flags: both
+/// shifts come back within a quarter of a bin, and no other scanline moves by more than its
+/// standard error.
+#[test]
+fn lct_capture_as_png16_scanlines_gets_two_trigger_glitches_back() {
+    let Some(mat) = shared::file("data/real/lct/data_s_u.mat") else {
+        return;
+    };
+    let c = femto::readers::open(&mat, femto::readers::Format::Mat, &Default::default()).unwrap();
+    let (nx, ny, nt) = (c.nx, c.ny, c.nt);
+    let glitches = [(20usize, 3usize), (41, 2)];
+    let dir = tempfile::tempdir().unwrap();
+    for y in 0..ny {
+        let shift = glitches.iter().find(|g| g.0 == y).map_or(0, |g| g.1);
+        let mut img = vec![0.0f32; nt * nx];
+        for x in 0..nx {
+            for t in shift..nt {
+                img[t * nx + x] = c.samples[(y * nx + x) * nt + t - shift];
+            }
+        }
+        let streak = femto::formats::StreakImage::new(nx, nt, img);
+        let path = dir.path().join(format!("scan_{y:03}.png"));
+        femto::formats::raster::write_png16(&path, &streak, 1.0).unwrap();
+    }
+    let out = dir.path().join("cube.h5");
+    let pattern = dir.path().join("scan_*.png");
+    let o = femto(&[
+        "ingest",
+        pattern.to_str().unwrap(),
+        "--dt-ps",
+        "4",
+        "--t0-ps",
+        "0",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("jitter: 2 of 64 scanlines shifted"),
+        "{stdout}"
+    );
+    let meta = read_meta(&out).unwrap();
+    let shifts: Vec<f64> =
+        serde_json::from_str(note(&meta, "ingest.jitter_shifts_ps").unwrap()).unwrap();
+    let errors: Vec<Option<f64>> =
+        serde_json::from_str(note(&meta, "ingest.jitter_std_errors_ps").unwrap()).unwrap();
+    for y in 0..ny {
+        match glitches.iter().find(|g| g.0 == y) {
+            Some(&(_, k)) => {
+                let want = 4.0 * k as f64;
+                assert!(
+                    (shifts[y] - want).abs() < 0.25 * 4.0,
+                    "scanline {y}: {} ps, want {want}",
+                    shifts[y]
+                );
+            }
+            None => {
+                let se = errors[y].expect("every scanline estimated");
+                assert!(shifts[y].abs() <= se, "scanline {y}: {} +- {se}", shifts[y]);
+            }
+        }
+    }
+}
+
+/// The real confocal capture rendered with render's default flags (the capture's own view):
+/// ingested with its wall (`--confocal --wall-size-m 0.7`) on the world clock (its time
+/// starts at the wall), the frames after the direct return show the hidden objects' echoes:
+/// light that arrives 0.3 to 3 ns after the wall's own return, well above the black level.
+#[test]
+fn lct_capture_renders_its_echoes_with_default_flags() {
+    let Some(mat) = shared::file("data/real/lct/data_s_u.mat") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let cube = dir.path().join("lct.h5");
+    ingest(
+        &mat,
+        &cube,
+        &[
+            "--dt-ps",
+            "4",
+            "--confocal",
+            "--wall-size-m",
+            "0.7",
+            "--clock",
+            "world",
+        ],
+    );
+    let frames = dir.path().join("frames");
+    let o = femto(&[
+        "render",
+        "--cube",
+        cube.to_str().unwrap(),
+        "--capture-view",
+        "--out",
+        frames.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(!stderr.contains("entirely black"), "{stderr}");
+    // Mean display level of each frame (the brightest channel: 670 nm light is red); the
+    // default sweep runs over the cube's 8192 ps.
+    let levels: Vec<f64> = (0..100)
+        .map(|k| {
+            let png = image::open(frames.join(format!("frame_{k:05}.png")))
+                .unwrap()
+                .to_rgb8();
+            let n = png.pixels().len() as f64;
+            png.pixels()
+                .map(|p| f64::from(*p.0.iter().max().unwrap()))
+                .sum::<f64>()
+                / n
+        })
+        .collect();
+    eprintln!("mean level per frame: {levels:.1?}");
+    // The direct return, then a dark gap, then the echoes: the level falls below a quarter of
+    // the direct return's and rises again to a visible second peak.
+    let (peak_k, peak) = levels
+        .iter()
+        .copied()
+        .enumerate()
+        .fold((0, 0.0), |a, (k, l)| if l > a.1 { (k, l) } else { a });
+    let gap = (peak_k..100)
+        .find(|&k| levels[k] < 0.25 * peak)
+        .expect("the direct return fades");
+    let (echo_k, echo) =
+        (gap..100).fold(
+            (gap, 0.0),
+            |a, k| {
+                if levels[k] > a.1 {
+                    (k, levels[k])
+                } else {
+                    a
+                }
+            },
+        );
+    let floor = levels[gap..echo_k]
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        echo > 12.0 && echo > 2.0 * floor,
+        "no echo after frame {gap}: {levels:.1?}"
+    );
+}
