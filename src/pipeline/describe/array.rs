@@ -5,6 +5,7 @@
 //! docs/cube-format.md.
 
 use super::{line, serialize_path};
+use crate::interop::tal::LaserSpot;
 use crate::pipeline::StageError;
 use crate::readers::{self, Format, ReadOptions, TimeSpec};
 use serde::Serialize;
@@ -84,6 +85,51 @@ pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, S
         y_axis: c.y.as_ref().map(axis_text),
         attributes: c.attributes,
         ingest_needs: needs,
+    })
+}
+
+/// Describe the y-tal capture at `path` as `femto ingest` reads it: `H (T, Sx, Sy)`, its
+/// axis in ps, its clock and its laser (one spot, or confocal).
+pub fn describe_tal(path: &Path) -> Result<ArrayDescription, StageError> {
+    let cap = crate::interop::read_tal(path).map_err(|e| StageError::Input {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let (cube, _) = cap.to_cube();
+    let laser = match cap.laser_grid_xyz_m {
+        LaserSpot::Single(p) => format!("one spot at {p:?} m"),
+        LaserSpot::Confocal => "confocal: laser_grid_xyz is the sensor grid".into(),
+    };
+    Ok(ArrayDescription {
+        file: path.to_path_buf(),
+        format: "y-tal capture".into(),
+        source: "H".into(),
+        stored_shape: vec![cap.nt, cap.sx, cap.sy],
+        dtype: "float32".into(),
+        ny: cap.sy,
+        nx: cap.sx,
+        nt: cap.nt,
+        time_axis: format!(
+            "{} ps bins from {} ps, {} time (delta_t {} m, t_start {} m, \
+             t_accounts_first_and_last_bounces = {})",
+            cube.axis.dt_ps,
+            cube.axis.t0_ps,
+            cube.frame,
+            cap.delta_t_m,
+            cap.t_start_m,
+            if cap.t_accounts_first_and_last_bounces {
+                "True"
+            } else {
+                "False"
+            }
+        ),
+        x_axis: None,
+        y_axis: None,
+        attributes: vec![
+            ("laser".into(), laser),
+            ("sensor_xyz".into(), format!("{:?} m", cap.sensor_xyz_m)),
+        ],
+        ingest_needs: String::new(),
     })
 }
 

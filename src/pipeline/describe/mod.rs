@@ -102,6 +102,9 @@ pub fn describe_file(
         }
         let has_cube = groups.has_cube();
         drop(groups);
+        if !has_cube && crate::interop::is_tal_capture(path) {
+            return Ok(Description::Array(array::describe_tal(path)?));
+        }
         if !has_cube {
             if let Some(format) = crate::readers::Format::sniff(path) {
                 return Ok(Description::Array(array::describe_array(path, format)?));
