@@ -309,7 +309,12 @@ fn a_confocal_capture_unwarps_both_legs_and_round_trips_exactly() {
     write_tal(&src, &cap).unwrap();
     assert_eq!(read_tal(&src).unwrap(), cap, "y-tal's layout reads back");
     let info = FemtoCmd::new().args(["info", arg(&src)]).ok().stdout;
-    for want in ["y-tal capture", "3 x 4 x 400 (ny, nx, nt)", "camera time", "confocal"] {
+    for want in [
+        "y-tal capture",
+        "3 x 4 x 400 (ny, nx, nt)",
+        "camera time",
+        "confocal",
+    ] {
         assert!(info.contains(want), "{want}: {info}");
     }
 
