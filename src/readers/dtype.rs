@@ -97,21 +97,23 @@ pub struct Decoded {
     pub largest_inexact: f64,
 }
 
+/// A sample's bytes (1 to 8), little-endian, in the low bytes of a u64's.
+fn word(b: &[u8], big_endian: bool) -> [u8; 8] {
+    let mut w = [0u8; 8];
+    if big_endian {
+        for (i, v) in b.iter().rev().enumerate() {
+            w[i] = *v;
+        }
+    } else {
+        w[..b.len()].copy_from_slice(b);
+    }
+    w
+}
+
 /// Decode `bytes` (a whole number of samples) of `dtype`, big-endian when `big_endian`.
 pub fn decode(bytes: &[u8], dtype: Dtype, big_endian: bool) -> Decoded {
     let n = dtype.size();
-    let word = |b: &[u8]| -> [u8; 8] {
-        // The sample's bytes, little-endian, in the low bytes of a u64.
-        let mut w = [0u8; 8];
-        if big_endian {
-            for (i, v) in b.iter().rev().enumerate() {
-                w[i] = *v;
-            }
-        } else {
-            w[..n].copy_from_slice(b);
-        }
-        w
-    };
+    let word = |b: &[u8]| word(b, big_endian);
     let mut inexact = 0usize;
     let mut largest = 0f64;
     let mut int = |v: i128| -> f32 {
@@ -167,23 +169,14 @@ pub fn decode(bytes: &[u8], dtype: Dtype, big_endian: bool) -> Decoded {
 
 /// One sample from its bytes, in full f64 precision (`None`: too few bytes).
 pub fn value_f64(bytes: &[u8], dtype: Dtype, big_endian: bool) -> Option<f64> {
-    let n = dtype.size();
-    let b = bytes.get(..n)?;
-    let mut w = [0u8; 8];
-    if big_endian {
-        for (i, v) in b.iter().rev().enumerate() {
-            w[i] = *v;
-        }
-    } else {
-        w[..n].copy_from_slice(b);
-    }
+    let w = word(bytes.get(..dtype.size())?, big_endian);
     Some(match dtype {
         Dtype::F64 => f64::from_le_bytes(w),
         Dtype::F32 => f64::from(f32::from_le_bytes([w[0], w[1], w[2], w[3]])),
         Dtype::F16 => f64::from(half::f16::from_le_bytes([w[0], w[1]]).to_f32()),
         Dtype::U8 | Dtype::U16 | Dtype::U32 | Dtype::U64 => u64::from_le_bytes(w) as f64,
         _ => {
-            let shift = 64 - 8 * n as u32;
+            let shift = 64 - 8 * dtype.size() as u32;
             ((i64::from_le_bytes(w) << shift) >> shift) as f64
         }
     })
