@@ -741,3 +741,38 @@ fn lct_capture_renders_its_echoes_with_default_flags() {
         "no echo after frame {gap}: {levels:.1?}"
     );
 }
+
+/// A plain HDF5 file whose only dataset is 3-D and records no time axis could be streak
+/// images `(ny, nt, nx)` or an x-y-t cube `(ny, nx, nt)`: ingest asks which in one line and
+/// writes nothing, `femto info` says so, and each flag reads it its own way.
+#[test]
+fn a_bare_3d_hdf5_dataset_asks_for_its_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("stack.h5");
+    let f = rust_hdf5::H5File::create(&p).unwrap();
+    let values: Vec<f32> = (0..3 * 5 * 4).map(|v| v as f32).collect();
+    let ds = f
+        .new_dataset::<f32>()
+        .shape([3, 5, 4])
+        .create("images")
+        .unwrap();
+    ds.write_raw(&values).unwrap();
+    f.close().unwrap();
+    let out = dir.path().join("c.h5");
+    refused(&p, &out, &["--dt-ps", "1"], "--dataset images");
+    let o = femto(&["info", p.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("--from array"));
+    // Streak images: 3 scanlines of 4 columns by 5 bins.
+    let c = ingest(
+        &p,
+        &out,
+        &["--dataset", "images", "--dt-ps", "1", "--t0-ps", "0"],
+    );
+    assert_eq!((c.ny, c.nx, c.nt()), (3, 4, 5));
+    assert_eq!(at(&c, 1, 2, 3), (20 + 3 * 4 + 2) as f32);
+    std::fs::remove_file(&out).unwrap();
+    // An x-y-t cube: 3 rows of 5 columns by 4 bins.
+    let c = ingest(&p, &out, &["--from", "array", "--dt-ps", "1"]);
+    assert_eq!((c.ny, c.nx, c.nt()), (3, 5, 4));
+    assert_eq!(at(&c, 1, 2, 3), (20 + 2 * 4 + 3) as f32);
+}

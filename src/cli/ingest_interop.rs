@@ -154,6 +154,20 @@ fn streak_flags(args: &IngestArgs, kind: Foreign) -> Vec<&'static str> {
 
 /// Ingest another tool's file when `args` names one (`None`: a streak capture).
 pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
+    let path = Path::new(&args.input);
+    if args.dataset.is_none()
+        && args.interop.from.is_none()
+        && Format::sniff(path) == Some(Format::Hdf5Array)
+    {
+        if let Some(name) = femto::readers::ambiguous_3d_dataset(path) {
+            return Some(Err(anyhow::anyhow!(
+                "{}: /{name} is 3-D and records no time axis, so its layout is not known: \
+                 --dataset {name} reads it as streak images (ny, nt, nx; with --transpose ny, \
+                 nx, nt), --from array as an x-y-t cube (ny, nx, nt)",
+                path.display()
+            )));
+        }
+    }
     let Some(kind) = kind(args) else {
         let i = &args.interop;
         let mitransient_only = [

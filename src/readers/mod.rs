@@ -523,6 +523,18 @@ fn mat_variable(path: &Path, want: Option<&str>) -> Result<MatPick, ReaderError>
     Ok((pick, array, attrs))
 }
 
+/// The plain HDF5 file's only candidate dataset when it is a 3-D one that records no time
+/// axis: either a stack of streak images `(ny, nt, nx)` (`--dataset NAME`, the scanline route)
+/// or an x-y-t cube `(ny, nx, nt)` (`--from array`). Nothing in the file tells them apart,
+/// so `femto ingest` asks which rather than guess.
+pub fn ambiguous_3d_dataset(path: &Path) -> Option<String> {
+    let file = h5::open(path).ok()?;
+    match hdf5_array::candidates(&file).as_slice() {
+        [(name, shape)] if shape.len() == 3 && is_streak_stack(path, name) => Some(name.clone()),
+        _ => None,
+    }
+}
+
 /// Whether `dataset` of the plain HDF5 file `path` is a stack of streak images for the
 /// scanline route of `femto ingest` (`(ny, nt, nx)`, streak corrections apply): a 3-D
 /// dataset whose group records no bin width or bin count. Any other dataset is an

@@ -49,6 +49,9 @@ fn axis_text(a: &readers::Axis) -> String {
 /// Describe the array file at `path` (read as `format`).
 pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, StageError> {
     let c = readers::open(path, format, &ReadOptions::default())?;
+    let ambiguous = (format == Format::Hdf5Array)
+        .then(|| readers::ambiguous_3d_dataset(path))
+        .flatten();
     let (time_axis, needs) = match &c.time {
         TimeSpec::Uniform { t0_ps, dt_ps } => (
             format!("{dt_ps} ps bins from {t0_ps} ps ({})", c.time_source),
@@ -84,7 +87,13 @@ pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, S
         x_axis: c.x.as_ref().map(axis_text),
         y_axis: c.y.as_ref().map(axis_text),
         attributes: c.attributes,
-        ingest_needs: needs,
+        ingest_needs: match ambiguous {
+            Some(name) => format!(
+                "{needs}, and the layout: --dataset {name} (streak images, ny nt nx) or --from \
+                 array (an x-y-t cube, ny nx nt, as described here)"
+            ),
+            None => needs,
+        },
     })
 }
 
