@@ -447,17 +447,25 @@ fn render_threads_beyond_any_machine_are_refused() {
 #[test]
 fn an_hdf5_stack_beyond_the_memory_is_refused_before_reading() {
     // Ingest read a whole HDF5 stack before checking what it would hold; a 1 MB limit makes
-    // the fixture's cube (32 x 24 pixels x some hundred bins) such a stack.
-    let dir = case(&["cube.h5"]);
+    // a stack of 24 streak images of 32 x 256 (no time axis recorded: streak images) such a
+    // stack. (A femto cube's own /cube records its axis, so it is read as an x-y-t array.)
+    let dir = case(&[]);
+    let f = rust_hdf5::H5File::create(dir.path().join("stack_in.h5")).unwrap();
+    let ds = f
+        .new_dataset::<f32>()
+        .shape([24, 256, 32])
+        .create("cube")
+        .unwrap();
+    ds.write_raw(&vec![1.0f32; 24 * 256 * 32]).unwrap();
+    f.close().unwrap();
     let before = cli::Snapshot::of(dir.path());
     let run = cli::femto_env(
         Some(dir.path()),
         &[
             "ingest",
-            "cube.h5",
+            "stack_in.h5",
             "--dataset",
             "cube",
-            "--transpose",
             "-o",
             "stack.h5",
             "--dt-ps",
@@ -470,7 +478,7 @@ fn an_hdf5_stack_beyond_the_memory_is_refused_before_reading() {
     let err = run.stderr.trim_end();
     assert_eq!(run.code, Some(2), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
-    for name in ["cube.h5", "/cube", "split the stack"] {
+    for name in ["stack_in.h5", "/cube", "split the stack"] {
         assert!(err.contains(name), "names {name}: {err}");
     }
     assert!(before.changes(&cli::Snapshot::of(dir.path())).is_empty());
