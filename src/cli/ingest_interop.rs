@@ -112,8 +112,9 @@ fn kind(args: &IngestArgs) -> Option<Foreign> {
     }
     match (format, args.dataset.as_deref()) {
         (Some(Format::Mat | Format::Hspy), _) => Some(Foreign::Array),
-        // A 3-D dataset whose group records no time axis is a stack of streak images.
-        (Some(Format::Hdf5Array), Some(d)) if femto::readers::is_streak_stack(path, d) => None,
+        // A 3-D dataset named with --dataset is a stack of streak images (the scanline route,
+        // docs/ingest.md); --from array reads it as an x-y-t cube instead.
+        (Some(Format::Hdf5Array), Some(d)) if femto::readers::is_3d_dataset(path, d) => None,
         (Some(Format::Hdf5Array), _) => Some(Foreign::Array),
         _ => None,
     }

@@ -535,6 +535,18 @@ pub fn ambiguous_3d_dataset(path: &Path) -> Option<String> {
     }
 }
 
+/// Whether `dataset` of the HDF5 file `path` is 3-D: named with `--dataset`, such a dataset
+/// is a stack of streak images `(ny, nt, nx)` for the scanline route of `femto ingest`.
+pub fn is_3d_dataset(path: &Path, dataset: &str) -> bool {
+    let Ok(file) = h5::open(path) else {
+        return false;
+    };
+    matches!(
+        hdf5_array::read_keys(&file, dataset.trim_start_matches('/')),
+        Some((3, _))
+    )
+}
+
 /// Whether `dataset` of the plain HDF5 file `path` is a stack of streak images for the
 /// scanline route of `femto ingest` (`(ny, nt, nx)`, streak corrections apply): a 3-D
 /// dataset whose group records no bin width or bin count. Any other dataset is an
