@@ -111,6 +111,21 @@ fn lct_data_s_u_mat_reads_as_scipy_indexes_it_and_records_the_confocal_wall() {
     let step = 0.7 / 64.0;
     assert!((geo.sensor_grid_m[0][0] - (step / 2.0 - 0.35)).abs() < 1e-12);
     assert!((geo.sensor_grid_m[64 * 64 - 1][1] - (0.35 - step / 2.0)).abs() < 1e-12);
+    // Camera time with no device position: unwarp cannot remove the legs, and says so.
+    let world = dir.path().join("lct_world.h5");
+    let o = femto(&[
+        "unwarp",
+        out.to_str().unwrap(),
+        "-o",
+        world.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--device-m") && err.contains("sensor_m"),
+        "{err}"
+    );
+    assert!(!world.exists());
     assert_eq!(note(&meta, "mat.width"), Some("0.35"));
 }
 

@@ -335,6 +335,28 @@ fn tal_paths(
         path: input.display().to_string(),
         message: e.to_string(),
     })?;
+    let origins = [
+        ("sensor_m", geo.sensor_m),
+        ("laser_origin_m", geo.laser_origin_m),
+    ];
+    let needed = match geo.laser_spot_m {
+        LaserSpot::Confocal => &origins[..],
+        LaserSpot::Single(_) => &origins[..1],
+    };
+    if let Some((key, _)) = needed
+        .iter()
+        .find(|(_, p)| p.iter().any(|c| !c.is_finite()))
+    {
+        return Err(StageError::Input {
+            path: input.display().to_string(),
+            message: format!(
+                "/{}/{key} is not recorded, so the legs to the wall cannot be removed (for an \
+                 array ingested with --confocal: give --device-m X,Y,Z, or --clock world when \
+                 its time starts at the wall)",
+                tal::GROUP
+            ),
+        });
+    }
     let dist_m: Vec<f32> = (0..nx * ny).map(|p| geo.clock_path_m(p) as f32).collect();
     let valid = dist_m.iter().map(|d| u8::from(d.is_finite())).collect();
     let described = match geo.laser_spot_m {
