@@ -457,8 +457,12 @@ fn prefix_precision_on_a_1e6_dynamic_range_profile() {
 
 proptest! {
     /// The two-level prefix's error bound (module doc): for any interval of a profile
-    /// spanning 12 decades, `|P(tb) - P(ta) - exact|` is at most `2^-23` of the light in
-    /// the two blocks of 8 bins that hold its ends (plus f64 rounding of the total).
+    /// spanning 12 decades, `|P(tb) - P(ta) - exact|` is at most `7 * 2^-24` of the light in
+    /// the two blocks of 8 bins that hold its ends (plus f64 rounding of the total): a full
+    /// block's f32 sums take at most three roundings (`block_sums`), the partial last block's
+    /// up to seven (`prefix_one` adds them one by one). The bound was `2^-23`, which a
+    /// partial last block can exceed: a clean-clone CI run found `[0, 54)` of 55 bins off by
+    /// 1.37e-7 against a bound of 1.28e-7.
     #[test]
     fn two_level_error_is_bounded_by_the_light_of_the_end_blocks(
         exps in prop::collection::vec(-12.0f64..0.0, 1..100),
@@ -477,7 +481,7 @@ proptest! {
             let s = i / PREFIX_BLOCK_BINS * PREFIX_BLOCK_BINS;
             v[s..(s + PREFIX_BLOCK_BINS).min(nt)].iter().map(|&x| x as f64).sum::<f64>()
         };
-        let bound = 2f64.powi(-23) * (block_light(a) + block_light(b.min(nt - 1)))
+        let bound = 7.0 * 2f64.powi(-24) * (block_light(a) + block_light(b.min(nt - 1)))
             + 1e-15 * v.iter().map(|&x| x as f64).sum::<f64>();
         let got = two.pixel(0).get(b) - two.pixel(0).get(a);
         prop_assert!((got - exact).abs() <= bound, "[{}, {}): {} vs {}", a, b, got, exact);
