@@ -671,6 +671,62 @@ fn info_describes_a_cube_as_json() {
     );
 }
 
+/// Issue 29: `femto info` prints a summary (long lists counted with their range, numbers
+/// rounded); `--full` prints every stored value, `--json` too.
+#[test]
+fn info_summarises_long_notes_and_full_prints_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cube.h5");
+    let shifts: Vec<f64> = (0..48).map(|i| (i as f64 - 20.0) * 0.1234567891).collect();
+    let files: Vec<String> = (0..48).map(|i| format!("scanline_{i:04}.png")).collect();
+    let shifts_json = serde_json::to_string(&shifts).unwrap();
+    let files_json = serde_json::to_string(&files).unwrap();
+    let p = provenance()
+        .with_note("ingest.jitter_shifts_ps", &shifts_json)
+        .with_note("ingest.source_files", &files_json)
+        .with_note("ingest.jitter_rms_ps", "1.6411945904467917");
+    container::write_cube(&path, &test_cube(5, 4, true), &p).unwrap();
+    let text = |extra: &[&str]| {
+        let mut args = vec!["info", path.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let out = FemtoCmd::new().args(&args).output();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let summary = text(&[]);
+    assert!(
+        summary.contains(
+            "ingest.jitter_shifts_ps = 48 numbers, -2.46914 .. 3.33333 (--full lists them)"
+        ),
+        "{summary}"
+    );
+    assert!(
+        summary.contains(
+            r#"ingest.source_files = 48 entries, "scanline_0000.png" .. "scanline_0047.png""#
+        ),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("ingest.jitter_rms_ps = 1.64119\n"),
+        "{summary}"
+    );
+    assert!(!summary.contains("scanline_0001.png"), "{summary}");
+    let full = text(&["--full"]);
+    assert!(
+        full.contains(&shifts_json) && full.contains(&files_json),
+        "{full}"
+    );
+    assert!(
+        full.contains("ingest.jitter_rms_ps = 1.6411945904467917"),
+        "{full}"
+    );
+    let json: serde_json::Value = serde_json::from_str(&text(&["--json"])).unwrap();
+    assert_eq!(
+        json["notes"]["ingest.jitter_shifts_ps"],
+        shifts_json.as_str()
+    );
+}
+
 #[test]
 fn info_rejects_other_files_in_one_line() {
     let dir = tempfile::tempdir().unwrap();

@@ -32,6 +32,10 @@ fn block(img: &StreakImage, x0: usize, t0: usize) -> [[f32; 3]; 3] {
 const X_FIRST_NM: [f32; 5] = [472.252, 472.33337, 472.41473, 472.4961, 472.57745];
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn operate_mode_reads_with_the_documented_values() {
     let Some(path) = hamamatsu_file("operate_mode.img") else {
         return;
@@ -116,6 +120,10 @@ fn operate_mode_reads_with_the_documented_values() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn focus_mode_has_an_uncalibrated_vertical_axis() {
     let Some(path) = hamamatsu_file("focus_mode.img") else {
         return;
@@ -138,6 +146,10 @@ fn focus_mode_has_an_uncalibrated_vertical_axis() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn real_file_transposed_has_no_wavelength_time_axis() {
     let Some(path) = hamamatsu_file("operate_mode.img") else {
         return;
@@ -154,6 +166,10 @@ fn real_file_transposed_has_no_wavelength_time_axis() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn truncated_real_img_names_the_file() {
     let Some(path) = hamamatsu_file("operate_mode.img") else {
         return;

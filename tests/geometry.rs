@@ -370,6 +370,10 @@ fn bunny_or_soup() -> TriangleMesh {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn bunny_loads_with_all_triangles() {
     let Some(path) = bunny_path() else {
         return;

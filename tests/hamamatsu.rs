@@ -325,6 +325,10 @@ fn real_file(name: &str) -> Option<PathBuf> {
 /// The two real files read as before: operate_mode.img with its microsecond table (values of
 /// FACTS.md), focus_mode.img with its uncalibrated rows, now ingested with `--dt-ps`.
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn real_files_read_as_before() {
     let (Some(operate), Some(focus)) = (real_file("operate_mode.img"), real_file("focus_mode.img"))
     else {

@@ -1896,6 +1896,10 @@ fn flags_that_contradict_an_img_time_table_are_refused_or_resampled_keeping_the_
 /// `--dt-ps 10 --t0-ps 0` kept 3.0e5 of its 7.06e9 counts; now it is refused, and
 /// `--resample-time` onto 10 ns bins keeps every count.
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn real_hpd_ta_time_table_refuses_contradicting_flags_and_resampling_keeps_every_count() {
     let Some(real) = shared::file("data/hamamatsu/operate_mode.img") else {
         return;

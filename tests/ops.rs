@@ -1024,16 +1024,23 @@ fn info_describes_meshes() {
         text.contains("14 (") && text.contains("triangle mesh"),
         "{text}"
     );
+}
 
-    // Without the bunny, `shared::file` says that this part skipped (fails under CI).
-    if let Some(bunny) = shared::file("data/stanford-bunny.obj") {
-        let j = info_json(&bunny);
-        assert_eq!(j["kind"], "mesh");
-        assert_eq!(j["format"], "obj");
-        assert_eq!(j["triangles"], 69_451);
-        let size = &j["bounds_m"]["size"];
-        assert!((0..3).all(|a| size[a].as_f64().unwrap() > 0.0));
-    }
+#[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
+fn info_describes_the_bunny() {
+    let Some(bunny) = shared::file("data/stanford-bunny.obj") else {
+        return;
+    };
+    let j = info_json(&bunny);
+    assert_eq!(j["kind"], "mesh");
+    assert_eq!(j["format"], "obj");
+    assert_eq!(j["triangles"], 69_451);
+    let size = &j["bounds_m"]["size"];
+    assert!((0..3).all(|a| size[a].as_f64().unwrap() > 0.0));
 }
 
 #[test]

@@ -73,6 +73,10 @@ fn close(a: f64, b: f64) -> bool {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn lct_data_s_u_mat_reads_as_scipy_indexes_it_and_records_the_confocal_wall() {
     let Some(mat) = shared::file("data/real/lct/data_s_u.mat") else {
         return;
@@ -130,6 +134,10 @@ fn lct_data_s_u_mat_reads_as_scipy_indexes_it_and_records_the_confocal_wall() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn hyperspy_streak_image_and_transient_map_keep_their_axes() {
     let (Some(aln), Some(ingan)) = (
         shared::file("data/real/lumispy/AlN_HR_streak_image.hspy"),
@@ -179,6 +187,10 @@ fn out_new(dir: &tempfile::TempDir) -> std::path::PathBuf {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn spad_histogram_takes_its_bin_width_and_masks_the_clipped_bin() {
     let Some(spad) = shared::file("data/real/spad/spad_data_1.hdf5") else {
         return;
@@ -587,6 +599,10 @@ fn truncated_and_corrupt_files_are_one_line_exit_2_and_nothing_written() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn info_describes_array_files_and_what_ingest_needs() {
     let (Some(mat), Some(spad)) = (
         shared::file("data/real/lct/data_s_u.mat"),
@@ -614,6 +630,10 @@ fn info_describes_array_files_and_what_ingest_needs() {
 /// shifts come back within a quarter of a bin, and no other scanline moves by more than its
 /// standard error.
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn lct_capture_as_png16_scanlines_gets_two_trigger_glitches_back() {
     let Some(mat) = shared::file("data/real/lct/data_s_u.mat") else {
         return;
@@ -680,6 +700,10 @@ fn lct_capture_as_png16_scanlines_gets_two_trigger_glitches_back() {
 /// starts at the wall), the frames after the direct return show the hidden objects' echoes:
 /// light that arrives 0.3 to 3 ns after the wall's own return, well above the black level.
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn lct_capture_renders_its_echoes_with_default_flags() {
     let Some(mat) = shared::file("data/real/lct/data_s_u.mat") else {
         return;

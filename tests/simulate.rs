@@ -768,6 +768,10 @@ fn bad_flags_exit_2_naming_the_flag() {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_shared,
+    ignore = "needs the shared data folder (../shared or $FEMTO_SHARED), absent when built"
+)]
 fn bunny_scene_places_the_mesh_file_in_the_cornell_box() {
     let Some(bunny) = shared::file("data/stanford-bunny.obj") else {
         return;

@@ -191,6 +191,10 @@ impl Drop for Browser {
 }
 
 #[test]
+#[cfg_attr(
+    femto_skip_browser,
+    ignore = "needs chromium and chromedriver on PATH (apt-get install chromium chromium-driver)"
+)]
 fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render_renders() {
     let browser = match Browser::start() {
         Ok(b) => b,

@@ -4,7 +4,7 @@
 
 use super::pyramid::{summarise_pyramid, PyramidSummary};
 use super::registration::{summarise_registration, RegistrationSummary};
-use super::{line, serialize_path, ValueRange};
+use super::{brief, line, serialize_path, ValueRange};
 use crate::container::{CubeMeta, CubeReader};
 use crate::cube::NonFiniteAt;
 use crate::pipeline::{Progress, StageError};
@@ -188,10 +188,10 @@ impl fmt::Display for CubeDescription {
             "time axis",
             format!(
                 "t0 {} ps, dt {} ps, {} bins, ends at {} ps",
-                m.axis.t0_ps,
-                m.axis.dt_ps,
+                brief::significant(m.axis.t0_ps, 7),
+                brief::significant(m.axis.dt_ps, 7),
                 m.axis.nt,
-                m.axis.end_ps()
+                brief::significant(m.axis.end_ps(), 7)
             ),
         )?;
         line(f, "time frame", m.frame.as_str())?;
@@ -240,8 +240,14 @@ impl fmt::Display for CubeDescription {
         if let Some(c) = &m.command_line {
             line(f, "made by", c)?;
         }
+        let full = f.alternate();
         for (k, v) in &m.notes {
-            line(f, "note", format!("{k} = {v}"))?;
+            let shown = if full {
+                v.to_string()
+            } else {
+                brief::note_value(v)
+            };
+            line(f, "note", format!("{k} = {shown}"))?;
         }
         Ok(())
     }

@@ -8,6 +8,7 @@
 //! [`pyramid`] groups (a pyramid side file too), [`mesh`], [`streak`].
 
 pub mod array;
+pub mod brief;
 pub mod cube;
 pub mod mesh;
 pub mod pyramid;
@@ -67,7 +68,9 @@ impl Description {
 }
 
 impl fmt::Display for Description {
-    /// The text of `femto info`: one `key  value` line per fact.
+    /// The text of `femto info`: one `key  value` line per fact, rounded and with long
+    /// lists summarised ([`brief`]); the alternate form (`{:#}`, `femto info --full`) prints
+    /// every stored value whole.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Description::Cube(d) => d.fmt(f),

@@ -3,7 +3,7 @@
 //! axes the file calibrates and an HPD-TA file's header. The JSON form is the `streak_image`
 //! object of docs/cube-format.md.
 
-use super::{extension, json_text, line, serialize_path, ValueRange};
+use super::{brief, extension, line, serialize_path, ValueRange};
 use crate::formats::hamamatsu::{HpdContainer, ImgMeta};
 use crate::formats::{read_streak, PixelType};
 use crate::pipeline::StageError;
@@ -219,8 +219,10 @@ impl fmt::Display for StreakDescription {
                 f,
                 "time axis",
                 format!(
-                    "{first} .. {last} ps over {nt} rows (mean {} ps per row)",
-                    json_text(mean_dt_ps)
+                    "{} .. {} ps over {nt} rows (mean {} ps per row)",
+                    brief::significant(*first, 7),
+                    brief::significant(*last, 7),
+                    brief::significant(*mean_dt_ps, 6)
                 ),
             )?,
             _ => match &self.img {
@@ -243,14 +245,14 @@ impl fmt::Display for StreakDescription {
                 "x axis",
                 format!(
                     "{} .. {} {}",
-                    a.first.unwrap_or(f64::NAN),
-                    a.last.unwrap_or(f64::NAN),
+                    brief::significant(a.first.unwrap_or(f64::NAN), 7),
+                    brief::significant(a.last.unwrap_or(f64::NAN), 7),
                     a.unit
                 ),
             )?;
         }
         if let Some(m) = &self.img {
-            let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| x.to_string());
+            let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| brief::significant(x, 6));
             line(
                 f,
                 "HPD-TA",
@@ -273,12 +275,7 @@ impl fmt::Display for StreakDescription {
             line(
                 f,
                 "exposure",
-                format!(
-                    "{} x {} s = {} s",
-                    m.n_exposures.map_or("-".to_string(), |n| n.to_string()),
-                    opt(m.exposure_time_s),
-                    opt(m.total_exposure_s)
-                ),
+                exposure_text(m.n_exposures, m.exposure_time_s, m.total_exposure_s),
             )?;
             line(
                 f,
@@ -287,5 +284,38 @@ impl fmt::Display for StreakDescription {
             )?;
         }
         Ok(())
+    }
+}
+
+/// The HPD-TA exposure as `info` prints it: `5 x 0.2 s = 1 s`, or what the header lacks said
+/// in words (`1 exposure, time not recorded`).
+fn exposure_text(count: Option<u32>, each_s: Option<f64>, total_s: Option<f64>) -> String {
+    let s = |x: f64| brief::significant(x, 6);
+    match (count, each_s, total_s) {
+        (Some(n), Some(t), Some(total)) => format!("{n} x {} s = {} s", s(t), s(total)),
+        (Some(n), Some(t), None) => format!("{n} x {} s", s(t)),
+        (Some(n), None, Some(total)) => format!("{n} exposure(s), {} s in all", s(total)),
+        (Some(n), None, None) => format!("{n} exposure(s), time not recorded"),
+        (None, Some(t), _) => format!("{} s each, count not recorded", s(t)),
+        (None, None, Some(total)) => format!("{} s in all", s(total)),
+        (None, None, None) => "not recorded".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod exposure_tests {
+    use super::exposure_text;
+
+    #[test]
+    fn exposure_says_what_the_header_lacks() {
+        assert_eq!(
+            exposure_text(Some(5), Some(0.19999999999999998), Some(1.0)),
+            "5 x 0.2 s = 1 s"
+        );
+        assert_eq!(
+            exposure_text(Some(1), None, None),
+            "1 exposure(s), time not recorded"
+        );
+        assert_eq!(exposure_text(None, None, None), "not recorded");
     }
 }
