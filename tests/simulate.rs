@@ -760,11 +760,11 @@ fn bad_flags_exit_2_naming_the_flag() {
     }
     let out = femto(
         tmp.path(),
-        &["simulate", "--out", "cap", "--seed-size", "--nt", "8"],
+        &["simulate", "--out", "cap", "--paper-size", "--nt", "8"],
         None,
     );
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-size"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--paper-size"));
 }
 
 #[test]

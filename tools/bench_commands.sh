@@ -2,7 +2,7 @@
 # Wall time, CPU time, peak memory and output size of `femto unwarp` and `femto pyramid` on a
 # cube of the seed's size (672 x 600 pixels, 512 bins of 1.71 ps), files in the page cache.
 #
-# The cube is made once, as a user would: `femto simulate --seed-size --realistic` (1 spp,
+# The cube is made once, as a user would: `femto simulate --paper-size --realistic` (1 spp,
 # 2 bounces: photon noise, dark noise and the other flaws make it dense, like real data), then
 # `femto ingest` with no corrections (the dark offset and its noise stay: every bin holds a
 # noisy value, the worst case for compression). unwarp casts the capture's own calibration
@@ -22,7 +22,7 @@ CAP="$WORK/capture"
 CUBE="$WORK/camera.h5"
 if [ ! -f "$CUBE" ]; then
     rm -rf "$CAP"
-    "$FEMTO" simulate --seed-size --realistic --spp 1 --bounces 2 --out "$CAP" >/dev/null
+    "$FEMTO" simulate --paper-size --realistic --spp 1 --bounces 2 --out "$CAP" >/dev/null
     "$FEMTO" ingest "$CAP" --out "$CUBE" >/dev/null
 fi
 echo "date: $(date -u +%Y-%m-%dT%H:%MZ), commit $(git rev-parse --short HEAD)"

@@ -13,7 +13,8 @@ pub struct DemoArgs {
     /// refused when it holds other files than an earlier demo's).
     #[arg(long, value_name = "DIR", default_value = "femto-demo")]
     pub out: PathBuf,
-    /// Small sizes: about a minute on two cores (release build) instead of about ten.
+    /// Small sizes: 160 x 120 pixels and 64 samples per pixel instead of 320 x 240 and 4096
+    /// (measured times: benches/demo_results.md).
     #[arg(long)]
     pub quick: bool,
     /// A bunny mesh (e.g. the Stanford bunny OBJ): also run the Cornell box with the bunny

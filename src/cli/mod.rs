@@ -36,7 +36,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Run the whole chain on the built-in scenes (simulate, ingest, calibrate, unwarp,
-    /// pyramid, render) and write the seed's figures with a report.
+    /// pyramid, render) and write the figures of Jarabo et al. 2013 with a report.
     Demo(demo::DemoArgs),
     /// Describe a file: a cube (shape, time axis, value range, registration, pyramid), a
     /// pyramid side file, a mesh or a streak image.

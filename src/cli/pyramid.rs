@@ -21,9 +21,9 @@ pub struct PyramidArgs {
     #[arg(long)]
     pub side_file: Option<PathBuf>,
     /// Compression of the pyramid: a deflate level 0-9 (with shuffle) or 'none'. The
-    /// pyramid is derived data, rebuilt from the cube in seconds: uncompressed it is written
-    /// at disk speed; level 1 stores noisy camera data in about 60 % of the bytes in about
-    /// twice the time (tools/bench_commands.sh)
+    /// pyramid is derived data, rebuilt from the cube at any time: uncompressed it is
+    /// written at disk speed; level 1 stores noisy camera data in about 73 % of the bytes in
+    /// about twice the time (tools/bench_commands.sh measures both)
     #[arg(long, default_value = "none", value_parser = super::values::compression)]
     pub compression: CubeCompression,
 }

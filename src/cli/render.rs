@@ -74,8 +74,9 @@ pub struct RenderArgs {
     /// dilation, rotation; or all; or none.
     #[arg(long, value_name = "LIST", default_value = "all", value_parser = EffectsArg)]
     pub effects: Effects,
-    /// Radiometry of a moving camera: consistent (physics.md: D^-3 over the window dtau/D)
-    /// or paper (the seed's D^-5 literally).
+    /// Radiometry of a moving camera: consistent (radiance times D^-3, accumulated over the
+    /// exposure window dtau/D: docs/physics.md) or paper (Jarabo et al. 2013's D^-5,
+    /// literally, which counts one factor of D twice).
     #[arg(long, value_name = "MODE", value_enum, default_value_t = RadiometryArg::Consistent)]
     pub radiometry: RadiometryArg,
     /// What a frame shows: transient, naive (keeps the capture's time warp), isochrones

@@ -71,8 +71,8 @@ pub struct SimulateArgs {
         value_parser = clap::value_parser!(u32).range(1..=MAX_BOUNCES)
     )]
     pub bounces: u32,
-    /// Image size in pixels, e.g. 64x48 (default: the scene's; at most
-    /// femto::simulate::budget::MAX_SIDE a side, checked with the capture's memory).
+    /// Image size in pixels, e.g. 64x48 (default: the scene's; at most 32768 a side, and
+    /// the capture must fit in memory).
     #[arg(long, value_name = "WxH")]
     pub size: Option<Size>,
     /// Number of time bins (default: the scene's).
@@ -86,8 +86,9 @@ pub struct SimulateArgs {
     /// Width of a time bin, ps (default: the scene's).
     #[arg(long, allow_negative_numbers = true, value_name = "PS", value_parser = positive_finite)]
     pub dt_ps: Option<f64>,
-    /// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
-    #[arg(long, conflicts_with_all = ["size", "nt", "dt_ps"])]
+    /// The capture size of Jarabo et al. 2013 (the paper femto implements): 672 x 600
+    /// pixels, 512 bins of 1.71 ps.
+    #[arg(long = "paper-size", alias = "seed-size", conflicts_with_all = ["size", "nt", "dt_ps"])]
     pub seed_size: bool,
     /// Write only the true transient cube in camera time (truth_camera.h5) and the render's
     /// counters (render.json: paths, rays, wall and CPU seconds): the path tracer alone, as a

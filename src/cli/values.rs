@@ -215,9 +215,9 @@ impl<E: ValueEnum + Clone + Send + Sync + 'static> TypedValueParser for EnumArg<
 /// `femto render --radiometry`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum RadiometryArg {
-    /// physics.md: D^-3 over the exposure window dtau/D.
+    /// Radiance times D^-3, accumulated over the exposure window dtau/D (docs/physics.md).
     Consistent,
-    /// The seed's D^-5, literally.
+    /// Jarabo et al. 2013's D^-5, literally.
     Paper,
 }
 

@@ -103,6 +103,8 @@ pub struct CalibrationErrors {
     pub outliers: usize,
     /// RMS reprojection error of the fit, pixels of the fiducial image.
     pub rms_px: f64,
+    /// The same in pixels of the capture, as `femto calibrate` prints it.
+    pub rms_capture_px: f64,
     /// True camera centre to the fiducials' centroid, metres.
     pub camera_distance_m: f64,
     pub position_error_mm: f64,
@@ -473,6 +475,7 @@ fn calibration_errors(
         noise_px: FIDUCIAL_NOISE_PX,
         outliers: fitted.spatial.outliers.len(),
         rms_px: fitted.spatial.rms_px * sizes.fiducial_nx as f64 / sizes.capture_nx as f64,
+        rms_capture_px: fitted.spatial.rms_px,
         camera_distance_m: (centroid - truth.pose.position_m).norm(),
         position_error_mm: position_mm,
         position_error_mm_per_m: position_mm_per_m,

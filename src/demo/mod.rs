@@ -38,9 +38,10 @@
 //! (ingested, camera time), `world.h5` (unwarped), `calibration.toml` (fitted); the bunny
 //! scene's under `DIR/data/bunny/`. Every file is written atomically.
 //!
-//! Sizes ([`DemoSizes`]) were chosen by measurement so that `--quick` finishes within a
-//! minute and the full demo within ten on two cores (release build); see the report for the
-//! figures of a run.
+//! Sizes ([`DemoSizes`]): `--quick` is small enough for the tests' end-to-end run, the full
+//! demo large enough that its figures show the indirect light without speckle. Their times
+//! are measured by `tools/bench_demo.sh` into benches/demo_results.md (with the machine and
+//! its load); the report gives the time of each stage of a run.
 
 pub mod chain;
 pub mod contact_sheet;
@@ -124,7 +125,7 @@ pub enum DemoError {
 pub struct DemoOptions {
     /// Folder that receives the figures, the report and `data/`.
     pub out_dir: PathBuf,
-    /// Small sizes: the whole demo within a minute on two cores (release).
+    /// Small sizes ([`DemoSizes::quick`]).
     pub quick: bool,
     /// A bunny mesh (e.g. the Stanford bunny OBJ): also run the Cornell box with the bunny
     /// and write `fig7_bunny.mp4`.
@@ -179,7 +180,7 @@ impl DemoSizes {
 
     /// The full demo: a 320 x 240 x 256 capture at 4096 spp, 320 x 240 stills, a 120-frame
     /// video. The spp is what keeps the indirect light of 4 ps bins from looking like speckle
-    /// (at 256 spp it does) within the ten minutes.
+    /// (at 256 spp it does).
     pub fn full() -> DemoSizes {
         DemoSizes {
             capture_nx: 320,

@@ -130,10 +130,12 @@ fn calibration_section(md: &mut String, summary: &DemoSummary) {
         let _ = writeln!(
             md,
             "- **{}**: {} fiducials detected in a {} x {} image of the capture camera (same pose \
-             and field of view; intrinsics scaled to the capture's {} x {}), {} px of Gaussian \
-             noise added to each coordinate; fit RMS {:.3} px, {} outliers. Camera {:.3} m from \
-             the fiducials' centroid, off by {:.3} mm. t0 fitted {:.3} ps (true {:.3} ps, bins of \
-             {} ps) from the direct light of {} pixels ({} inliers, RMS {:.3} ps).",
+             and field of view; intrinsics scaled to the capture's {} x {}), {} px (of that \
+             image) of Gaussian noise added to each coordinate; fit RMS {:.3} px of that image, \
+             {:.3} px of the capture (the figure `femto calibrate` prints), {} outliers. Camera \
+             {:.3} m from the fiducials' centroid, off by {:.3} mm. t0 fitted {:.3} ps (true \
+             {:.3} ps, bins of {} ps) from the direct light of {} pixels ({} inliers, RMS {:.3} \
+             ps).",
             cell(&c.scene),
             c.fiducials,
             c.fiducial_width,
@@ -142,6 +144,7 @@ fn calibration_section(md: &mut String, summary: &DemoSummary) {
             s.capture_ny,
             c.noise_px,
             c.rms_px,
+            c.rms_capture_px,
             c.outliers,
             c.camera_distance_m,
             c.position_error_mm,
@@ -223,6 +226,7 @@ mod tests {
                 noise_px: 0.5,
                 outliers: 0,
                 rms_px: 0.7,
+                rms_capture_px: 0.0278,
                 camera_distance_m: 0.9,
                 position_error_mm: 0.3,
                 position_error_mm_per_m: 0.333,
