@@ -43,9 +43,9 @@
 //! `data/real/lct/data_s_u.mat`: 12.36 +- 0.38 and 7.86 +- 0.34 ps, no other row moved. With
 //! no jitter: no row moved. Laser power (log integrals over each pixel's pulse, not over every
 //! bin, whose noise swamped 3 % of power): the scene's pulse integrals still vary from row to
-//! row about half as much as 3 % power does, so on the capture above 54 of the 240 rows are
-//! significant (Gaussian prior, [`RowOffsetFit::gaussian`]): gains correlating 0.49 with the
-//! truth, scanline-to-scanline error 3.09 % -> 2.30 % (over every bin: 0 rows, 3.09 % left);
+//! row about half as much as 3 % power does, so on the capture above 44 of the 240 rows are
+//! significant (Gaussian prior, [`RowOffsetFit::gaussian`]): gains correlating 0.46 with the
+//! truth, scanline-to-scanline error 3.09 % -> 2.42 % (over every bin: 0 rows, 3.09 % left);
 //! a reference region (`PowerRef::Region`) is what normalises such a capture.
 //!
 //! The jitter left after the correction is its slow part, not an error that accumulates:
@@ -90,6 +90,11 @@ const MIN_RELATIVE_SIGNAL: f64 = 0.2;
 /// A pixel's pulse extends, around its highest bin, while the profile stays above this
 /// fraction of the pulse height (plus one bin on each side).
 const PULSE_EXTENT: f64 = 0.1;
+
+/// Bins added on each side of a pixel's pulse for its integral: the tails under
+/// [`PULSE_EXTENT`] of the height, which a pulse moving across the bins from row to row would
+/// otherwise cut by varying amounts.
+const INTEGRAL_MARGIN: usize = 2;
 
 /// A pixel's window is taken to hold an edge of the scene where its misfit, or the spread
 /// of its windows' predictions, exceeds this many times the median over the capture.
@@ -244,7 +249,8 @@ pub fn pixel_pulse_times(row: &[f32], nx: usize, axis: &TimeAxis) -> Vec<Option<
 }
 
 /// Natural log of each pixel's pulse integral in a scanline (`[x][t]`, `nt` bins): the signal
-/// above the baseline summed over the pulse's bins (those of [`pixel_pulse_times`]), which a
+/// above the baseline summed over the pulse's bins (those of [`pixel_pulse_times`], and
+/// [`INTEGRAL_MARGIN`] more on each side), which a
 /// laser power scales and a time shift keeps. Not the integral over every bin: that adds the
 /// noise of all of them (on the simulator's realistic capture, 320 x 240 x 256 bins, the
 /// pixels' log integrals scatter by 19 % about the truth over all bins, 6 % over the pulse).
@@ -260,6 +266,10 @@ pub fn pixel_log_integrals(row: &[f32], nx: usize, nt: usize) -> Vec<Option<f64>
         .map(|(p, pulse)| {
             let (base, height, peak) = pulse?;
             let (lo, hi) = pulse_extent(p, base, height, peak);
+            let (lo, hi) = (
+                lo.saturating_sub(INTEGRAL_MARGIN),
+                (hi + INTEGRAL_MARGIN).min(nt - 1),
+            );
             let sum: f64 = p[lo..=hi].iter().map(|&v| v as f64 - base).sum();
             (sum.is_finite() && sum > 0.0).then(|| sum.ln())
         })
