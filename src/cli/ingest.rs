@@ -71,9 +71,11 @@ pub struct IngestArgs {
     /// Estimate and remove per-scanline trigger jitter (the default: every scanline is a
     /// separate sweep with its own trigger). A shift is applied only where it exceeds 4
     /// standard errors. Measured on a simulated realistic capture (cube scene, 320 x 240,
-    /// 64 paths per pixel, 2 ps rms jitter): 1.1 ps rms left, 3.0 ps at most, of which the
-    /// row-to-row part 0.5 ps rms, 1.9 ps at most; the slow part of the jitter cannot be told
-    /// from the scene's tilt and stays. Costs a second pass over the scanlines.
+    /// 64 paths per pixel, 2 ps rms jitter): 1.2 ps rms left, 4.7 ps at most (20 of 240
+    /// scanlines more than 2 ps off, 11 made worse by more than 1 ps), of which the
+    /// row-to-row part 0.6 ps rms, 3.9 ps at most; the slow part of the jitter (runs of
+    /// scanlines late together) cannot be told from the scene's tilt and stays, as do
+    /// scanlines too dim to estimate. Costs a second pass over the scanlines.
     #[arg(long, overrides_with = "no_jitter")]
     pub jitter: bool,
     /// Keep the scanlines' trigger jitter (one pass; for captures without jitter).
@@ -81,7 +83,7 @@ pub struct IngestArgs {
     pub no_jitter: bool,
     /// Laser power normalisation: a reference region x0:x1,t0:t1 (recorded bins, half-open)
     /// that sees a fixed part of the scene in every scanline, or 'auto' (each pixel's
-    /// integral against the same pixel in the neighbouring scanlines; a gain is applied only
+    /// pulse integral against the same pixel in the neighbouring scanlines; a gain is applied only
     /// where it exceeds 4 standard errors: on the simulated realistic capture above, 3 %
     /// power, it removes about a quarter of the scanline-to-scanline error).
     #[arg(long, value_parser = values::power_ref)]
