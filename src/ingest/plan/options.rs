@@ -118,7 +118,7 @@ impl IngestOptions {
                 if let Err(e) = ranges::check("", v, range) {
                     return Err(IngestError::BadValue {
                         what,
-                        value: v.to_string(),
+                        value: crate::limits::short_number(v),
                         message: e.requirement(),
                     });
                 }
