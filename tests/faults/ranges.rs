@@ -52,7 +52,12 @@ fn render_small<'a>(cube: &'a str, calibration: &'a str) -> Vec<&'a str> {
 /// (it was refused before by the unwarp's covering axis, "capacity overflow" before that).
 #[test]
 fn cube_axes_outside_their_range_are_refused_where_they_are_read() {
-    let dir = case(&["world.h5", "cube.h5", "cube.calibration.toml", "cap/scene.glb"]);
+    let dir = case(&[
+        "world.h5",
+        "cube.h5",
+        "cube.calibration.toml",
+        "cap/scene.glb",
+    ]);
     let d = dir.path();
     type Edit = fn(&mut femto::cube::TimeAxis);
     let cases: [(Edit, &str, &str); 4] = [
@@ -90,8 +95,14 @@ fn path_times_outside_their_range_are_refused() {
         )
     };
     let cases = [
-        (base("world", "1e308", ""), "keyframe 2 of 2: time_ps = 1e308"),
-        (base("proper", "1e308", ""), "keyframe 2 of 2: time_ps = 1e308"),
+        (
+            base("world", "1e308", ""),
+            "keyframe 2 of 2: time_ps = 1e308",
+        ),
+        (
+            base("proper", "1e308", ""),
+            "keyframe 2 of 2: time_ps = 1e308",
+        ),
         (base("world", "-1e300", ""), "keyframe 2 of 2: time_ps"),
         (
             base("proper", "3830.0", "tau0_ps = 1e300"),
@@ -143,7 +154,12 @@ fn calibration_numbers_outside_their_range_are_refused_at_once() {
         ("time", "time_scale", "65536", "time.time_scale = 65536"),
         ("time", "time_scale", "5e-324", "time.time_scale = 5e-324"),
         ("time", "t0_ps", "1e308", "time.t0_ps = 1e308"),
-        ("laser", "position_m", "[1e300, 0.0, 0.0]", "laser.position_m[0]"),
+        (
+            "laser",
+            "position_m",
+            "[1e300, 0.0, 0.0]",
+            "laser.position_m[0]",
+        ),
         ("intrinsics", "fx", "1e308", "intrinsics.fx = 1e308"),
         ("intrinsics", "k1", "-1e300", "intrinsics.k1 = -1e300"),
         ("medium", "eta", "1e19", "medium.eta = 1e19"),
