@@ -217,6 +217,6 @@ fn extreme_ytal() {
             mutation: Mutation::Extremes,
             read: read_ytal,
         },
-        200,
+        80,
     );
 }
