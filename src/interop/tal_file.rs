@@ -50,6 +50,16 @@ fn check_point(
     ranges::check_point(key, p, range).map_err(|e| invalid(path, &e.key, e.detail()))
 }
 
+/// A device's position (the sensor's, the laser's origin): in [`ranges::COORD_M`], or all
+/// three NaN, a position the capture does not record (a confocal scan read from a `.mat`
+/// file; `femto unwarp` then asks for `--device-m`).
+fn check_device(path: &Path, key: &str, p: &[f64; 3]) -> Result<(), InteropError> {
+    if p.iter().all(|c| c.is_nan()) {
+        return Ok(());
+    }
+    check_point(path, key, p, ranges::COORD_M)
+}
+
 /// A grid of points or normals (one per pixel; `at(i)` names entry `i` as the file indexes
 /// it): each entry's three numbers in `range`, or all three NaN, a pixel that sees nothing
 /// (what `femto export` writes for it). Any other NaN, an infinity or a number beyond the
@@ -286,7 +296,7 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         let (_, v) = read(k)?;
         let p = <[f64; 3]>::try_from(v.as_slice())
             .map_err(|_| invalid(path, k, format!("expected 3 numbers, found {}", v.len())))?;
-        check_point(path, k, &p, ranges::COORD_M)?;
+        check_device(path, k, &p)?;
         Ok(p)
     };
 
@@ -437,7 +447,7 @@ pub fn geometry_from_group(
         match data.attr(k) {
             Some(AttrValue::F64Array(v)) if v.len() == 3 => {
                 let p = [v[0], v[1], v[2]];
-                check_point(path, &key(k), &p, ranges::COORD_M)?;
+                check_device(path, &key(k), &p)?;
                 Ok(p)
             }
             _ => Err(invalid(path, &key(k), "expected an attribute of 3 numbers")),
