@@ -10,6 +10,7 @@
 //! Projection: `p_cam = world_from_camera^T (p - o)`, `(x, y) = (X/Z, Y/Z)`,
 //! `r2 = x^2 + y^2`, `s = 1 + k1 r2 + k2 r2^2`, `u = fx s x + cx`, `v = fy s y + cy`.
 
+use crate::ranges;
 use nalgebra::{Matrix3, Point3, Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -344,11 +345,21 @@ impl CalibrationFile {
             )));
         }
         check_eta(self.medium.eta).map_err(bad)?;
-        if !(self.time.time_scale.is_finite() && self.time.time_scale > 0.0) {
-            return Err(bad(format!(
-                "time.time_scale must be positive, got {}",
-                self.time.time_scale
-            )));
+        // Each number in its meaningful range ([`crate::ranges`]), before anything sized by
+        // it is made (a render's profile of span / (dt_ps / time_scale) bins: `time_scale =
+        // 1e9` asked 1.6 TB).
+        let in_range = |key: &str, v: f64, range| {
+            ranges::check(key, v, range)
+                .map(|_| ())
+                .map_err(|e| bad(e.to_string()))
+        };
+        in_range("time.time_scale", self.time.time_scale, ranges::TIME_SCALE)?;
+        in_range("time.t0_ps", self.time.t0_ps, ranges::TIME_PS)?;
+        for (key, p) in [
+            ("extrinsics.position_m", &self.extrinsics.position_m),
+            ("laser.position_m", &self.laser.position_m),
+        ] {
+            ranges::check_point(key, p, ranges::COORD_M).map_err(|e| bad(e.to_string()))?;
         }
         Ok(Calibration {
             intrinsics: *k,
@@ -402,16 +413,24 @@ fn check_intrinsics(k: &Intrinsics) -> Result<(), String> {
     ] {
         check_finite(key, v)?;
     }
+    for (key, v, range) in [
+        ("intrinsics.fx", k.fx, ranges::FOCAL_PX),
+        ("intrinsics.fy", k.fy, ranges::FOCAL_PX),
+        ("intrinsics.cx", k.cx, ranges::PIXEL),
+        ("intrinsics.cy", k.cy, ranges::PIXEL),
+        ("intrinsics.k1", k.k1, ranges::DISTORTION),
+        ("intrinsics.k2", k.k2, ranges::DISTORTION),
+    ] {
+        ranges::check(key, v, range).map_err(|e| e.to_string())?;
+    }
     Ok(())
 }
 
-/// `[medium] eta`: a refractive index, finite and at least 1.
+/// `[medium] eta`: a refractive index in [`ranges::ETA`].
 fn check_eta(eta: f64) -> Result<(), String> {
-    if eta.is_finite() && eta >= 1.0 {
-        Ok(())
-    } else {
-        Err(format!("medium.eta must be >= 1, got {eta}"))
-    }
+    ranges::check("medium.eta", eta, ranges::ETA)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
 }
 
 /// What `femto calibrate --intrinsics FILE` takes from a calibration TOML: its intrinsics,

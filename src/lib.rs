@@ -43,6 +43,7 @@ pub mod limits;
 pub mod manifest;
 pub mod pipeline;
 pub mod pyramid;
+pub mod ranges;
 pub mod readers;
 pub mod relativity;
 pub mod render;

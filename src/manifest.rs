@@ -377,6 +377,13 @@ fn validate_capture(c: &CaptureInfo) -> Result<(), String> {
     if !(c.eta.is_finite() && c.eta >= 1.0) {
         return Err(format!("capture.eta = {} must be finite and >= 1", c.eta));
     }
+    for (key, v, range) in [
+        ("capture.dt_ps", c.dt_ps, crate::ranges::BIN_WIDTH_PS),
+        ("capture.t0_ps", c.t0_ps, crate::ranges::TIME_PS),
+        ("capture.eta", c.eta, crate::ranges::ETA),
+    ] {
+        crate::ranges::check(key, v, range).map_err(|e| e.to_string())?;
+    }
     positive("capture.laser_wavelength_nm", c.laser_wavelength_nm)?;
     non_negative("capture.pulse_width_fs", c.pulse_width_fs)?;
     if let Some(v) = c.exposure_s {

@@ -2,6 +2,7 @@
 //! [`MAX_COORD_M`], fields of view, and the frame-count cap [`MAX_FRAMES`]. Messages name the
 //! file's keys (`look_at_m[1] must be finite, got -inf`).
 
+use crate::ranges;
 use nalgebra::Vector3;
 
 pub(super) fn valid_vfov(v: f64) -> bool {
@@ -37,6 +38,16 @@ pub(super) fn check_finite_all(key: &str, v: &[f64]) -> Result<(), String> {
         check_finite(&format!("{key}[{i}]"), x)?;
     }
     Ok(())
+}
+
+/// A time of the path (a keyframe's `time_ps`, `tau0_ps`): finite, then in
+/// [`ranges::TIME_PS`] (a keyframe at `1e308` ps made the clock table NaN, and `f64::clamp`
+/// panicked on it).
+pub(super) fn check_time(key: &str, t_ps: f64) -> Result<(), String> {
+    check_finite(key, t_ps)?;
+    ranges::check(key, t_ps, ranges::TIME_PS)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
 }
 
 /// A length or coordinate of the path: finite and at most [`MAX_COORD_M`] in magnitude.

@@ -3,7 +3,7 @@
 //! slerped, the field of view interpolated linearly; the checks of every keyframe and of the
 //! speed along each segment. The clock table of the track is in [`super::clock`].
 
-use super::checks::{check_finite, check_finite_all, check_point, valid_vfov};
+use super::checks::{check_finite, check_finite_all, check_point, check_time, valid_vfov};
 use super::{CameraPathError, Clock, Interpolation, Keyframe, Orientation};
 use crate::camera::Pose;
 use crate::units::C_M_PER_PS;
@@ -140,7 +140,7 @@ impl KeyTrack {
 /// Every number of a keyframe finite, its points within [`MAX_COORD_M`] (messages name the
 /// file's keys: `look_at_m[1] must be finite, got -inf`).
 fn check_keyframe_numbers(kf: &Keyframe) -> Result<(), String> {
-    check_finite("time_ps", kf.time_ps)?;
+    check_time("time_ps", kf.time_ps)?;
     check_point("position_m", kf.position_m.coords.as_slice())?;
     match &kf.orientation {
         Orientation::LookAt { target_m, up } => {
@@ -196,6 +196,15 @@ pub(super) fn resolve_keyframes(
     };
     track.check_speed(bad)?;
     track.build_table();
+    // The times are in range (check_time); a table that still overflows is refused here, not
+    // met by `f64::clamp` when a frame is evaluated.
+    if track.cum.iter().any(|t| !t.is_finite()) {
+        return Err(bad(format!(
+            "the keyframes' clock table is not finite (keyframe times {} .. {} ps)",
+            track.knots[0],
+            track.knots[n - 1]
+        )));
+    }
     Ok(track)
 }
 

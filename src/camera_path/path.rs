@@ -11,6 +11,7 @@ use super::{
     Orientation,
 };
 use crate::camera::{one_line_toml_error, Pose};
+use crate::ranges;
 use crate::relativity::SensorRotation;
 use crate::units::C_M_PER_PS;
 use nalgebra::{Point3, Rotation3, Vector3};
@@ -70,10 +71,13 @@ impl CameraPath {
                 spec.dtau_ps
             )));
         }
+        ranges::check("dtau_ps", spec.dtau_ps, ranges::INTERVAL_PS)
+            .map_err(|e| bad(e.to_string()))?;
         if let Some(t) = tau0_ps {
             if !t.is_finite() {
                 return Err(bad(format!("tau0_ps = {t} is not a finite number")));
             }
+            ranges::check("tau0_ps", t, ranges::TIME_PS).map_err(|e| bad(e.to_string()))?;
         }
         if let Some(r) = rotation {
             if !(r.beta_edge.is_finite() && r.beta_edge.abs() < 1.0) {

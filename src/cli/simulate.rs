@@ -332,7 +332,9 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         scene.camera.intrinsics.height,
     );
     let axis = scene.camera.axis;
-    eprintln!(
+    // On stdout, with the summary: a failure later (a full disk) is then the only line on
+    // stderr.
+    println!(
         "femto simulate: scene {}, {nx} x {ny} pixels, {} bins of {} ps from {} ps, spp {}, \
          bounces {}, seed {}, {} threads{}",
         scene.name,

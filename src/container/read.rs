@@ -6,13 +6,14 @@ use super::error::{h5, invalid, ContainerError, Result};
 use super::groups::GroupReader;
 use super::open::{dataset_elem, open_dataset, open_h5};
 use super::schema::{
-    check_axis, slab_rows, CubeCompression, CubeMeta, Elem, GroupData, CUBE_DATASET, DEFLATE_LEVEL,
-    MASK_DATASET, RESERVED_ATTRS,
+    axis_ranges, slab_rows, CubeCompression, CubeMeta, Elem, GroupData, CUBE_DATASET,
+    DEFLATE_LEVEL, MASK_DATASET, RESERVED_ATTRS,
 };
 use crate::cube;
 use crate::cube::Cube;
 use crate::cube::TimeAxis;
 use crate::cube::TimeFrame;
+use crate::ranges;
 use rayon::prelude::*;
 use rust_hdf5::format::messages::filter::reverse_filters_masked_bounded;
 use rust_hdf5::format::messages::filter::FILTER_DEFLATE;
@@ -69,12 +70,16 @@ impl CubeReader {
         let t0_ps = read_f64_attr(&cube, path, object, "t0_ps")?;
         let dt_ps = read_f64_attr(&cube, path, object, "dt_ps")?;
         let axis = TimeAxis { t0_ps, dt_ps, nt };
-        check_axis(path, &axis).map_err(|e| ContainerError::BadAttribute {
-            path: path.to_path_buf(),
-            object: object.into(),
-            attr: if t0_ps.is_finite() { "dt_ps" } else { "t0_ps" }.into(),
-            reason: e.to_string(),
-        })?;
+        // Each attribute in its range before anything sized by it is made (a render's
+        // profile of span / dt_ps bins: dt_ps = 1e-300 indexed past it).
+        for (attr, value, range) in axis_ranges(&axis) {
+            ranges::check(attr, value, range).map_err(|e| ContainerError::BadAttribute {
+                path: path.to_path_buf(),
+                object: object.into(),
+                attr: attr.into(),
+                reason: e.detail(),
+            })?;
+        }
         let frame_s = required_str_attr(&cube, path, object, "time_frame")?;
         let frame = TimeFrame::parse(&frame_s).ok_or_else(|| ContainerError::BadAttribute {
             path: path.to_path_buf(),

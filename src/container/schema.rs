@@ -5,6 +5,7 @@
 use super::error::{invalid, Result};
 use crate::cube::TimeAxis;
 use crate::cube::TimeFrame;
+use crate::ranges;
 use rust_hdf5::DatatypeMessage;
 use std::path::Path;
 
@@ -291,18 +292,20 @@ pub(super) fn check_name(path: &Path, what: &str, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// The axis attributes of `/cube` with their meaningful ranges ([`crate::ranges`]).
+pub(super) fn axis_ranges(axis: &TimeAxis) -> [(&'static str, f64, ranges::Range); 2] {
+    [
+        ("t0_ps", axis.t0_ps, ranges::TIME_PS),
+        ("dt_ps", axis.dt_ps, ranges::BIN_WIDTH_PS),
+    ]
+}
+
 pub(super) fn check_axis(path: &Path, axis: &TimeAxis) -> Result<()> {
     if axis.nt == 0 {
         return Err(invalid(path, "a cube needs at least one time bin"));
     }
-    if !axis.t0_ps.is_finite() {
-        return Err(invalid(path, format!("t0_ps is {}", axis.t0_ps)));
-    }
-    if !(axis.dt_ps.is_finite() && axis.dt_ps > 0.0) {
-        return Err(invalid(
-            path,
-            format!("dt_ps must be positive and finite, not {}", axis.dt_ps),
-        ));
+    for (key, value, range) in axis_ranges(axis) {
+        ranges::check(key, value, range).map_err(|e| invalid(path, e.to_string()))?;
     }
     Ok(())
 }

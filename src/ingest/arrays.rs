@@ -114,13 +114,7 @@ fn time_axis(
         readers::check_dt(p, "--dt-ps", dt)?;
     }
     if let Some(t0) = opts.t0_ps {
-        if !(t0.is_finite() && t0.abs() < 1e18) {
-            return Err(flag(
-                p,
-                "--t0-ps",
-                format!("{t0}: must be a finite number of ps"),
-            ));
-        }
+        readers::check_time(p, "--t0-ps", t0)?;
     }
     let agree = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-3);
     let contradicts = |what: &str, given: f64, recorded: f64| {

@@ -13,6 +13,7 @@
 
 use super::InteropError;
 use crate::cube::{Cube, TimeAxis, TimeFrame};
+use crate::ranges;
 use crate::readers::npy::read_npy;
 use crate::units::C_M_PER_PS;
 use std::path::Path;
@@ -97,6 +98,21 @@ pub fn read_transient_npy(
     }
     if !binning.start_opl_m.is_finite() {
         return Err(bad("start_opl", format!("{} m", binning.start_opl_m)));
+    }
+    // A bin width and a time as optical path ([`crate::ranges`] times c).
+    for (key, v, range) in [
+        (
+            "bin_width_opl",
+            binning.bin_width_opl_m,
+            ranges::BIN_WIDTH_PS.scaled(C_M_PER_PS, " m"),
+        ),
+        (
+            "start_opl",
+            binning.start_opl_m,
+            ranges::TIME_PS.scaled(C_M_PER_PS, " m"),
+        ),
+    ] {
+        ranges::check(key, v, range).map_err(|e| bad(key, e.detail()))?;
     }
     let a = read_npy(path)?;
     let (ny, nx, nt, nc) = match a.shape.as_slice() {

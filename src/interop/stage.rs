@@ -138,6 +138,14 @@ pub fn ingest_tal(
     };
     let capture = read_tal(input)?;
     let (mut cube, geo) = capture.to_cube();
+    // t_start less the first bounce: the cube's start, in range before a cube is written.
+    crate::ranges::check("t_start", cube.axis.t0_ps, crate::ranges::TIME_PS).map_err(|e| {
+        InteropError::Invalid {
+            path: input.to_path_buf(),
+            key: "t_start".into(),
+            message: format!("the cube's start {}", e.detail()),
+        }
+    })?;
     let mut provenance = provenance.clone();
     if let Some(level) = level {
         let (nx, nt) = (cube.nx, cube.nt());

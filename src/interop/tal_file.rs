@@ -11,6 +11,8 @@
 use super::tal::{LaserSpot, TalCapture, TalGeometry, GROUP};
 use super::InteropError;
 use crate::container::{AttrValue, DataBuf, GroupData};
+use crate::ranges;
+use crate::units::C_M_PER_PS;
 use rust_hdf5::{DatatypeMessage, H5Dataset, H5File, HBool};
 use std::path::Path;
 
@@ -33,6 +35,60 @@ fn invalid(path: &Path, key: &str, message: impl Into<String>) -> InteropError {
     }
 }
 
+/// `v` in `range` ([`crate::ranges`]), else an error naming `key` and the value.
+fn in_range(path: &Path, key: &str, v: f64, range: ranges::Range) -> Result<f64, InteropError> {
+    ranges::check(key, v, range).map_err(|e| invalid(path, key, e.detail()))
+}
+
+/// Three numbers in `range`, the first outside named `key[i]`.
+fn check_point(
+    path: &Path,
+    key: &str,
+    p: &[f64; 3],
+    range: ranges::Range,
+) -> Result<(), InteropError> {
+    ranges::check_point(key, p, range).map_err(|e| invalid(path, &e.key, e.detail()))
+}
+
+/// A device's position (the sensor's, the laser's origin): in [`ranges::COORD_M`], or all
+/// three NaN, a position the capture does not record (a confocal scan read from a `.mat`
+/// file; `femto unwarp` then asks for `--device-m`).
+fn check_device(path: &Path, key: &str, p: &[f64; 3]) -> Result<(), InteropError> {
+    if p.iter().all(|c| c.is_nan()) {
+        return Ok(());
+    }
+    check_point(path, key, p, ranges::COORD_M)
+}
+
+/// A grid of points or normals (one per pixel; `at(i)` names entry `i` as the file indexes
+/// it): each entry's three numbers in `range`, or all three NaN, a pixel that sees nothing
+/// (what `femto export` writes for it). Any other NaN, an infinity or a number beyond the
+/// range is refused.
+fn check_grid(
+    path: &Path,
+    key: &str,
+    grid: &[[f64; 3]],
+    range: ranges::Range,
+    at: impl Fn(usize) -> String,
+) -> Result<(), InteropError> {
+    for (i, p) in grid.iter().enumerate() {
+        if p.iter().all(|c| c.is_nan()) {
+            continue;
+        }
+        if let Err(e) = ranges::check_point(format_args!("{key}{}", at(i)), p, range) {
+            return Err(invalid(
+                path,
+                &e.key,
+                format!(
+                    "{} (a pixel that sees nothing has all three NaN)",
+                    e.detail()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Whether `path` is an HDF5 file with y-tal's `H` and `H_format` datasets.
 pub fn is_tal_capture(path: &Path) -> bool {
     if !matches!(crate::container::is_hdf5(path), Ok(true)) {
@@ -47,7 +103,9 @@ pub fn is_tal_capture(path: &Path) -> bool {
         .all(|k| names.iter().any(|n| n.trim_start_matches('/') == *k))
 }
 
-/// Write `cap` as a y-tal capture at `path`, atomically.
+/// Write `cap` as a y-tal capture at `path`, atomically. On a failed write (a full disk) the
+/// file is discarded explicitly, so that the HDF5 library's drop never tries to finish it and
+/// print its own line beside femto's error.
 pub fn write_tal(path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
     let io = |source| InteropError::Io {
         path: path.to_path_buf(),
@@ -56,61 +114,72 @@ pub fn write_tal(path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
     crate::atomic::write_atomically_with(path, io, |tmp| {
         let e = h5err(path);
         let file = H5File::create(tmp).map_err(&e)?;
-        let f64s = |name: &str, shape: &[usize], v: &[f64]| -> Result<(), InteropError> {
-            let ds = file
-                .new_dataset::<f64>()
-                .shape(shape)
-                .create(name)
-                .map_err(&e)?;
-            ds.write_raw(v).map_err(&e)
-        };
-        let enum_like = |name: &str, v: i32| -> Result<(), InteropError> {
-            let ds = file
-                .new_dataset::<i32>()
-                .shape([1])
-                .create(name)
-                .map_err(&e)?;
-            ds.write_raw(&[v]).map_err(&e)
-        };
+        match write_capture(&file, path, cap) {
+            Ok(()) => file.close().map_err(&e),
+            Err(err) => {
+                file.discard();
+                Err(err)
+            }
+        }
+    })
+}
+
+/// The datasets of `cap` into the open `file` (`path` names it in errors).
+fn write_capture(file: &H5File, path: &Path, cap: &TalCapture) -> Result<(), InteropError> {
+    let e = h5err(path);
+    let f64s = |name: &str, shape: &[usize], v: &[f64]| -> Result<(), InteropError> {
         let ds = file
-            .new_dataset::<f32>()
-            .shape([cap.nt, cap.sx, cap.sy])
-            .create("H")
+            .new_dataset::<f64>()
+            .shape(shape)
+            .create(name)
             .map_err(&e)?;
-        ds.write_raw(&cap.h).map_err(&e)?;
-        enum_like("H_format", H_FORMAT_T_SX_SY)?;
-        f64s("sensor_xyz", &[3], &cap.sensor_xyz_m)?;
-        let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
-        f64s(
-            "sensor_grid_xyz",
+        ds.write_raw(v).map_err(&e)
+    };
+    let enum_like = |name: &str, v: i32| -> Result<(), InteropError> {
+        let ds = file
+            .new_dataset::<i32>()
+            .shape([1])
+            .create(name)
+            .map_err(&e)?;
+        ds.write_raw(&[v]).map_err(&e)
+    };
+    let ds = file
+        .new_dataset::<f32>()
+        .shape([cap.nt, cap.sx, cap.sy])
+        .create("H")
+        .map_err(&e)?;
+    ds.write_raw(&cap.h).map_err(&e)?;
+    enum_like("H_format", H_FORMAT_T_SX_SY)?;
+    f64s("sensor_xyz", &[3], &cap.sensor_xyz_m)?;
+    let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
+    f64s(
+        "sensor_grid_xyz",
+        &[cap.sx, cap.sy, 3],
+        &flat(&cap.sensor_grid_xyz_m),
+    )?;
+    if let Some(n) = &cap.sensor_grid_normals {
+        f64s("sensor_grid_normals", &[cap.sx, cap.sy, 3], &flat(n))?;
+    }
+    enum_like("sensor_grid_format", GRID_FORMAT_X_Y_3)?;
+    f64s("laser_xyz", &[3], &cap.laser_xyz_m)?;
+    match cap.laser_grid_xyz_m {
+        LaserSpot::Single(spot) => f64s("laser_grid_xyz", &[1, 1, 3], &spot)?,
+        LaserSpot::Confocal => f64s(
+            "laser_grid_xyz",
             &[cap.sx, cap.sy, 3],
             &flat(&cap.sensor_grid_xyz_m),
-        )?;
-        if let Some(n) = &cap.sensor_grid_normals {
-            f64s("sensor_grid_normals", &[cap.sx, cap.sy, 3], &flat(n))?;
-        }
-        enum_like("sensor_grid_format", GRID_FORMAT_X_Y_3)?;
-        f64s("laser_xyz", &[3], &cap.laser_xyz_m)?;
-        match cap.laser_grid_xyz_m {
-            LaserSpot::Single(spot) => f64s("laser_grid_xyz", &[1, 1, 3], &spot)?,
-            LaserSpot::Confocal => f64s(
-                "laser_grid_xyz",
-                &[cap.sx, cap.sy, 3],
-                &flat(&cap.sensor_grid_xyz_m),
-            )?,
-        }
-        enum_like("laser_grid_format", GRID_FORMAT_X_Y_3)?;
-        f64s("delta_t", &[], &[cap.delta_t_m])?;
-        f64s("t_start", &[], &[cap.t_start_m])?;
-        let ds = file
-            .new_dataset::<HBool>()
-            .scalar()
-            .create("t_accounts_first_and_last_bounces")
-            .map_err(&e)?;
-        ds.write_raw(&[HBool::from(cap.t_accounts_first_and_last_bounces)])
-            .map_err(&e)?;
-        file.close().map_err(&e)
-    })
+        )?,
+    }
+    enum_like("laser_grid_format", GRID_FORMAT_X_Y_3)?;
+    f64s("delta_t", &[], &[cap.delta_t_m])?;
+    f64s("t_start", &[], &[cap.t_start_m])?;
+    let ds = file
+        .new_dataset::<HBool>()
+        .scalar()
+        .create("t_accounts_first_and_last_bounces")
+        .map_err(&e)?;
+    ds.write_raw(&[HBool::from(cap.t_accounts_first_and_last_bounces)])
+        .map_err(&e)
 }
 
 /// The values of a numeric dataset (integer, float, enum or bool, little-endian) as f64.
@@ -225,8 +294,10 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
     };
     let point = |k: &str| -> Result<[f64; 3], InteropError> {
         let (_, v) = read(k)?;
-        <[f64; 3]>::try_from(v.as_slice())
-            .map_err(|_| invalid(path, k, format!("expected 3 numbers, found {}", v.len())))
+        let p = <[f64; 3]>::try_from(v.as_slice())
+            .map_err(|_| invalid(path, k, format!("expected 3 numbers, found {}", v.len())))?;
+        check_device(path, k, &p)?;
+        Ok(p)
     };
 
     let h_format = scalar("H_format")?;
@@ -251,15 +322,29 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         }
         Ok(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
     };
+    // Entry i of a (Sx, Sy) grid is [x][y].
+    let xy = |i: usize| format!("[{}][{}]", i / sy, i % sy);
     let sensor_grid_xyz_m = grid("sensor_grid_xyz")?;
+    check_grid(
+        path,
+        "sensor_grid_xyz",
+        &sensor_grid_xyz_m,
+        ranges::COORD_M,
+        xy,
+    )?;
     // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
     let sensor_grid_normals = match has("sensor_grid_normals") {
         true if !read("sensor_grid_normals")?.1.is_empty() => Some(grid("sensor_grid_normals")?),
         _ => None,
     };
+    if let Some(n) = &sensor_grid_normals {
+        check_grid(path, "sensor_grid_normals", n, ranges::DIRECTION, xy)?;
+    }
     let (lshape, lv) = read("laser_grid_xyz")?;
     let laser_grid_xyz_m = if lv.len() == 3 {
-        LaserSpot::Single([lv[0], lv[1], lv[2]])
+        let spot = [lv[0], lv[1], lv[2]];
+        check_point(path, "laser_grid_xyz", &spot, ranges::COORD_M)?;
+        LaserSpot::Single(spot)
     } else if lshape == [sx, sy, 3] && is_confocal_grid(&lv, &sensor_grid_xyz_m) {
         LaserSpot::Confocal
     } else {
@@ -274,21 +359,27 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
             format!("shape {lshape:?}: {what}; femto reads one laser spot or a confocal scan (split the capture in y-tal: get_single_subdata_from_laser_point)"),
         ));
     };
-    let delta_t_m = scalar("delta_t")?;
-    if delta_t_m <= 0.0 {
-        return Err(invalid(
-            path,
-            "delta_t",
-            format!("{delta_t_m} m, must be > 0"),
-        ));
-    }
+    // Optical path lengths: a bin width and a time in metres ([`ranges::BIN_WIDTH_PS`],
+    // [`ranges::TIME_PS`] times c); `delta_t = 1e-300` was ingested as a cube of 3e-297 ps bins.
+    let delta_t_m = in_range(
+        path,
+        "delta_t",
+        scalar("delta_t")?,
+        ranges::BIN_WIDTH_PS.scaled(C_M_PER_PS, " m"),
+    )?;
+    let t_start_m = in_range(
+        path,
+        "t_start",
+        scalar("t_start")?,
+        ranges::TIME_PS.scaled(C_M_PER_PS, " m"),
+    )?;
     Ok(TalCapture {
         nt,
         sx,
         sy,
         h,
         delta_t_m,
-        t_start_m: scalar("t_start")?,
+        t_start_m,
         t_accounts_first_and_last_bounces: scalar("t_accounts_first_and_last_bounces")? != 0.0,
         sensor_xyz_m: point("sensor_xyz")?,
         sensor_grid_xyz_m,
@@ -354,16 +445,22 @@ pub fn geometry_from_group(
     let key = |k: &str| format!("/{GROUP}/{k}");
     let point = |k: &str| -> Result<[f64; 3], InteropError> {
         match data.attr(k) {
-            Some(AttrValue::F64Array(v)) if v.len() == 3 => Ok([v[0], v[1], v[2]]),
+            Some(AttrValue::F64Array(v)) if v.len() == 3 => {
+                let p = [v[0], v[1], v[2]];
+                check_device(path, &key(k), &p)?;
+                Ok(p)
+            }
             _ => Err(invalid(path, &key(k), "expected an attribute of 3 numbers")),
         }
     };
-    let number = |k: &str| -> Result<f64, InteropError> {
+    let number = |k: &str, range: ranges::Range| -> Result<f64, InteropError> {
         match data.attr(k) {
-            Some(AttrValue::F64(v)) => Ok(*v),
+            Some(AttrValue::F64(v)) => in_range(path, &key(k), *v, range),
             _ => Err(invalid(path, &key(k), "expected a number attribute")),
         }
     };
+    // Entry i of a [y][x] grid.
+    let yx = |i: usize| format!("[{}][{}]", i / nx, i % nx);
     let grid = |k: &str| -> Result<Option<Vec<[f64; 3]>>, InteropError> {
         match data.dataset(k) {
             None => Ok(None),
@@ -377,10 +474,22 @@ pub fn geometry_from_group(
             )),
         }
     };
+    let sensor_grid_m =
+        grid("sensor_grid_m")?.ok_or_else(|| invalid(path, &key("sensor_grid_m"), "missing"))?;
+    check_grid(
+        path,
+        &key("sensor_grid_m"),
+        &sensor_grid_m,
+        ranges::COORD_M,
+        yx,
+    )?;
+    let sensor_normals = grid("sensor_normals")?;
+    if let Some(n) = &sensor_normals {
+        check_grid(path, &key("sensor_normals"), n, ranges::DIRECTION, yx)?;
+    }
     Ok(TalGeometry {
-        sensor_grid_m: grid("sensor_grid_m")?
-            .ok_or_else(|| invalid(path, &key("sensor_grid_m"), "missing"))?,
-        sensor_normals: grid("sensor_normals")?,
+        sensor_grid_m,
+        sensor_normals,
         sensor_m: point("sensor_m")?,
         laser_origin_m: point("laser_origin_m")?,
         laser_spot_m: match data.attr("confocal") {
@@ -388,8 +497,8 @@ pub fn geometry_from_group(
             None => LaserSpot::Single(point("laser_spot_m")?),
             Some(_) => return Err(invalid(path, &key("confocal"), "expected the integer 1")),
         },
-        t_spot_ps: number("t_spot_ps")?,
-        time_scale: number("time_scale")?,
+        t_spot_ps: number("t_spot_ps", ranges::TIME_PS)?,
+        time_scale: number("time_scale", ranges::TIME_SCALE)?,
     })
 }
 

@@ -464,6 +464,28 @@ pub fn check_options(options: &RenderOptions) -> Result<(), StageError> {
             );
         }
     }
+    // Times in their meaningful ranges ([`crate::ranges`]), after the messages above.
+    for (name, v, range) in [
+        (
+            StageOption::DtauPs,
+            options.dtau_ps,
+            crate::ranges::INTERVAL_PS,
+        ),
+        (
+            StageOption::TimeOffsetPs,
+            options.time_offset_ps,
+            crate::ranges::TIME_PS,
+        ),
+        (
+            StageOption::ContourPs,
+            options.contour_ps,
+            crate::ranges::INTERVAL_PS,
+        ),
+    ] {
+        if let Some(Err(e)) = v.map(|v| crate::ranges::check("", v, range)) {
+            return bad(name, e.detail());
+        }
+    }
     if !(options.exposure.is_finite() && options.exposure > 0.0) {
         return bad(
             StageOption::Exposure,

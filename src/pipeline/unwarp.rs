@@ -432,6 +432,15 @@ fn output_axis(
                     ),
                 });
             }
+            for (flag, v, range) in [
+                ("--t0-ps", a.t0_ps, crate::ranges::TIME_PS),
+                ("--dt-ps", a.dt_ps, crate::ranges::BIN_WIDTH_PS),
+            ] {
+                crate::ranges::check(flag, v, range).map_err(|e| StageError::Option {
+                    name: StageOption::OutputAxis,
+                    message: e.to_string(),
+                })?;
+            }
             a
         }
         None => match dist_range_m {

@@ -143,10 +143,10 @@ pub struct Axis {
     pub values: Option<Vec<f64>>,
 }
 
-/// The shortest bin width femto accepts, ps (an attosecond): below it an axis is absurd.
-pub const MIN_DT_PS: f64 = 1e-6;
-/// The longest bin width, ps (1000 s).
-pub const MAX_DT_PS: f64 = 1e15;
+/// The shortest bin width femto accepts, ps ([`crate::ranges::BIN_WIDTH_PS`]).
+pub const MIN_DT_PS: f64 = crate::ranges::BIN_WIDTH_PS.lo;
+/// The longest bin width, ps ([`crate::ranges::BIN_WIDTH_PS`]).
+pub const MAX_DT_PS: f64 = crate::ranges::BIN_WIDTH_PS.hi;
 
 /// The time axis a file records, in ps.
 #[derive(Clone, Debug, PartialEq)]
@@ -171,13 +171,7 @@ impl TimeSpec {
         dt_ps: f64,
     ) -> Result<TimeSpec, ReaderError> {
         check_dt(path, key, dt_ps)?;
-        if !(t0_ps.is_finite() && t0_ps.abs() < 1e18) {
-            return Err(ReaderError::invalid(
-                path,
-                key,
-                format!("time offset {t0_ps} ps"),
-            ));
-        }
+        check_time(path, key, t0_ps)?;
         Ok(TimeSpec::Uniform { t0_ps, dt_ps })
     }
 
@@ -220,16 +214,18 @@ impl TimeSpec {
     }
 }
 
-/// A bin width that is finite and within [`MIN_DT_PS`]..[`MAX_DT_PS`].
+/// A bin width in [`crate::ranges::BIN_WIDTH_PS`].
 pub fn check_dt(path: &Path, key: &str, dt_ps: f64) -> Result<(), ReaderError> {
-    if dt_ps.is_finite() && (MIN_DT_PS..=MAX_DT_PS).contains(&dt_ps) {
-        return Ok(());
-    }
-    Err(ReaderError::invalid(
-        path,
-        key,
-        format!("bin width {dt_ps} ps: must be between {MIN_DT_PS} and {MAX_DT_PS} ps"),
-    ))
+    crate::ranges::check("bin width", dt_ps, crate::ranges::BIN_WIDTH_PS)
+        .map(|_| ())
+        .map_err(|e| ReaderError::invalid(path, key, format!("bin width {}", e.detail())))
+}
+
+/// A time (an axis's start) in [`crate::ranges::TIME_PS`].
+pub fn check_time(path: &Path, key: &str, t_ps: f64) -> Result<(), ReaderError> {
+    crate::ranges::check("time", t_ps, crate::ranges::TIME_PS)
+        .map(|_| ())
+        .map_err(|e| ReaderError::invalid(path, key, format!("time offset {}", e.detail())))
 }
 
 /// How to read a file: which dataset or variable, and whether time comes before x.

@@ -146,19 +146,34 @@ impl LightProfile {
                 pixels: 0,
             };
         }
-        let n = nt + ((hi - lo) / dt_ps).ceil() as usize + 2;
+        // Bins of the cube's width, widened where the delays span more than
+        // MAX_PROFILE_BINS of them (a tiny dt_ps or a large time_scale: 1e-6 ps asked 6.4 GB
+        // per thread, and a count never checked indexed past the profile).
+        let span_ps = (hi - lo) + nt as f64 * dt_ps;
+        let bin_ps = dt_ps.max(span_ps / (MAX_PROFILE_BINS - 2) as f64);
+        let n = ((span_ps / bin_ps).ceil() as usize + 2).min(MAX_PROFILE_BINS);
+        // Cube bins per profile bin: 1 unless widened.
+        let step = dt_ps / bin_ps;
         let sums = delays
             .par_iter()
             .fold(
                 || vec![0.0f64; n],
                 |mut acc, &(pix, d)| {
                     let prefix = w.prefix.pixel(pix);
-                    let u = (d - lo) / dt_ps;
+                    let u = (d - lo) / bin_ps;
                     let (j0, frac) = (u.floor() as usize, u - u.floor());
                     for i in 0..nt {
                         let v = prefix.bin(i);
-                        acc[j0 + i] += v * (1.0 - frac);
-                        acc[j0 + i + 1] += v * frac;
+                        let (j, f) = if step == 1.0 {
+                            (j0 + i, frac)
+                        } else {
+                            let u = u + i as f64 * step;
+                            (u.floor() as usize, u - u.floor())
+                        };
+                        if j + 1 < n {
+                            acc[j] += v * (1.0 - f);
+                            acc[j + 1] += v * f;
+                        }
                     }
                     acc
                 },
@@ -172,7 +187,7 @@ impl LightProfile {
             );
         LightProfile {
             origin_ps: t0_ps + lo,
-            dt_ps,
+            dt_ps: bin_ps,
             sums,
             pixels: delays.len(),
         }
@@ -214,6 +229,10 @@ impl LightProfile {
 pub fn light_span(scene: &RenderScene, fraction: f64) -> Option<LightSpan> {
     LightProfile::world(scene).span(fraction)
 }
+
+/// Most bins of a [`LightProfile`] (8 MB of sums per thread): delays spanning more bins of
+/// the cube's width are summed into wider bins.
+pub const MAX_PROFILE_BINS: usize = 1 << 20;
 
 /// Most pixels summed by a [`LightProfile`]: larger images are read on a regular grid of
 /// every `s`-th pixel in x and y, which keeps a profile to tens of milliseconds.

@@ -23,7 +23,7 @@ pub(super) const MAX_SUBDIVISIONS: u32 = 7;
 /// The range of `eta`: from vacuum to well beyond any transparent medium (water 1.33,
 /// diamond 2.42, germanium about 4 in the infrared). A larger index multiplies every flight
 /// time and the world-time axis with it (`eta = 1e19` asked for an impossible allocation).
-pub const ETA_RANGE: (f64, f64) = (1.0, 10.0);
+pub const ETA_RANGE: (f64, f64) = (crate::ranges::ETA.lo, crate::ranges::ETA.hi);
 /// The largest pulse width, fs (1 ns): far beyond femtosecond lasers, small enough that the
 /// pulse's time response stays a bounded number of bins (4294967296 fs hung the tracer).
 /// The pulse must also be shorter than the camera's time window.
@@ -32,8 +32,12 @@ pub const MAX_PULSE_WIDTH_FS: f64 = 1e6;
 /// target, every vertex after its entry's transform): the tracer casts rays in `f32`, which
 /// loses millimetres beyond about 1e4 m and turns coordinates above 3.4e38 into infinities.
 pub const MAX_EXTENT_M: f64 = 1e4;
-/// The range of `camera.dt_ps`: a femtosecond to a microsecond per bin.
-pub const DT_PS_RANGE: (f64, f64) = (1e-3, 1e6);
+/// The range of `camera.dt_ps`: a femtosecond to a microsecond per bin
+/// ([`crate::ranges::BIN_WIDTH_PS`], the range of every bin width femto reads).
+pub const DT_PS_RANGE: (f64, f64) = (
+    crate::ranges::BIN_WIDTH_PS.lo,
+    crate::ranges::BIN_WIDTH_PS.hi,
+);
 /// The range of `laser.wavelength_nm`: soft X-rays to far infrared (the Doppler-shifted
 /// colour and the CIE tables need a positive, finite wavelength).
 pub const WAVELENGTH_NM_RANGE: (f64, f64) = (1.0, 1e6);

@@ -59,6 +59,13 @@ impl GroupView<'_> {
         }
     }
 
+    /// Attribute `name`, a number in `range` ([`crate::ranges`]).
+    pub fn f64_in(&self, name: &str, range: crate::ranges::Range) -> Result<f64, StoreError> {
+        let x = self.f64(name)?;
+        crate::ranges::check(format_args!("attribute '{name}'"), x, range)
+            .map_err(|e| self.schema(e.to_string()))
+    }
+
     pub fn usize(&self, name: &str) -> Result<usize, StoreError> {
         match self.data.attr(name) {
             Some(AttrValue::I64(v)) if *v >= 0 => Ok(*v as usize),

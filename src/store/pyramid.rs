@@ -136,8 +136,8 @@ pub fn info_from_attrs(
     let frame = TimeFrame::parse(frame_s)
         .ok_or_else(|| v.schema(format!("attribute 'time_frame' is '{frame_s}'")))?;
     let axis = TimeAxis {
-        t0_ps: v.f64("t0_ps")?,
-        dt_ps: v.f64("dt_ps")?,
+        t0_ps: v.f64_in("t0_ps", crate::ranges::TIME_PS)?,
+        dt_ps: v.f64_in("dt_ps", crate::ranges::BIN_WIDTH_PS)?,
         nt: v.usize("nt")?,
     };
     if !(axis.t0_ps.is_finite() && axis.dt_ps.is_finite() && axis.dt_ps > 0.0 && axis.nt > 0) {

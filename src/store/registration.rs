@@ -179,7 +179,11 @@ pub fn from_group(path: &Path, data: &GroupData) -> Result<StoredRegistration, S
     let triangle = v.typed::<u32>("triangle", &[ny, nx])?.to_vec();
     let mask = v.typed::<u8>("mask", &[ny, nx])?.to_vec();
     let camera_m = match data.attr("camera_m") {
-        Some(AttrValue::F64Array(c)) if c.len() == 3 => Point3::new(c[0], c[1], c[2]),
+        Some(AttrValue::F64Array(c)) if c.len() == 3 => {
+            crate::ranges::check_point("attribute 'camera_m'", c, crate::ranges::COORD_M)
+                .map_err(|e| v.schema(e.to_string()))?;
+            Point3::new(c[0], c[1], c[2])
+        }
         _ => return Err(v.schema("attribute 'camera_m' is not 3 numbers")),
     };
     let fit = if data.attr("points").is_some() {

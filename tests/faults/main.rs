@@ -13,6 +13,7 @@ mod cli;
 mod consistency;
 mod numbers;
 mod outputs;
+mod ranges;
 mod sizes;
 
 use std::path::Path;
@@ -89,6 +90,41 @@ fn copy_into(from: &Path, to: &Path) {
     } else {
         std::fs::copy(from, to).unwrap_or_else(|e| panic!("{}: {e}", from.display()));
     }
+}
+
+/// The cube at `from` written to `to` as another tool would write it, through the HDF5
+/// library itself (femto's writer refuses an axis out of range): `/cube` with its values and
+/// its attributes `t0_ps`, `dt_ps` (after `edit`), `time_frame` and `units`; no mask, no
+/// groups.
+pub fn bare_cube(from: &Path, to: &Path, edit: impl FnOnce(&mut femto::cube::TimeAxis)) {
+    let cube = femto::container::read_cube(from).unwrap();
+    let units = femto::container::read_meta(from).unwrap().units;
+    let mut axis = cube.axis;
+    edit(&mut axis);
+    let f = rust_hdf5::H5File::create(to).unwrap();
+    let ds = f
+        .new_dataset::<f32>()
+        .shape([cube.ny, cube.nx, axis.nt])
+        .create("cube")
+        .unwrap();
+    ds.write_raw(&cube.data).unwrap();
+    for (k, v) in [("t0_ps", axis.t0_ps), ("dt_ps", axis.dt_ps)] {
+        ds.new_attr::<f64>()
+            .shape(())
+            .create(k)
+            .unwrap()
+            .write_numeric(&v)
+            .unwrap();
+    }
+    for (k, v) in [("time_frame", cube.frame.as_str()), ("units", &units)] {
+        ds.new_attr::<rust_hdf5::VarLenUnicode>()
+            .shape(())
+            .create(k)
+            .unwrap()
+            .write_string(v)
+            .unwrap();
+    }
+    f.close().unwrap();
 }
 
 /// The fixture chain itself runs with defaults and exit 0 (what every case starts from).

@@ -21,6 +21,7 @@
 
 #[path = "../common/cli.rs"]
 mod cli;
+mod extremes;
 mod mutate;
 mod regressions;
 mod seeds;
@@ -103,10 +104,23 @@ pub struct Target {
     pub ext: &'static str,
     /// Valid files to mutate.
     pub seeds: Vec<Vec<u8>>,
-    /// Apply the TOML/CSV text mutations too.
-    pub text: bool,
+    /// How the seeds are mutated.
+    pub mutation: Mutation,
     /// Read the case file; `Err` is a refusal (fine), a panic is a failure.
     pub read: fn(&Path) -> Result<(), String>,
+}
+
+/// How a target's seeds are mutated ([`mutate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mutation {
+    /// Byte mutations only (binary files).
+    Bytes,
+    /// Byte and TOML/CSV text mutations.
+    Text,
+    /// Numbers of a text seed replaced by extreme finite values only (1e308, subnormals, 0,
+    /// huge counts; [`mutate::extreme_mutation`]): the file stays well-formed, so every case
+    /// reaches the range checks and what comes after them (issue 28).
+    Extremes,
 }
 
 /// What one target's run found.
@@ -239,7 +253,10 @@ pub fn run(target: &Target, cases: u64) -> Report {
         let data = if case < n_seeds {
             target.seeds[case as usize].clone()
         } else {
-            mutate::mutate(&mut rng, &target.seeds, target.text)
+            match target.mutation {
+                Mutation::Extremes => mutate::extreme_mutation(&mut rng, &target.seeds),
+                m => mutate::mutate(&mut rng, &target.seeds, m == Mutation::Text),
+            }
         };
         std::fs::write(&file, &data).expect("write the case file");
         PEAK_REQUEST_BYTES.store(0, Ordering::SeqCst);

@@ -75,6 +75,48 @@ const EXTREME_NUMBERS: [&str; 14] = [
     "1e19",
 ];
 
+/// Finite numbers at the edges of what an f64 or a count holds (issue 28: a bin width of
+/// 1e-300 ps, a keyframe at 1e308 ps, a time scale of 1e9 passed every finiteness check).
+const EXTREME_FINITE: [&str; 16] = [
+    "1e308",
+    "-1e308",
+    "1.7976931348623157e308",
+    "5e-324",
+    "-5e-324",
+    "2.2250738585072014e-308",
+    "1e-300",
+    "1e-6",
+    "0",
+    "0.0",
+    "1e300",
+    "1e15",
+    "65536",
+    "1e9",
+    "4294967296",
+    "9007199254740993",
+];
+
+/// A copy of one of `seeds` with one to three of its numbers replaced by values of
+/// [`EXTREME_FINITE`]; nothing else changes, so the file still parses.
+pub fn extreme_mutation(rng: &mut impl RngCore, seeds: &[Vec<u8>]) -> Vec<u8> {
+    let mut data = seeds[rng.random_range(0..seeds.len())].clone();
+    for _ in 0..rng.random_range(1..4) {
+        // Values only: not the digits of a key such as `t0_ps`.
+        let values: Vec<(usize, usize)> = tokens(&data)
+            .numbers
+            .into_iter()
+            .filter(|&(a, _)| {
+                a == 0 || !(data[a - 1].is_ascii_alphanumeric() || data[a - 1] == b'_')
+            })
+            .collect();
+        if let Some((a, b)) = pick(rng, &values) {
+            let new = EXTREME_FINITE[rng.random_range(0..EXTREME_FINITE.len())];
+            data.splice(a..b, new.bytes());
+        }
+    }
+    data
+}
+
 /// A mutated copy of one of `seeds` (`text` adds the text mutations).
 pub fn mutate(rng: &mut impl RngCore, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
     let mut data = seeds[rng.random_range(0..seeds.len())].clone();

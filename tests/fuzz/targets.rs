@@ -5,7 +5,7 @@
 //! shows up here rather than in a command.
 
 use super::seeds::{self, file, repo_file, scanlines};
-use super::{check, Target};
+use super::{check, Mutation, Target};
 use std::path::Path;
 
 fn s<E: std::fmt::Display>(e: E) -> String {
@@ -38,7 +38,7 @@ fn img() {
                 v.push(seeds::img16());
                 v
             },
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_streak,
         },
         300,
@@ -52,7 +52,7 @@ fn png() {
             name: "png",
             ext: "png",
             seeds: scanlines("png", 2),
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_streak,
         },
         200,
@@ -66,7 +66,7 @@ fn exr() {
             name: "exr",
             ext: "exr",
             seeds: scanlines("exr", 2),
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_streak,
         },
         300,
@@ -80,7 +80,7 @@ fn tiff() {
             name: "tiff",
             ext: "tif",
             seeds: seeds::tiffs(),
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_streak,
         },
         200,
@@ -94,7 +94,7 @@ fn hdr() {
             name: "hdr",
             ext: "hdr",
             seeds: vec![seeds::hdr()],
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_streak,
         },
         150,
@@ -126,7 +126,7 @@ fn glb() {
             name: "glb",
             ext: "glb",
             seeds: vec![file("cap/scene.glb")],
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_mesh,
         },
         400,
@@ -140,7 +140,7 @@ fn gltf() {
             name: "gltf",
             ext: "gltf",
             seeds: vec![seeds::gltf_from_glb(&file("cap/scene.glb"))],
-            text: true,
+            mutation: Mutation::Text,
             read: read_mesh,
         },
         300,
@@ -154,7 +154,7 @@ fn obj() {
             name: "obj",
             ext: "obj",
             seeds: vec![seeds::OBJ.as_bytes().to_vec()],
-            text: true,
+            mutation: Mutation::Text,
             read: read_mesh,
         },
         300,
@@ -185,7 +185,7 @@ fn cube() {
             name: "cube",
             ext: "h5",
             seeds: vec![file("cube.h5")],
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_cube_file,
         },
         150,
@@ -205,7 +205,7 @@ fn pyramid() {
             name: "pyramid",
             ext: "h5",
             seeds: vec![file("world.h5")],
-            text: false,
+            mutation: Mutation::Bytes,
             read: read_pyramid,
         },
         100,
@@ -227,7 +227,7 @@ fn manifest() {
             name: "manifest",
             ext: "toml",
             seeds: vec![file("cap/manifest.toml")],
-            text: true,
+            mutation: Mutation::Text,
             read: read_manifest,
         },
         300,
@@ -252,14 +252,14 @@ fn scene() {
                 Scene::builtin_toml("cube", None).unwrap().into_bytes(),
                 Scene::builtin_toml("cornell", None).unwrap().into_bytes(),
             ],
-            text: true,
+            mutation: Mutation::Text,
             read: read_scene,
         },
         200,
     );
 }
 
-fn read_path(path: &Path) -> Result<(), String> {
+pub(super) fn read_path(path: &Path) -> Result<(), String> {
     let p = femto::camera_path::CameraPath::load(path).map_err(s)?;
     let last = p.spec().frames.saturating_sub(1);
     for k in [0, last / 2, last] {
@@ -279,7 +279,7 @@ fn camera_path() {
                 .iter()
                 .map(|n| repo_file(&format!("examples/paths/{n}.toml")))
                 .collect(),
-            text: true,
+            mutation: Mutation::Text,
             read: read_path,
         },
         400,
@@ -300,7 +300,7 @@ fn calibration() {
             name: "calibration",
             ext: "toml",
             seeds: vec![file("cap/calibration.toml"), file("cube.calibration.toml")],
-            text: true,
+            mutation: Mutation::Text,
             read: read_calibration,
         },
         300,
@@ -322,7 +322,7 @@ fn points_toml() {
                 repo_file("examples/points/cube.toml"),
                 file("cap/fiducials.toml"),
             ],
-            text: true,
+            mutation: Mutation::Text,
             read: read_points,
         },
         100,
@@ -336,7 +336,7 @@ fn points_csv() {
             name: "points_csv",
             ext: "csv",
             seeds: vec![repo_file("examples/points/cube.csv")],
-            text: true,
+            mutation: Mutation::Text,
             read: read_points,
         },
         300,

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use super::super::corrections::RefRegion;
 use crate::ingest::{IngestError, IngestValue};
+use crate::ranges;
 
 /// The dark signal asked for.
 #[derive(Clone, Debug, PartialEq)]
@@ -109,17 +110,16 @@ impl IngestOptions {
                 });
             }
         }
-        for (what, v) in [
-            (IngestValue::DtPs, self.dt_ps),
-            (IngestValue::T0Ps, self.t0_ps),
+        for (what, v, range) in [
+            (IngestValue::DtPs, self.dt_ps, ranges::BIN_WIDTH_PS),
+            (IngestValue::T0Ps, self.t0_ps, ranges::TIME_PS),
         ] {
             if let Some(v) = v {
-                let ok = v.is_finite() && (what == IngestValue::T0Ps || v > 0.0);
-                if !ok {
+                if let Err(e) = ranges::check("", v, range) {
                     return Err(IngestError::BadValue {
                         what,
-                        value: v.to_string(),
-                        message: "must be finite (and dt_ps > 0)".into(),
+                        value: crate::limits::short_number(v),
+                        message: e.requirement(),
                     });
                 }
             }
