@@ -47,7 +47,7 @@ fn render_small<'a>(cube: &'a str, calibration: &'a str) -> Vec<&'a str> {
 }
 
 /// Finding 1: a world cube with bins of 1e-300 ps and 1e-6 ps is refused by `info`,
-/// `render` and `pyramid`, naming the file and `dt_ps`; so is a bin of 1e7 ps (10 us) and a
+/// `render` and `pyramid`, naming the file and `dt_ps`; so is a bin of 1e10 ps (10 ms) and a
 /// start at 1e308 ps. `unwarp` refuses a camera cube's likewise, where the attribute is read
 /// (it was refused before by the unwarp's covering axis, "capacity overflow" before that).
 #[test]
@@ -63,7 +63,7 @@ fn cube_axes_outside_their_range_are_refused_where_they_are_read() {
     let cases: [(Edit, &str, &str); 4] = [
         (|a| a.dt_ps = 1e-300, "dt_ps", "1e-300"),
         (|a| a.dt_ps = 1e-6, "dt_ps", "1e-6"),
-        (|a| a.dt_ps = 1e7, "dt_ps", "10000000"),
+        (|a| a.dt_ps = 1e10, "dt_ps", "10000000000"),
         (|a| a.t0_ps = 1e308, "t0_ps", "1e308"),
     ];
     for (edit, attr, shown) in cases {
