@@ -21,7 +21,7 @@ for flags in "--quick" ""; do
         rm -rf "$out"
         load=$(cut -d' ' -f1 /proc/loadavg)
         # shellcheck disable=SC2086
-        /usr/bin/time -f "%e %U %S %M" -o "$WORK/time.txt" "$FEMTO" demo $flags --out "$out" >/dev/null
+        /usr/bin/time -f "%e %U %S %M" -o "$WORK/time.txt" "$FEMTO" demo $flags --out "$out" >/dev/null 2>"$WORK/stderr.txt"
         awk -v name="demo ${flags:-(full)}" -v load="$load" \
             '{ printf "%-16s %8.1f %8.1f %8.2f %10s\n", name, $1, $2 + $3, $4 / 1048576, load }' \
             "$WORK/time.txt"
