@@ -28,8 +28,8 @@ pub struct ViewArgs {
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PORT)]
     pub port: u16,
     /// Address to listen on. The default serves this machine only (reach it from elsewhere
-    /// through an SSH tunnel); any other address serves everyone who can reach it, with a
-    /// warning.
+    /// through an SSH tunnel); any other address serves everyone who can reach it and holds
+    /// the token of the printed URL, with a warning.
     #[arg(long, value_name = "ADDR", default_value_t = IpAddr::V4(Ipv4Addr::LOCALHOST))]
     pub bind: IpAddr,
     /// Open the page in the desktop's browser (xdg-open, or open on macOS).
