@@ -276,8 +276,8 @@ function bind() {
 }
 
 // The server refuses a POST that does not say what it sends (docs/view.md, "Access").
-async function api(method, url, body, type = 'application/json') {
-  const headers = body === undefined ? {} : { 'Content-Type': type };
+async function api(method, url, body, contentType = 'application/json') {
+  const headers = body === undefined ? {} : { 'Content-Type': contentType };
   const r = await fetch(url, { method, body, headers, credentials: 'same-origin' });
   if (!r.ok) { const text = (await r.text()).trim(); $('status').textContent = text; throw new Error(text); }
   const type = r.headers.get('Content-Type') || '';
