@@ -142,14 +142,15 @@ fn parse_status_kb(text: &str, field: &str) -> Option<u64> {
 }
 
 /// The soft limit of `resource` (the one the kernel enforces), bytes; None when unlimited.
+/// (`rlim_t` is `u64` on Linux, not on every Unix: hence the conversions.)
 #[cfg(unix)]
+#[allow(clippy::useless_conversion)]
 fn soft_rlimit_bytes(resource: i32) -> Option<u64> {
     let mut limit = libc::rlimit {
         rlim_cur: 0,
         rlim_max: 0,
     };
     // SAFETY: getrlimit writes one rlimit through a valid pointer to a local.
-    #[allow(clippy::useless_conversion)]
     let rc = unsafe { libc::getrlimit(resource as _, &mut limit) };
     if rc != 0 || limit.rlim_cur == libc::RLIM_INFINITY {
         return None;

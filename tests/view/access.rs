@@ -60,7 +60,12 @@ fn only_the_token_holder_on_this_servers_own_names_and_origin_is_answered() {
     assert_eq!(status, 403);
 
     // The token by header, by query (which sets the cookie) and by that cookie: 200.
-    let (status, _, _) = request_with("GET", &format!("{url}/api/info"), None, &[auth.clone()]);
+    let (status, _, _) = request_with(
+        "GET",
+        &format!("{url}/api/info"),
+        None,
+        std::slice::from_ref(&auth),
+    );
     assert_eq!(status, 200);
     let (status, headers, page) = request_with("GET", &format!("{url}/?token={token}"), None, &[]);
     assert_eq!(status, 200);
