@@ -11,7 +11,8 @@
 //! proper time per frame (the page's Play), so every frame is a new state. Three runs of
 //! 300 frames are reported: full size (640 x 480, JPEG quality 85), the reduced size the page
 //! asks for while the camera moves (scale 0.5), and full size as PNG stills over HTTP
-//! (`/api/still`, the renderer's own output) for comparison.
+//! (`/api/still`, the renderer's own output) for comparison. The client sends the server's
+//! token (`Authorization: token ...`) as a script would (docs/view.md, "Access").
 //!
 //! Run: `cargo bench --bench view`.
 
@@ -23,8 +24,9 @@ use femto::geometry::bvh::Bvh;
 use femto::pipeline::render::{LaserWavelength, RenderInputs, WavelengthSource};
 use femto::pyramid::Pyramid;
 use femto::scene::Scene;
-use femto::view::{server, ViewSession, ViewState};
+use femto::view::{server, Access, ViewSession, ViewState};
 use std::time::Instant;
+use tungstenite::client::IntoClientRequest;
 use tungstenite::Message;
 
 const THREADS: usize = 2;
@@ -73,8 +75,14 @@ fn start_state(session: &ViewSession) -> ViewState {
 }
 
 /// Frames per second and mean bytes per frame of `FRAMES` frames on the WebSocket.
-fn stream(url: &str, session: &ViewSession, scale: f64) -> (f64, f64) {
-    let (mut socket, _) = tungstenite::connect(url.replace("http://", "ws://") + "ws").unwrap();
+fn stream(url: &str, token: &str, session: &ViewSession, scale: f64) -> (f64, f64) {
+    let mut request = (url.replace("http://", "ws://") + "ws")
+        .into_client_request()
+        .unwrap();
+    request
+        .headers_mut()
+        .insert("Authorization", format!("token {token}").parse().unwrap());
+    let (mut socket, _) = tungstenite::connect(request).unwrap();
     let mut state = start_state(session);
     let mut bytes = 0usize;
     let mut server_ms = 0.0;
@@ -103,7 +111,7 @@ fn stream(url: &str, session: &ViewSession, scale: f64) -> (f64, f64) {
 }
 
 /// Stills per second over HTTP.
-fn stills(url: &str, session: &ViewSession) -> (f64, f64) {
+fn stills(url: &str, token: &str, session: &ViewSession) -> (f64, f64) {
     let agent = ureq::Agent::new_with_defaults();
     let mut state = start_state(session);
     let mut bytes = 0usize;
@@ -113,6 +121,8 @@ fn stills(url: &str, session: &ViewSession) -> (f64, f64) {
         let body = serde_json::to_vec(&state).unwrap();
         let mut r = agent
             .post(format!("{url}api/still"))
+            .header("Authorization", format!("token {token}"))
+            .header("Content-Type", "application/json")
             .send(&body[..])
             .unwrap();
         bytes += r.body_mut().read_to_vec().unwrap().len();
@@ -131,23 +141,25 @@ fn main() {
     let session = ViewSession::new(&inputs, "--cube world.h5".into()).expect("a session");
     let (http, addr) = server::bind("127.0.0.1:0".parse().unwrap()).expect("a port");
     let url = format!("http://{addr}/");
+    let access = Access::new(addr).expect("a token");
+    let token = access.token().to_string();
     std::thread::scope(|scope| {
-        scope.spawn(|| server::serve(&http, &session));
+        scope.spawn(|| server::serve(&http, &session, &access));
         // One warm-up pass (first-touch of the prefix sums, the auto exposure).
-        stream(&url, &session, 0.25);
-        let (fps, bytes) = stream(&url, &session, 1.0);
+        stream(&url, &token, &session, 0.25);
+        let (fps, bytes) = stream(&url, &token, &session, 1.0);
         println!(
             "femto view, 640 x 480, every effect, JPEG q85 over a WebSocket, {THREADS} threads: \
              {fps:.1} frames/s ({:.1} kB a frame)",
             bytes / 1e3
         );
-        let (fps, bytes) = stream(&url, &session, 0.5);
+        let (fps, bytes) = stream(&url, &token, &session, 0.5);
         println!(
             "femto view, 320 x 240 (while moving), JPEG q85 over a WebSocket, {THREADS} threads: \
              {fps:.1} frames/s ({:.1} kB a frame)",
             bytes / 1e3
         );
-        let (fps, bytes) = stills(&url, &session);
+        let (fps, bytes) = stills(&url, &token, &session);
         println!(
             "femto view, 640 x 480 PNG stills over HTTP, {THREADS} threads: {fps:.1} stills/s \
              ({:.1} kB a still)",

@@ -1,5 +1,7 @@
 //! Bounds on what a command may ask of the machine, checked before anything is allocated or
-//! walked: a memory estimate against the memory this machine has available, and counts
+//! walked: a memory estimate against the memory this process may use (its budget: the least
+//! of the machine's available memory, the process's `ulimit -v` and `ulimit -d` less what it
+//! already maps, and its cgroup's memory limit; [`budget`]), and counts
 //! derived from user numbers (a span divided by a step, a frame count) capped before a loop
 //! or a `Vec` sees them.
 //!
@@ -9,8 +11,13 @@
 
 use std::fmt;
 
+pub mod budget;
+
+pub use budget::{memory_budget, MemoryBudget, MemorySource};
+
 /// Environment variable that overrides the memory this machine is taken to have available
-/// (bytes), for tests and for users who share a machine.
+/// (bytes), for tests and for users who share a machine. It stands for `MemAvailable`; the
+/// process's own limits (`ulimit -v`, `ulimit -d`, its cgroup's) still bind when lower.
 pub const MEMORY_LIMIT_ENV: &str = "FEMTO_MEMORY_LIMIT_BYTES";
 
 /// The largest count any loop or allocation derived from a user number may reach (2^40):
@@ -21,9 +28,9 @@ pub const MAX_COUNT: u64 = 1 << 40;
 /// A request the machine cannot or must not serve.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LimitError {
-    /// The estimate exceeds the memory available.
+    /// The estimate exceeds the memory this process may use.
     #[error(
-        "{what} needs about {}, more than the {} this machine has available; {fix}",
+        "{what} needs about {}, more than the {} {limit}; {fix}",
         human_bytes(*needed_bytes),
         human_bytes(*available_bytes as f64)
     )]
@@ -31,6 +38,8 @@ pub enum LimitError {
         what: String,
         needed_bytes: f64,
         available_bytes: u64,
+        /// The limit that sets `available_bytes`.
+        limit: MemorySource,
         fix: String,
     },
     /// A count derived from user numbers is not finite, negative or above its cap.
@@ -82,46 +91,38 @@ pub fn human_bytes(bytes: f64) -> String {
     }
 }
 
-/// The memory this machine has available for one command, in bytes: the environment
-/// override [`MEMORY_LIMIT_ENV`] if set, else `MemAvailable` of `/proc/meminfo`, else 8 GB
-/// (a machine whose memory cannot be read is taken to be a modest one).
+/// The memory this process may use for one command, bytes: [`memory_budget`]'s figure (the
+/// least of the machine's available memory or [`MEMORY_LIMIT_ENV`], the address-space and
+/// data-segment limits less what the process maps, and its cgroup's limit less its working
+/// set).
 pub fn available_memory_bytes() -> u64 {
-    if let Some(v) = std::env::var(MEMORY_LIMIT_ENV)
+    memory_budget().bytes
+}
+
+/// The override [`MEMORY_LIMIT_ENV`], when set to a number of bytes.
+fn memory_override_bytes() -> Option<u64> {
+    std::env::var(MEMORY_LIMIT_ENV)
         .ok()
         .and_then(|s| s.trim().parse::<u64>().ok())
-    {
-        return v;
-    }
-    meminfo_available().unwrap_or(8_000_000_000)
-}
-
-fn meminfo_available() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    parse_meminfo_available(&text)
-}
-
-fn parse_meminfo_available(text: &str) -> Option<u64> {
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kb.checked_mul(1024)
 }
 
 /// Refuse when `needed_bytes` (an estimate; `f64` so that products of user numbers cannot
-/// overflow) exceeds the memory available. `what` says what needs it ("the world cube of
+/// overflow) exceeds the memory this process may use ([`memory_budget`]). `what` says what needs it ("the world cube of
 /// 512 x 512 x 1000000000 bins"), `fix` the flag that would help ("lower --nt").
 pub fn check_memory(
     needed_bytes: f64,
     what: impl fmt::Display,
     fix: &str,
 ) -> Result<(), LimitError> {
-    let available = available_memory_bytes();
-    if needed_bytes.is_finite() && needed_bytes <= available as f64 {
+    let budget = memory_budget();
+    if needed_bytes.is_finite() && needed_bytes <= budget.bytes as f64 {
         return Ok(());
     }
     Err(LimitError::Memory {
         what: what.to_string(),
         needed_bytes,
-        available_bytes: available,
+        available_bytes: budget.bytes,
+        limit: budget.source,
         fix: fix.to_string(),
     })
 }
@@ -154,8 +155,8 @@ mod tests {
     #[test]
     fn meminfo_is_read_in_kilobytes() {
         let text = "MemTotal: 24000000 kB\nMemFree: 100 kB\nMemAvailable:   2048 kB\n";
-        assert_eq!(parse_meminfo_available(text), Some(2048 * 1024));
-        assert_eq!(parse_meminfo_available("MemTotal: 1 kB\n"), None);
+        assert_eq!(budget::parse_meminfo_available(text), Some(2048 * 1024));
+        assert_eq!(budget::parse_meminfo_available("MemTotal: 1 kB\n"), None);
     }
 
     #[test]

@@ -1052,6 +1052,53 @@ fn cli_errors_name_the_flag_and_leave_no_output() {
     assert!(!dir.join("o11").exists());
 }
 
+/// `femto render --size 16384x16384` under `ulimit -v 4000000` (about 4.1 GB of address
+/// space; the machine may have far more RAM): the render needs about 17 GB, so it is refused
+/// before it allocates, in one line that names --size, the need and the budget, exit 2, and
+/// nothing is left in the folder (no staging folder). It used to abort on a 6.4 GB
+/// allocation, its staging folder left behind, the check having compared with MemAvailable.
+#[test]
+fn a_render_beyond_the_address_space_limit_is_refused_before_it_allocates() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let (cube, cal, mesh) = write_cube_scene(dir);
+    let out_dir = dir.join("out");
+    std::fs::create_dir(&out_dir).unwrap();
+    let out = std::process::Command::new("sh")
+        .current_dir(&out_dir)
+        .arg("-c")
+        .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_femto"))
+        .arg("render")
+        .arg("--cube")
+        .arg(&cube)
+        .arg("--calibration")
+        .arg(&cal)
+        .arg("--mesh")
+        .arg(&mesh)
+        .args(["--capture-view", "--size", "16384x16384", "--out", "big"])
+        .env_remove("FEMTO_MEMORY_LIMIT_BYTES")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("--size"), "{err}");
+    assert!(
+        err.contains("ulimit -v"),
+        "names the limit that binds: {err}"
+    );
+    // Both figures: the need (about 17 GB) and the budget (under 4.1 GB).
+    let figures: Vec<f64> = err
+        .split(" GB")
+        .filter_map(|before| before.rsplit(' ').next()?.parse().ok())
+        .collect();
+    assert_eq!(figures.len(), 2, "{err}");
+    assert!(figures[0] > 16.0 && figures[1] < 4.1, "{err}");
+    let left: Vec<_> = std::fs::read_dir(&out_dir).unwrap().collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
 #[test]
 fn shortcut_paths_keep_the_target_in_the_centre_of_the_image() {
     use femto::render::paths::{scene_target, shortcut_path, Shortcut};

@@ -3,15 +3,17 @@
 //!
 //! ```text
 //! femto view --cube world.h5 --calibration capture.toml --mesh scene.glb --open
-//! ssh -L 8765:127.0.0.1:8765 lab-workstation   # then open http://127.0.0.1:8765/ here
+//! ssh -L 8765:127.0.0.1:8765 lab-workstation   # then open the printed URL here
 //! ```
 //!
 //! Opens the inputs as `femto render` does (the same flags, [`super::render_inputs`]),
-//! binds the server, prints its URL as the first line of stdout, and serves until Ctrl-C.
+//! binds the server, prints its URL with this run's token
+//! (`http://127.0.0.1:8765/?token=...`) as the first line of stdout, and serves until
+//! Ctrl-C.
 
 use anyhow::anyhow;
 use clap::Args;
-use femto::view::{server, ViewSession};
+use femto::view::{server, Access, ViewSession};
 use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 
@@ -26,8 +28,8 @@ pub struct ViewArgs {
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PORT)]
     pub port: u16,
     /// Address to listen on. The default serves this machine only (reach it from elsewhere
-    /// through an SSH tunnel); any other address serves everyone who can reach it, with a
-    /// warning.
+    /// through an SSH tunnel); any other address serves everyone who can reach it and holds
+    /// the token of the printed URL, with a warning.
     #[arg(long, value_name = "ADDR", default_value_t = IpAddr::V4(Ipv4Addr::LOCALHOST))]
     pub bind: IpAddr,
     /// Open the page in the desktop's browser (xdg-open, or open on macOS).
@@ -43,7 +45,8 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let session = ViewSession::new(&inputs, args.inputs.shell_flags())?;
     let (http, bound) = server::bind(SocketAddr::new(args.bind, args.port))
         .map_err(|e| anyhow!("--port {} --bind {}: {e}", args.port, args.bind))?;
-    let url = format!("http://{bound}/");
+    let access = Access::new(bound).map_err(|e| anyhow!("femto view: a token: {e}"))?;
+    let url = access.url();
     // The URL first, alone on its line, for scripts (`--port 0`).
     let mut out = std::io::stdout();
     writeln!(out, "{url}")?;
@@ -53,20 +56,23 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     }
     if !args.bind.is_loopback() {
         eprintln!(
-            "femto view: warning: serving on {} to anyone who can reach this machine; the \
-             page has no login. Prefer the default 127.0.0.1 and an SSH tunnel",
+            "femto view: warning: serving on {} to anyone who can reach this machine and \
+             holds the token, over plain HTTP. Prefer the default 127.0.0.1 and an SSH tunnel",
             args.bind
         );
     }
     let cube = &session.info().cube;
     eprintln!(
-        "femto view: {} x {} x {} cube; open {url} (Ctrl-C stops)",
-        cube.nx, cube.ny, cube.nt
+        "femto view: {} x {} x {} cube; open {url} (Ctrl-C stops; {} frames render at once)",
+        cube.nx,
+        cube.ny,
+        cube.nt,
+        session.max_renders()
     );
     if args.open {
         open_browser(&url);
     }
-    server::serve(&http, &session);
+    server::serve(&http, &session, &access);
     Ok(())
 }
 

@@ -3,19 +3,19 @@
 //!
 //! Only the embedded assets and the routes below answer; no part of a request's path or
 //! body ever names a file. Every refusal is one line of text with status 400 (a bad state,
-//! query or body), 404 (no such route), 405 (a route without that method) or 413 (a body
-//! over [`MAX_BODY_BYTES`]).
+//! query or body), 404 (no such route), 405 (a route without that method), 413 (a body
+//! over [`MAX_BODY_BYTES`], or a frame larger than the memory budget) or 503 (every render
+//! slot busy, or no memory free for the frame now; [`super::admission`]). Who may ask is
+//! decided before, by [`super::access`].
 
+use super::admission::Refusal;
 use super::assets;
 use super::session::{ViewError, ViewSession};
-use super::state::{BadState, ViewState};
+use super::state::{BadState, FrameOptions, ViewState};
 
 /// Largest request body accepted, bytes (a state is about 600 bytes; a path file of the
 /// most keyframes a session keeps about 400 kB).
 pub const MAX_BODY_BYTES: usize = 4 << 20;
-
-/// Default JPEG quality of interactive frames.
-pub const DEFAULT_JPEG_QUALITY: u8 = 85;
 
 /// A reply: status, content type, body and extra headers.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,7 +53,7 @@ impl Reply {
         .status(status)
     }
 
-    fn status(mut self, status: u16) -> Reply {
+    pub fn status(mut self, status: u16) -> Reply {
         self.status = status;
         self
     }
@@ -64,6 +64,12 @@ impl From<ViewError> for Reply {
         match e {
             ViewError::Encode(_) => Reply::error(500, e),
             ViewError::State(_) | ViewError::Render(_) => Reply::error(400, e),
+            ViewError::Admission(Refusal::TooLarge { .. }) => Reply::error(413, e),
+            ViewError::Admission(Refusal::Busy(_)) => {
+                let mut r = Reply::error(503, e);
+                r.headers.push(("Retry-After", "1".into()));
+                r
+            }
         }
     }
 }
@@ -74,46 +80,27 @@ impl From<BadState> for Reply {
     }
 }
 
-/// The query parameters of `/api/frame`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameQuery {
-    /// Fraction of the state's size, in (0, 1].
-    pub scale: f64,
-    pub quality: u8,
-}
-
-impl Default for FrameQuery {
-    fn default() -> Self {
-        FrameQuery {
-            scale: 1.0,
-            quality: DEFAULT_JPEG_QUALITY,
-        }
-    }
-}
-
-/// Parse `scale=0.5&quality=80`; unknown keys and bad values are refused.
-pub fn parse_frame_query(query: &str) -> Result<FrameQuery, String> {
-    let mut q = FrameQuery::default();
+/// Parse `scale=0.5&quality=80`; unknown keys and bad values are refused, the ranges by
+/// [`FrameOptions::check`] as on the WebSocket.
+pub fn parse_frame_query(query: &str) -> Result<FrameOptions, String> {
+    let mut q = FrameOptions::default();
     for pair in query.split('&').filter(|p| !p.is_empty()) {
         let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
         match key {
             "scale" => {
                 q.scale = value
                     .parse::<f64>()
-                    .ok()
-                    .filter(|s| s.is_finite() && *s > 0.0 && *s <= 1.0)
-                    .ok_or_else(|| format!("scale={value}: must be a number in (0, 1]"))?
+                    .map_err(|_| format!("scale={value}: must be a number in (0, 1]"))?
             }
             "quality" => {
                 q.quality = value
-                    .parse::<u8>()
-                    .ok()
-                    .filter(|q| (1..=100).contains(q))
-                    .ok_or_else(|| format!("quality={value}: must be an integer from 1 to 100"))?
+                    .parse::<i64>()
+                    .map_err(|_| format!("quality={value}: must be an integer from 1 to 100"))?
             }
             _ => return Err(format!("unknown query parameter '{key}' (scale, quality)")),
         }
     }
+    q.check().map_err(|e| e.to_string())?;
     Ok(q)
 }
 
@@ -149,7 +136,7 @@ pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Re
                 Err(e) => return Reply::error(400, e),
             };
             match ViewState::from_json(body) {
-                Ok(state) => match session.frame_jpeg(&state, q.scale, q.quality) {
+                Ok(state) => match session.frame_jpeg(&state, q) {
                     Ok((jpeg, hud)) => {
                         let mut r = Reply::ok("image/jpeg", jpeg);
                         r.headers.push((
@@ -244,7 +231,7 @@ mod tests {
 
     #[test]
     fn frame_queries_parse_and_bad_ones_are_refused() {
-        assert_eq!(parse_frame_query("").unwrap(), FrameQuery::default());
+        assert_eq!(parse_frame_query("").unwrap(), FrameOptions::default());
         let q = parse_frame_query("scale=0.5&quality=70").unwrap();
         assert_eq!((q.scale, q.quality), (0.5, 70));
         for bad in [

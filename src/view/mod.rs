@@ -16,9 +16,13 @@
 //! - `session`: the opened scene, the keyframes, stills, frames and heads-up numbers;
 //! - `keyframes`: keyframes to a camera path, a camera path to states;
 //! - `api`: the HTTP API as a function from request to reply (docs/view.md);
+//! - `access`: who is answered (token, `Host`, `Origin`, content type);
+//! - `admission`: how many frames render at once, within the memory budget;
 //! - `server`: the sockets (tiny_http, tungstenite);
 //! - `assets`: the embedded page.
 
+pub mod access;
+pub mod admission;
 pub mod api;
 pub mod assets;
 pub mod keyframes;
@@ -26,5 +30,6 @@ pub mod server;
 pub mod session;
 pub mod state;
 
+pub use access::Access;
 pub use session::{Hud, ViewError, ViewSession};
-pub use state::ViewState;
+pub use state::{FrameOptions, ViewState};

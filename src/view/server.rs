@@ -7,10 +7,15 @@
 //! socket and thread; each socket renders one state at a time, and the page sends its
 //! newest state only when the frame before has arrived, so frames never queue up behind a
 //! moving camera.
+//!
+//! Every request, the WebSocket's upgrade included, first passes [`Access::check`] (token,
+//! `Host`, `Origin`, content type); renders then pass the session's admission (as many at
+//! once as rayon has threads, within the memory budget).
 
+use super::access::{Access, Granted, RequestHead};
 use super::api::{self, Reply, MAX_BODY_BYTES};
 use super::session::ViewSession;
-use super::state::ViewState;
+use super::state::{FrameOptions, ViewState, DEFAULT_JPEG_QUALITY};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::net::SocketAddr;
@@ -27,14 +32,41 @@ pub fn bind(addr: SocketAddr) -> Result<(tiny_http::Server, SocketAddr), String>
     Ok((server, bound))
 }
 
-/// Serve `session` on `server` until the process ends (the binary's interrupt handler
-/// ends it on Ctrl-C). A thread per request; requests never touch the file system.
-pub fn serve(server: &tiny_http::Server, session: &ViewSession) {
+/// Serve `session` on `server` to the clients that `access` lets in, until the process
+/// ends (the binary's interrupt handler ends it on Ctrl-C). A thread per request; requests
+/// never touch the file system. When no thread can be started (memory or thread limits),
+/// the request is refused as busy and the server goes on.
+pub fn serve(server: &tiny_http::Server, session: &ViewSession, access: &Access) {
     std::thread::scope(|scope| {
         for request in server.incoming_requests() {
-            scope.spawn(move || answer(session, request));
+            let (tx, rx) = std::sync::mpsc::sync_channel::<tiny_http::Request>(1);
+            let spawned = std::thread::Builder::new()
+                .name("femto-view-request".into())
+                .spawn_scoped(scope, move || {
+                    if let Ok(request) = rx.recv() {
+                        answer(session, access, request)
+                    }
+                });
+            let refused = match spawned {
+                Ok(_) => tx.send(request).err().map(|e| e.0),
+                Err(_) => Some(request),
+            };
+            if let Some(request) = refused {
+                let _ = request.respond(to_response(Reply::error(
+                    503,
+                    "busy: no thread could be started for this request; try again",
+                )));
+            }
         }
     });
+}
+
+fn header_value<'r>(request: &'r tiny_http::Request, name: &'static str) -> Option<&'r str> {
+    request
+        .headers()
+        .iter()
+        .find(|h| h.field.equiv(name))
+        .map(|h| h.value.as_str())
 }
 
 fn header_is(request: &tiny_http::Request, name: &'static str, value: &str) -> bool {
@@ -47,15 +79,37 @@ fn header_is(request: &tiny_http::Request, name: &'static str, value: &str) -> b
     })
 }
 
-fn answer(session: &ViewSession, mut request: tiny_http::Request) {
-    let url = request.url().to_string();
+fn answer(session: &ViewSession, access: &Access, mut request: tiny_http::Request) {
+    let method = request.method().as_str().to_ascii_uppercase();
+    let websocket = header_is(&request, "Upgrade", "websocket");
+    let checked = access.check(&RequestHead {
+        method: &method,
+        url: request.url(),
+        host: header_value(&request, "Host"),
+        origin: header_value(&request, "Origin"),
+        authorization: header_value(&request, "Authorization"),
+        cookies: request
+            .headers()
+            .iter()
+            .filter(|h| h.field.equiv("Cookie"))
+            .map(|h| h.value.as_str())
+            .collect(),
+        content_type: header_value(&request, "Content-Type"),
+        websocket,
+    });
+    let Granted { url, set_cookie } = match checked {
+        Ok(granted) => granted,
+        Err(refusal) => {
+            let _ = request.respond(to_response(refusal));
+            return;
+        }
+    };
     let path = url.split('?').next().unwrap_or("");
-    if path == "/ws" && header_is(&request, "Upgrade", "websocket") {
+    if path == "/ws" && websocket {
         return frame_stream(session, request);
     }
-    let method = request.method().as_str().to_ascii_uppercase();
     let mut body = Vec::new();
-    let reply = match request
+    let mut reply = match request
         .as_reader()
         .take(MAX_BODY_BYTES as u64 + 1)
         .read_to_end(&mut body)
@@ -63,6 +117,9 @@ fn answer(session: &ViewSession, mut request: tiny_http::Request) {
         Ok(_) => api::handle(session, &method, &url, &body),
         Err(e) => Reply::error(400, format!("reading the request body: {e}")),
     };
+    if let Some(cookie) = set_cookie.filter(|_| reply.status == 200) {
+        reply.headers.push(("Set-Cookie", cookie));
+    }
     let _ = request.respond(to_response(reply));
 }
 
@@ -84,7 +141,7 @@ fn to_response(reply: Reply) -> tiny_http::Response<std::io::Cursor<Vec<u8>>> {
 }
 
 /// A frame request on the WebSocket: a state, its sequence number and the frame's scale
-/// and JPEG quality.
+/// and JPEG quality (checked as `/api/frame`'s, [`FrameOptions::check`]).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FrameRequest {
@@ -92,7 +149,7 @@ pub struct FrameRequest {
     #[serde(default = "full_scale")]
     pub scale: f64,
     #[serde(default = "default_quality")]
-    pub quality: u8,
+    pub quality: i64,
     pub state: ViewState,
 }
 
@@ -100,8 +157,8 @@ fn full_scale() -> f64 {
     1.0
 }
 
-fn default_quality() -> u8 {
-    api::DEFAULT_JPEG_QUALITY
+fn default_quality() -> i64 {
+    DEFAULT_JPEG_QUALITY
 }
 
 /// The header of a frame sent on the WebSocket.
@@ -173,10 +230,14 @@ pub fn frame_reply(session: &ViewSession, request: &[u8]) -> Message {
         Ok(r) => r,
         Err(e) => return refuse(None, format!("frame request: {e}")),
     };
-    if let Err(e) = req.state.check() {
+    let options = FrameOptions {
+        scale: req.scale,
+        quality: req.quality,
+    };
+    if let Err(e) = options.check().and_then(|_| req.state.check()) {
         return refuse(Some(req.seq), e.to_string());
     }
-    match session.frame_jpeg(&req.state, req.scale, req.quality) {
+    match session.frame_jpeg(&req.state, options) {
         Ok((jpeg, hud)) => {
             let header =
                 serde_json::to_vec(&FrameHeader { seq: req.seq, hud }).expect("headers serialise");

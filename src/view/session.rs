@@ -4,8 +4,9 @@
 //! [`render_sequence`], on the state's one-frame path ([`ViewState::path`]): the code and
 //! defaults of `femto render`.
 
+use super::admission::{self, Admission, Permit, Refusal};
 use super::keyframes::{export_path, frames_of_path, LoadedPath};
-use super::state::{BadState, ViewName, ViewState};
+use super::state::{BadState, FrameOptions, ViewName, ViewState};
 use crate::camera_path::CameraPath;
 use crate::pipeline::render::{plan, Camera, Plan, RenderInputs};
 use crate::pipeline::StageError;
@@ -17,13 +18,16 @@ use std::sync::{Mutex, RwLock};
 
 /// Why a request for a frame was refused: a bad state (the client's fault, HTTP 400) or a
 /// render the stage refuses for this state (also 400: the path passes through the geometry,
-/// say), or an encoder failure (500).
+/// say), a frame that does not fit in memory (413) or not now (503), or an encoder failure
+/// (500).
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {
     #[error(transparent)]
     State(#[from] BadState),
     #[error("{0}")]
     Render(String),
+    #[error(transparent)]
+    Admission(#[from] Refusal),
     #[error("encoding the frame: {0}")]
     Encode(String),
 }
@@ -97,6 +101,21 @@ pub struct ViewSession<'a> {
     info: SessionInfo,
     keyframes: Mutex<Vec<ViewState>>,
     latest: Mutex<ViewState>,
+    /// How many frames render at once, within the memory budget.
+    admission: Admission,
+}
+
+/// Memory a render of one frame holds besides its pixels: its thread's stack and a malloc
+/// arena (64 MiB of address space each on glibc), bytes.
+const RENDER_OVERHEAD_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
+
+/// Memory a frame of `width` x `height` takes while it renders and is encoded, bytes: the
+/// render stage's per-pixel buffers ([`crate::pipeline::render::BYTES_PER_FRAME_PIXEL`]), the
+/// 8-bit sRGB copy (3) and the encoded image (at most 3 more), and
+/// [`RENDER_OVERHEAD_BYTES`].
+pub fn frame_memory_bytes(width: usize, height: usize) -> f64 {
+    let pixels = width as f64 * height as f64;
+    pixels * (crate::pipeline::render::BYTES_PER_FRAME_PIXEL + 6.0) + RENDER_OVERHEAD_BYTES
 }
 
 /// World times tried for the first picture ([`ViewSession::brightest_time_ps`]).
@@ -158,6 +177,7 @@ impl<'a> ViewSession<'a> {
             info,
             keyframes: Mutex::new(Vec::new()),
             latest: Mutex::new(capture_state),
+            admission: Admission::new(rayon::current_num_threads()),
         };
         let t = session.brightest_time_ps()?;
         session.info.capture_state.t_world_ps = t;
@@ -201,10 +221,27 @@ impl<'a> ViewSession<'a> {
             .clone()
     }
 
+    /// How many frames render at once (the rayon threads).
+    pub fn max_renders(&self) -> usize {
+        self.admission.max_renders()
+    }
+
     /// Render `state`'s frame: 8-bit sRGB pixels and the heads-up numbers, through the
     /// render stage's plan of the state's one-frame path.
     pub fn render_srgb8(&self, state: &ViewState) -> Result<(Vec<u8>, Hud), ViewError> {
+        let (srgb8, hud, _permit) = self.render_admitted(state)?;
+        Ok((srgb8, hud))
+    }
+
+    /// [`Self::render_srgb8`], once admitted ([`admission`]): the permit is held until the
+    /// caller has encoded the frame.
+    fn render_admitted(&self, state: &ViewState) -> Result<(Vec<u8>, Hud, Permit<'_>), ViewError> {
         state.check()?;
+        let permit = self.admission.admit(
+            frame_memory_bytes(state.width, state.height),
+            format_args!("a frame of {} x {}", state.width, state.height),
+            admission::WAIT,
+        )?;
         let started = std::time::Instant::now();
         let path = state.path()?;
         let render = |scene: &RenderScene| -> Result<(Vec<u8>, Hud), ViewError> {
@@ -238,40 +275,34 @@ impl<'a> ViewSession<'a> {
         let (srgb8, mut hud) = self.with_scene(state.laser_nm, render)?;
         hud.render_ms = started.elapsed().as_secs_f64() * 1e3;
         *self.latest.lock().unwrap_or_else(|p| p.into_inner()) = state.clone();
-        Ok((srgb8, hud))
+        Ok((srgb8, hud, permit))
     }
 
     /// The still of `state`: the PNG that `femto render --path` writes for the state's
     /// one-frame path with the state's flags ([`ViewState::path_toml`]), byte for byte.
     pub fn still_png(&self, state: &ViewState) -> Result<Vec<u8>, ViewError> {
-        let (srgb8, _) = self.render_srgb8(state)?;
+        let (srgb8, _, _permit) = self.render_admitted(state)?;
         let mut png = Vec::new();
         crate::video::encode_png(&srgb8, state.width, state.height, &mut png)
             .map_err(|e| ViewError::Encode(e.to_string()))?;
         Ok(png)
     }
 
-    /// An interactive frame: `state` at `scale` of its size, as JPEG of `quality` (1-100),
-    /// with its heads-up numbers.
+    /// An interactive frame: `state` at `options.scale` of its size, as JPEG of
+    /// `options.quality`, with its heads-up numbers. The options are checked here
+    /// ([`FrameOptions::check`]), for the HTTP API and the WebSocket alike.
     pub fn frame_jpeg(
         &self,
         state: &ViewState,
-        scale: f64,
-        quality: u8,
+        options: FrameOptions,
     ) -> Result<(Vec<u8>, Hud), ViewError> {
-        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-            return Err(BadState {
-                field: "scale".into(),
-                message: format!("{scale}: must be in (0, 1]"),
-            }
-            .into());
-        }
+        options.check()?;
         state.check()?;
         let started = std::time::Instant::now();
-        let scaled = state.scaled(scale);
-        let (srgb8, mut hud) = self.render_srgb8(&scaled)?;
+        let scaled = state.scaled(options.scale);
+        let (srgb8, mut hud, _permit) = self.render_admitted(&scaled)?;
         let mut jpeg = Vec::with_capacity(srgb8.len() / 8);
-        jpeg_encoder::Encoder::new(&mut jpeg, quality.clamp(1, 100))
+        jpeg_encoder::Encoder::new(&mut jpeg, options.quality as u8)
             .encode(
                 &srgb8,
                 scaled.width as u16,

@@ -109,6 +109,49 @@ fn bad(field: &str, message: String) -> BadState {
     }
 }
 
+/// Default JPEG quality of interactive frames.
+pub const DEFAULT_JPEG_QUALITY: i64 = 85;
+
+/// The size and JPEG quality of an interactive frame: the query of `/api/frame` and the
+/// fields of a frame request on the WebSocket, checked by one function for both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameOptions {
+    /// Fraction of the state's size, in (0, 1].
+    pub scale: f64,
+    /// JPEG quality, 1 to 100 (wider than `u8` so that every number a client may send is
+    /// refused with the same words).
+    pub quality: i64,
+}
+
+impl Default for FrameOptions {
+    fn default() -> Self {
+        FrameOptions {
+            scale: 1.0,
+            quality: DEFAULT_JPEG_QUALITY,
+        }
+    }
+}
+
+impl FrameOptions {
+    /// The range checks of the HTTP API and the WebSocket: `scale` in (0, 1], `quality`
+    /// from 1 to 100.
+    pub fn check(&self) -> Result<(), BadState> {
+        if !(self.scale.is_finite() && self.scale > 0.0 && self.scale <= 1.0) {
+            return Err(bad(
+                "scale",
+                format!("{}: must be a number in (0, 1]", self.scale),
+            ));
+        }
+        if !(1..=100).contains(&self.quality) {
+            return Err(bad(
+                "quality",
+                format!("{}: must be an integer from 1 to 100", self.quality),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Largest world time a state may name, ps (a hundred seconds: far beyond any capture).
 const MAX_TIME_PS: f64 = 1e14;
 
@@ -322,6 +365,35 @@ pub(crate) mod tests {
             exposure: 1.0,
             laser_nm: 670.0,
         }
+    }
+
+    #[test]
+    fn frame_options_out_of_range_are_refused_naming_the_field() {
+        assert!(FrameOptions::default().check().is_ok());
+        for (scale, quality, field) in [
+            (0.0, 85, "scale"),
+            (1.5, 85, "scale"),
+            (f64::NAN, 85, "scale"),
+            (1.0, 0, "quality"),
+            (1.0, 101, "quality"),
+            (1.0, 255, "quality"),
+            (1.0, -1, "quality"),
+        ] {
+            let e = FrameOptions { scale, quality }.check().unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+        }
+        assert!(FrameOptions {
+            scale: 0.25,
+            quality: 1
+        }
+        .check()
+        .is_ok());
+        assert!(FrameOptions {
+            scale: 1.0,
+            quality: 100
+        }
+        .check()
+        .is_ok());
     }
 
     #[test]

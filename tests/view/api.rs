@@ -165,8 +165,7 @@ fn the_frame_stream_answers_each_request_with_its_sequence_number_or_a_reason() 
     let fx = fixture();
     let server = Server::start(&fx.root);
     let info = info(&server);
-    let ws_url = server.url.replace("http://", "ws://") + "/ws";
-    let (mut socket, _) = tungstenite::connect(&ws_url).expect("the WebSocket opens");
+    let mut socket = server.ws();
     let state = moving_state(&info, 0.3);
     socket
         .send(Message::text(
@@ -211,7 +210,7 @@ fn the_frame_stream_answers_each_request_with_its_sequence_number_or_a_reason() 
         .unwrap();
     assert!(matches!(socket.read().unwrap(), Message::Binary(_)));
     // A second tab: both sockets in flight at once, each answered.
-    let (mut other, _) = tungstenite::connect(&ws_url).expect("a second WebSocket");
+    let mut other = server.ws();
     for seq in 10..14 {
         let small = json!({"seq": seq, "scale": 0.25, "state": state}).to_string();
         socket.send(Message::text(small.clone())).unwrap();

@@ -190,6 +190,17 @@ impl Drop for Browser {
     }
 }
 
+/// The standard deviation of a screenshot's grey levels and the fraction of its pixels
+/// brighter than 40: a blank page has neither.
+fn screenshot_spread(png: &Path) -> (f64, f64) {
+    let img = image::open(png).expect("a PNG screenshot").to_luma8();
+    let v: Vec<f64> = img.as_raw().iter().map(|&p| p as f64).collect();
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64;
+    let lit = v.iter().filter(|&&x| x > 40.0).count() as f64 / v.len() as f64;
+    (var.sqrt(), lit)
+}
+
 #[test]
 #[cfg_attr(
     femto_skip_browser,
@@ -206,14 +217,17 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
     };
     let fx = fixture();
     let server = Server::start(&fx.root);
+    // The URL femto view printed, with its token: the page's first visit sets the cookie
+    // that its requests and WebSocket carry from then on.
     browser
-        .call(
-            "POST",
-            "/url",
-            Some(json!({"url": format!("{}/", server.url)})),
-        )
+        .call("POST", "/url", Some(json!({"url": server.page_url()})))
         .expect("the page loads");
     browser.wait_settled("the first frame");
+    let shown_url = browser.run("return location.href");
+    assert!(
+        !shown_url.as_str().unwrap().contains("token"),
+        "the token stays in the address bar: {shown_url}"
+    );
     let (mean, max, before) = browser.canvas();
     assert!(
         max > 60.0 && mean > 2.0,
@@ -277,6 +291,11 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         .unwrap_or_else(|| fx.root.join("view.png"));
     browser.screenshot(&shot);
     eprintln!("screenshot of the page: {}", shot.display());
+    let (spread, lit) = screenshot_spread(&shot);
+    assert!(
+        spread > 20.0 && lit > 0.02,
+        "the screenshot is blank: spread {spread}, lit fraction {lit}"
+    );
 
     // The exported path loads back into the page (Load path) and plays to its last frame.
     let path_file = fx.root.join("browser_loaded.toml");
@@ -321,6 +340,19 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         played_to, last,
         "{frames_in_path}: play stopped before the last frame"
     );
+
+    // A reload, without the token in the URL: the cookie lets the page in, its frames come.
+    browser
+        .call("POST", "/refresh", Some(json!({})))
+        .expect("the page reloads");
+    browser.wait_settled("the first frame after a reload");
+    let (mean, max, _) = browser.canvas();
+    assert!(
+        max > 60.0 && mean > 2.0,
+        "the canvas is black after a reload: mean {mean}, max {max}"
+    );
+    let listed = browser.run("return document.querySelectorAll('#keyframes li').length");
+    assert_eq!(listed, json!(2), "the reloaded page lists the keyframes");
 
     // femto render renders the exported path; its frame 0 is the first keyframe's still.
     let frames = render_path(&fx.root, &toml, "browser_path");

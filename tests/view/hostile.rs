@@ -46,9 +46,14 @@ fn hostile_requests_get_one_line_refusals_and_the_server_goes_on() {
         "/api/keyframes/../../etc/passwd",
         "/index.html%00.png",
     ] {
+        let host = url.trim_start_matches("http://");
+        let token = &server.token;
         let (status, body) = raw_request(
             &url,
-            &format!("GET {target} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"),
+            &format!(
+                "GET {target} HTTP/1.1\r\nHost: {host}\r\nAuthorization: token {token}\r\n\
+                 Connection: close\r\n\r\n"
+            ),
         );
         assert!(matches!(status, 400 | 404 | 405), "{target}: {status}");
         assert!(
@@ -151,7 +156,7 @@ fn hostile_requests_get_one_line_refusals_and_the_server_goes_on() {
         assert_eq!(status, 405, "{method} {route}");
     }
     // Garbage on the WebSocket: refusals, then a frame.
-    let (mut socket, _) = tungstenite::connect(url.replace("http://", "ws://") + "/ws").unwrap();
+    let mut socket = server.ws();
     for junk in [
         "",
         "{",

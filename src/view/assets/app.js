@@ -1,7 +1,14 @@
 // femto view: the page. It keeps one camera state (the JSON of docs/view.md), sends it on
 // the WebSocket /ws whenever it changes and the frame before has arrived, and draws the
 // frames that come back; a frame older than the one on screen is never drawn.
+// The server let this page in by the token of its URL and set a cookie (HttpOnly,
+// SameSite=Strict) that the page's requests and WebSocket carry from then on; the token is
+// taken out of the address bar so that a reload, a bookmark or a screenshot does not show it.
 'use strict';
+
+if (new URLSearchParams(location.search).has('token')) {
+  history.replaceState(null, '', location.pathname);
+}
 
 const C_M_PER_PS = 2.99792458e-4;
 const REDUCED_SCALE = 0.5;  // frame scale while the camera moves
@@ -230,7 +237,7 @@ function bind() {
     const file = $('load-path').files[0];
     if (!file) return;
     try {
-      const loaded = await api('POST', '/api/path', await file.text());
+      const loaded = await api('POST', '/api/path', await file.text(), 'application/toml');
       loadedFrames = loaded.frames; loadedIndex = 0;
       state = JSON.parse(JSON.stringify(loadedFrames[0])); tau = 0;
       syncControls(); changed(false);
@@ -268,8 +275,10 @@ function bind() {
   });
 }
 
-async function api(method, url, body) {
-  const r = await fetch(url, { method, body });
+// The server refuses a POST that does not say what it sends (docs/view.md, "Access").
+async function api(method, url, body, contentType = 'application/json') {
+  const headers = body === undefined ? {} : { 'Content-Type': contentType };
+  const r = await fetch(url, { method, body, headers, credentials: 'same-origin' });
   if (!r.ok) { const text = (await r.text()).trim(); $('status').textContent = text; throw new Error(text); }
   const type = r.headers.get('Content-Type') || '';
   return type.startsWith('application/json') ? r.json() : r.text();
