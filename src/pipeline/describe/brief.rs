@@ -76,7 +76,7 @@ mod tests {
         assert_eq!(significant(4.000001907348633, 7), "4.000002");
         assert_eq!(significant(0.19999999999999998, 6), "0.2");
         assert_eq!(significant(-108.0, 7), "-108");
-        assert_eq!(significant(1996.0000152587890625, 7), "1996");
+        assert_eq!(significant(1_996.000_015_258_789, 7), "1996");
         assert_eq!(significant(0.000046517383, 6), "4.65174e-5");
         assert_eq!(significant(2.5e12, 6), "2.5e12");
         assert_eq!(significant(0.0, 6), "0");
