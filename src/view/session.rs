@@ -107,7 +107,7 @@ pub struct ViewSession<'a> {
 
 /// Memory a render of one frame holds besides its pixels: its thread's stack and a malloc
 /// arena (64 MiB of address space each on glibc), bytes.
-const RENDER_OVERHEAD_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
+pub const RENDER_OVERHEAD_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
 
 /// Memory a frame of `width` x `height` takes while it renders and is encoded, bytes: the
 /// render stage's per-pixel buffers ([`crate::pipeline::render::BYTES_PER_FRAME_PIXEL`]), the

@@ -89,12 +89,12 @@ const MIN_RELATIVE_SIGNAL: f64 = 0.2;
 
 /// A pixel's pulse extends, around its highest bin, while the profile stays above this
 /// fraction of the pulse height (plus one bin on each side).
-const PULSE_EXTENT: f64 = 0.1;
+pub const PULSE_EXTENT: f64 = 0.1;
 
 /// Bins added on each side of a pixel's pulse for its integral: the tails under
 /// [`PULSE_EXTENT`] of the height, which a pulse moving across the bins from row to row would
 /// otherwise cut by varying amounts.
-const INTEGRAL_MARGIN: usize = 2;
+pub const INTEGRAL_MARGIN: usize = 2;
 
 /// A pixel's window is taken to hold an edge of the scene where its misfit, or the spread
 /// of its windows' predictions, exceeds this many times the median over the capture.

@@ -3,7 +3,7 @@
 //! does). Nothing here changes a file or the JSON.
 
 /// Lists longer than this are summarised in the default text.
-const LONGEST_LIST: usize = 6;
+pub const LONGEST_LIST: usize = 6;
 
 /// `x` rounded to `digits` significant digits, without trailing zeros: `4.000001907348633`
 /// with 7 digits is `4.000002`, `0.19999999999999998` with 6 is `0.2`. Magnitudes below 1e-4
