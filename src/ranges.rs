@@ -11,7 +11,7 @@
 //! ([`crate::limits`]). The ranges are listed in `docs/faults.md` ("Ranges").
 //!
 //! [`OutOfRange`] prints as one line naming the key and the value: `dt_ps = 1e-300: must lie
-//! in [0.001, 1000000] ps`; the caller adds the file or the flag.
+//! in [0.001, 1000000000] ps`; the caller adds the file or the flag.
 
 use crate::limits::short_number;
 use std::fmt;
@@ -132,7 +132,7 @@ pub struct OutOfRange {
 }
 
 impl OutOfRange {
-    /// What the value must be, without the key and the value: `must lie in [0.001, 1000000]
+    /// What the value must be, without the key and the value: `must lie in [0.001, 1000000000]
     /// ps` (for messages that name the flag and the value their own way).
     pub fn requirement(&self) -> String {
         let r = &self.range;
@@ -147,7 +147,7 @@ impl OutOfRange {
 
 impl OutOfRange {
     /// The value and what it must be, without the key: `1e-300: must lie in [0.001,
-    /// 1000000] ps` (for messages that name the key their own way).
+    /// 1000000000] ps` (for messages that name the key their own way).
     pub fn detail(&self) -> String {
         format!("{}: {}", short_number(self.value), self.requirement())
     }

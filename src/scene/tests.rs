@@ -193,7 +193,7 @@ fn numbers_outside_their_physical_range_name_the_key_and_the_range() {
             "dt_ps = 4.0",
             "dt_ps = 1e-300",
             "camera.dt_ps",
-            "[0.001, 1000000] ps",
+            "[0.001, 1000000000] ps",
         ),
         (
             "nt = 32",

@@ -4,25 +4,13 @@
 //! checks of `/api/frame` on the WebSocket too, and concurrent large stills under an
 //! address-space limit answered (200 or 503) without the server falling over.
 
-use super::{fixture, request, request_with, Server};
+use super::{fixture, raw_request, request, request_with, Server};
 use serde_json::{json, Value};
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use tungstenite::Message;
 
 /// Send `raw` as it is and return the status line's code and the body.
 fn raw(server: &Server, raw: &str) -> (u16, String) {
-    let mut s = TcpStream::connect(server.url.trim_start_matches("http://")).unwrap();
-    s.write_all(raw.as_bytes()).unwrap();
-    let mut reply = String::new();
-    let _ = s.read_to_string(&mut reply);
-    let status = reply
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    let body = reply.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
-    (status, body)
+    raw_request(&server.url, raw)
 }
 
 fn one_line(body: &[u8]) -> String {

@@ -2,28 +2,10 @@
 //! methods, path traversal. Each gets a one-line 4xx; the server never panics, never serves
 //! anything but its own assets and API, and goes on answering.
 
-use super::{fixture, request, Server};
+use super::{fixture, raw_request, request, Server};
 use rand::{Rng, SeedableRng};
 use serde_json::{json, Value};
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::path::Path;
-
-/// Send `raw` as it is (no client normalises the path) and return the status and body.
-fn raw_request(url: &str, raw: &str) -> (u16, String) {
-    let addr = url.trim_start_matches("http://");
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.write_all(raw.as_bytes()).unwrap();
-    let mut reply = String::new();
-    let _ = s.read_to_string(&mut reply);
-    let status = reply
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    let body = reply.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
-    (status, body)
-}
 
 #[test]
 fn hostile_requests_get_one_line_refusals_and_the_server_goes_on() {

@@ -283,3 +283,19 @@ pub fn request_with(
 pub fn required() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true")
 }
+
+/// Send `raw` as it is (no client normalises the path) and return the status and body.
+pub fn raw_request(url: &str, raw: &str) -> (u16, String) {
+    let addr = url.trim_start_matches("http://");
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    std::io::Write::write_all(&mut s, raw.as_bytes()).unwrap();
+    let mut reply = String::new();
+    let _ = s.read_to_string(&mut reply);
+    let status = reply
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = reply.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
+    (status, body)
+}
