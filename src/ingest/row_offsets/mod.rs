@@ -178,19 +178,28 @@ fn pulse_peaks(row: &[f32], nt: usize) -> Vec<(f64, f64, usize)> {
         .collect()
 }
 
-/// The pixels of a scanline whose pulse is measured: `Some((base, height, peak))` where the
-/// height is at least [`MIN_RELATIVE_SIGNAL`] of the row's 90th-percentile height; all `None`
-/// when that reference is not positive.
-fn measured_pulses(row: &[f32], nx: usize, nt: usize) -> Vec<Option<(f64, f64, usize)>> {
+/// A measured pulse: the baseline, and the first and last bins of the pulse.
+type Pulse = (f64, usize, usize);
+
+/// The pixels of a scanline whose pulse is measured, each with its profile: `Some((base,
+/// first, last))` (the baseline and the pulse's bins, [`pulse_extent`]) where the height is at
+/// least [`MIN_RELATIVE_SIGNAL`] of the row's 90th-percentile height; all `None` when that
+/// reference is not positive.
+fn measured_pulses(row: &[f32], nx: usize, nt: usize) -> Vec<(&[f32], Option<Pulse>)> {
     let stats = pulse_peaks(row, nt);
     let mut heights: Vec<f64> = stats.iter().map(|s| s.1).collect();
     let reference = quantile(&mut heights, 0.9);
-    if reference.is_nan() || reference <= 0.0 {
-        return vec![None; nx];
-    }
-    stats
-        .into_iter()
-        .map(|s| (s.1 >= MIN_RELATIVE_SIGNAL * reference).then_some(s))
+    let measured = !reference.is_nan() && reference > 0.0;
+    row.chunks_exact(nt)
+        .zip(stats)
+        .map(|(p, (base, height, peak))| {
+            let pulse = (measured && height >= MIN_RELATIVE_SIGNAL * reference).then(|| {
+                let (lo, hi) = pulse_extent(p, base, height, peak);
+                (base, lo, hi)
+            });
+            (p, pulse)
+        })
+        .take(nx)
         .collect()
 }
 
@@ -223,11 +232,10 @@ pub fn pixel_pulse_times(row: &[f32], nx: usize, axis: &TimeAxis) -> Vec<Option<
     if nx == 0 || nt < 2 {
         return vec![None; nx];
     }
-    row.chunks_exact(nt)
-        .zip(measured_pulses(row, nx, nt))
+    measured_pulses(row, nx, nt)
+        .into_iter()
         .map(|(p, pulse)| {
-            let (base, height, peak) = pulse?;
-            let (lo, hi) = pulse_extent(p, base, height, peak);
+            let (base, lo, hi) = pulse?;
             let bins = &p[lo..=hi];
             if bins.iter().any(|v| !v.is_finite()) {
                 return None;
@@ -261,11 +269,10 @@ pub fn pixel_log_integrals(row: &[f32], nx: usize, nt: usize) -> Vec<Option<f64>
     if nx == 0 || nt < 2 {
         return vec![None; nx];
     }
-    row.chunks_exact(nt)
-        .zip(measured_pulses(row, nx, nt))
+    measured_pulses(row, nx, nt)
+        .into_iter()
         .map(|(p, pulse)| {
-            let (base, height, peak) = pulse?;
-            let (lo, hi) = pulse_extent(p, base, height, peak);
+            let (base, lo, hi) = pulse?;
             let (lo, hi) = (
                 lo.saturating_sub(INTEGRAL_MARGIN),
                 (hi + INTEGRAL_MARGIN).min(nt - 1),
