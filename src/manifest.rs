@@ -261,6 +261,19 @@ pub struct Saturation {
     pub level: f64,
 }
 
+/// Fiducial detection noise: the markers' pixel positions in the fiducials file carry
+/// Gaussian noise (the calibration file holds the true camera).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FiducialNoise {
+    /// Standard deviation of each coordinate in the photo the markers were found in, pixels.
+    pub photo_px: f64,
+    /// Width of that photo, pixels.
+    pub photo_width_px: f64,
+    /// Standard deviation of each pixel coordinate in the fiducials file, capture pixels.
+    pub sigma_px: f64,
+}
+
 /// `[imperfections]`: every simulated imperfection with its true parameters (absent = off).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -279,6 +292,8 @@ pub struct Imperfections {
     pub sweep: Option<Sweep>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub saturation: Option<Saturation>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fiducials: Option<FiducialNoise>,
 }
 
 /// The whole manifest.

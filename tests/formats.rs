@@ -706,6 +706,11 @@ fn full_manifest() -> Manifest {
                 bin_times_ps: vec![-12.5, -10.7, -8.7, -6.9, -4.9],
             }),
             saturation: Some(Saturation { level: 15.5 }),
+            fiducials: Some(FiducialNoise {
+                photo_px: 0.5,
+                photo_width_px: 4032.0,
+                sigma_px: 0.04,
+            }),
         },
         // Deliberately out of order: loading sorts by index.
         scanlines: [2usize, 0, 1]

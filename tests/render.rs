@@ -1965,3 +1965,177 @@ fn cli_isochrones_of_a_realistic_capture_are_graded_not_one_red() {
     assert!(compared > w * h / 2, "{compared} pixels compared");
     assert!(fraction >= 0.9, "{fraction}");
 }
+
+/// Light in a medium (issue 31): with eta 1.33 and beta 0.6, a marker's image lies within
+/// half a pixel of the direction an independent boost of the light's world line gives
+/// (`medium_world_to_camera`: the Lorentz matrix applied to `(1, -n / eta)`), with the
+/// camera moving forward, at 45, 90 and 135 degrees to the marker; every pixel's Doppler
+/// factor is that of the boosted wave 4-vector within 1e-6; and where the medium's
+/// aberration differs from the vacuum's, the image is not where the vacuum formula puts it.
+#[test]
+fn marker_in_a_medium_lies_where_the_boosted_world_line_points() {
+    use common::lorentz::medium_world_to_camera;
+    let (eta, beta) = (1.33, 0.6);
+    let wall = Bvh::new(wall_z0(200.0));
+    let (w, h, vfov) = (160usize, 120usize, 50.0);
+    let f = focal_px(h, vfov);
+    let start = Point3::new(0.4, 0.25, 2.5);
+    let m = Point3::new(0.05, -0.1, 0.0);
+    let n = (m - start).normalize();
+    let across = n.cross(&Vector3::y()).normalize();
+    for angle_deg in [0.0f64, 45.0, 90.0, 135.0] {
+        let a = angle_deg.to_radians();
+        let v = (n * a.cos() + across * a.sin()) * beta;
+        let (d_cam, _) = medium_world_to_camera(&v, &n, eta);
+        // Look a little beside the marker's apparent direction, so it is off the centre.
+        let look = d_cam + across * 0.05 + Vector3::y() * 0.03;
+        let pose = Pose::look_at(start, start + look, Vector3::y()).unwrap();
+        let r = pose.world_from_camera;
+        let project = |d: &Vector3<f64>| {
+            let l = r.inverse_transform_vector(d);
+            (
+                f * l.x / l.z + 0.5 * w as f64,
+                f * l.y / l.z + 0.5 * h as f64,
+            )
+        };
+        let predict =
+            |p: &Point3<f64>| project(&medium_world_to_camera(&v, &(p - start).normalize(), eta).0);
+        let (pu, pv) = predict(&m);
+        let delta = 1e-4;
+        let (ux, vx) = predict(&(m + Vector3::x() * delta));
+        let (uy, vy) = predict(&(m + Vector3::y() * delta));
+        let px_per_m = ((ux - pu).hypot(vx - pv)).min((uy - pu).hypot(vy - pv)) / delta;
+        let sigma_m = 1.5 / px_per_m;
+        let cap_pos = m + Vector3::new(0.05, -0.04, 1.0);
+        let cap_vfov = 2.0 * (5.0 * sigma_m / (m - cap_pos).norm()).atan().to_degrees();
+        let mut cal = calibration(96, 96, cap_vfov, cap_pos, m);
+        cal.eta = eta;
+        let axis = TimeAxis {
+            t0_ps: -1.0e6,
+            dt_ps: 1.0e6,
+            nt: 2,
+        };
+        let cube = world_cube(&cal, &wall, axis, |p, _, a, b| {
+            let d2 = (p - m).norm_squared();
+            (-d2 / (2.0 * sigma_m * sigma_m)).exp() * (b - a)
+        });
+        let pyramid = Pyramid::build(&cube);
+        let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+        let path = straight_path(start, v, r, vfov, spec(w, h, 1, 1.0));
+        let settings = RenderSettings::for_path(&path);
+        let state = path.frame(0);
+        let img = render(&scene, &settings, &state);
+        let (mut sum, mut su, mut sv) = (0.0, 0.0, 0.0);
+        for j in 0..h {
+            for i in 0..w {
+                let l = lum(img[j * w + i]);
+                sum += l;
+                su += l * (i as f64 + 0.5);
+                sv += l * (j as f64 + 0.5);
+            }
+        }
+        assert!(sum > 0.0, "{angle_deg} deg: the marker is not in the frame");
+        let (cu, cv) = (su / sum, sv / sum);
+        let err = (cu - pu).hypot(cv - pv);
+        println!("eta {eta}, beta {beta}, {angle_deg} deg: centroid {err:.3} px from the boost");
+        assert!(
+            err < 0.5,
+            "{angle_deg} deg: centroid ({cu:.3}, {cv:.3}) vs boost ({pu:.3}, {pv:.3}): {err:.3} px"
+        );
+        for (i, j) in [(3, 5), (80, 60), (150, 110), (20, 100)] {
+            let s = probe_pixel(&scene, &settings, &state, i, j);
+            let (d_oracle, doppler) = medium_world_to_camera(&v, &s.d_world, eta);
+            assert!(
+                (d_oracle - s.d_camera).norm() < 1e-9,
+                "{angle_deg} deg, pixel ({i}, {j}): ray {:?} vs {:?}",
+                s.d_camera,
+                d_oracle
+            );
+            assert!(
+                (s.doppler - doppler).abs() < 1e-6,
+                "{angle_deg} deg, pixel ({i}, {j}): D {} vs {doppler}",
+                s.doppler
+            );
+        }
+        if angle_deg > 0.0 {
+            let vacuum = project(&photon_world_to_camera(&v, &n).0);
+            let apart = (vacuum.0 - pu).hypot(vacuum.1 - pv);
+            println!("  the vacuum formula would put it {apart:.1} px away");
+            assert!(
+                apart > 2.0,
+                "{angle_deg} deg: medium and vacuum {apart:.2} px apart"
+            );
+        }
+    }
+}
+
+/// In a medium of eta 1.33, a camera at beta 0.9 > 1 / eta is refused by name, as a dolly
+/// shortcut and as a path file's speed; eta 1 keeps the vacuum's limit.
+#[test]
+fn a_camera_faster_than_light_in_the_medium_is_refused() {
+    use femto::pipeline::render::{plan, Camera, RenderOptions};
+    use femto::render::paths::Shortcut;
+    let wall = Bvh::new(wall_z0(20.0));
+    let start = Point3::new(0.4, 0.25, 2.5);
+    let mut cal = calibration(32, 24, 40.0, start, Point3::origin());
+    cal.eta = 1.33;
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 10.0,
+        nt: 64,
+    };
+    let cube = world_cube(&cal, &wall, axis, |_, _, a, b| b - a);
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&wall, cal.clone(), &pyramid, 670.0).unwrap();
+    let options = RenderOptions {
+        size: Some((32, 24)),
+        frame_count: Some(2),
+        ..RenderOptions::default()
+    };
+    let e = plan(
+        &scene,
+        &Camera::Shortcut(Shortcut::Dolly { beta: 0.9 }),
+        &options,
+    )
+    .err()
+    .expect("beta 0.9 in eta 1.33 refused")
+    .to_string();
+    assert!(
+        e.starts_with("--dolly 0.9: ") && e.contains("eta 1.33"),
+        "{e}"
+    );
+    assert!(plan(
+        &scene,
+        &Camera::Shortcut(Shortcut::Dolly { beta: 0.7 }),
+        &options
+    )
+    .is_ok());
+    let path = straight_path(
+        start,
+        Vector3::new(0.0, 0.0, -0.8),
+        Rotation3::identity(),
+        40.0,
+        spec(32, 24, 2, 1.0),
+    );
+    let e = plan(
+        &scene,
+        &Camera::Path {
+            path: Box::new(path.clone()),
+            name: "p.toml".into(),
+        },
+        &options,
+    )
+    .err()
+    .expect("a path at 0.8 in eta 1.33 refused")
+    .to_string();
+    assert!(e.contains("frame 0") && e.contains("eta 1.33"), "{e}");
+    // The vacuum takes both.
+    cal.eta = 1.0;
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
+    assert!(plan(
+        &scene,
+        &Camera::Shortcut(Shortcut::Dolly { beta: 0.9 }),
+        &options
+    )
+    .is_ok());
+}

@@ -11,7 +11,7 @@ use femto::formats::{read_streak, StreakImage};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
 use femto::geometry::Ray;
-use femto::manifest::{Manifest, StreakFormat};
+use femto::manifest::{FiducialNoise, Manifest, StreakFormat};
 use femto::resample::shift_into;
 use femto::units::C_M_PER_PS;
 use std::path::{Path, PathBuf};
@@ -608,6 +608,53 @@ fn fiducials_project_to_their_pixels_and_are_seen_there() {
             assert!(d >= 1e-3, "{:?} and {:?} are {d} m apart", a.name, b.name);
         }
     }
+}
+
+/// `--fiducial-photo-px` (and `--realistic`, at 0.5 px of a 4032-pixel photo) moves each
+/// fiducial's pixel by Gaussian noise of that size scaled to the capture's width, recorded in
+/// the manifest; the points and their order stay.
+#[test]
+fn fiducial_noise_has_the_stated_size_and_is_recorded() {
+    let tmp = tempfile::tempdir().unwrap();
+    let clean = simulate(tmp.path(), "clean", &[]);
+    // 50 photo pixels: 50 x 24 / 4032 = 0.2976 capture pixels at 24 across.
+    let noisy = simulate(tmp.path(), "noisy", &["--fiducial-photo-px", "50"]);
+    let sigma = 50.0 * 24.0 / 4032.0;
+    let a = load_points(&clean.join("fiducials.toml")).unwrap();
+    let b = load_points(&noisy.join("fiducials.toml")).unwrap();
+    assert_eq!(a.len(), b.len());
+    let d: Vec<f64> = a
+        .iter()
+        .zip(&b)
+        .flat_map(|(p, q)| {
+            assert_eq!(p.name, q.name);
+            assert_eq!(p.point_m, q.point_m);
+            [q.pixel.0 - p.pixel.0, q.pixel.1 - p.pixel.1]
+        })
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    // Over 3600 draws the sample sd is within 3 % of sigma (5 standard errors: 1/sqrt(2n)).
+    assert!(
+        (sd / 0.3 - 1.0).abs() < 5.0 / (2.0 * n).sqrt(),
+        "sd {sd} of {n} draws"
+    );
+    assert!(mean.abs() < 5.0 * 0.3 / n.sqrt(), "mean {mean}");
+    assert_eq!(
+        manifest(&noisy).imperfections.fiducials,
+        Some(FiducialNoise { sigma_px: 0.3 })
+    );
+    assert_eq!(manifest(&clean).imperfections.fiducials, None);
+    let realistic = simulate(tmp.path(), "realistic", &["--realistic"]);
+    assert_eq!(
+        manifest(&realistic).imperfections.fiducials,
+        Some(FiducialNoise {
+            photo_px: 0.5,
+            photo_width_px: 4032.0,
+            sigma_px: 0.5 * 24.0 / 4032.0
+        })
+    );
 }
 
 #[test]

@@ -72,6 +72,10 @@ pub struct CalibrateArgs {
     /// Where to write the calibration TOML [default: next to the cube, <stem>.calibration.toml].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace an existing calibration: the --out file, and the registration group the cube
+    /// holds from an earlier calibrate (without it, either is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Above this many correspondences the report lists only the worst (and every outlier).
@@ -107,6 +111,20 @@ fn default_out(cube: &Path) -> PathBuf {
 }
 
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.cube));
+    let mut inputs = vec![
+        args.cube.as_path(),
+        args.mesh.as_path(),
+        args.points.as_path(),
+    ];
+    inputs.extend(args.intrinsics.as_deref());
+    femto::pipeline::overwrite::refuse_existing(&out, &inputs, args.force, "out")?;
+    femto::pipeline::overwrite::refuse_existing_group(
+        &args.cube,
+        femto::store::registration::GROUP,
+        args.force,
+        "a registration from an earlier calibrate",
+    )?;
     let meta = femto::container::read_meta(&args.cube)?;
     let points = load_points(&args.points)?;
     let (intrinsics, file_laser, file_eta) = match &args.intrinsics {
@@ -153,7 +171,6 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         StageError::NothingSeen => anyhow::anyhow!("{}: {e}", args.mesh.display()),
         other => other.into(),
     })?;
-    let out = args.out.clone().unwrap_or_else(|| default_out(&args.cube));
     let header = format!("# made by: {}\n", super::command_line().replace('\n', " "));
     let mesh_name = args.mesh.display().to_string();
     let mut inputs = vec![args.mesh.as_path(), args.points.as_path()];

@@ -10,7 +10,7 @@ use std::time::Instant;
 #[derive(Args, Debug)]
 pub struct DemoArgs {
     /// Folder for the figures, the report and the intermediate data (created if missing;
-    /// refused when it holds other files than an earlier demo's).
+    /// refused when it holds anything, unless --force, which replaces an earlier demo's).
     #[arg(long, value_name = "DIR", default_value = "femto-demo")]
     pub out: PathBuf,
     /// Small sizes: 160 x 120 pixels and 64 samples per pixel instead of 320 x 240 and 4096
@@ -21,6 +21,9 @@ pub struct DemoArgs {
     /// and write fig7_bunny.mp4.
     #[arg(long, value_name = "PATH")]
     pub bunny: Option<PathBuf>,
+    /// Replace an earlier demo in --out (a folder holding other files is refused even so).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
@@ -34,6 +37,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         out_dir: args.out.clone(),
         quick: args.quick,
         bunny: args.bunny.clone(),
+        force: args.force,
     };
     let progress = |line: &str| {
         eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());

@@ -28,13 +28,16 @@ pub struct ExportArgs {
     /// only the spot) [default: the tal group's, else the camera centre].
     #[arg(long, value_parser = super::values::point, allow_hyphen_values = true)]
     pub laser_origin_m: Option<[f64; 3]>,
+    /// Replace the output if it exists (without it, an existing output is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: ExportArgs) -> anyhow::Result<()> {
     match args.to {
         ExportFormat::Tal => {}
     }
-    femto::pipeline::refuse_same_file(&args.out, &[&args.cube], "out")?;
+    femto::pipeline::overwrite::refuse_existing(&args.out, &[&args.cube], args.force, "out")?;
     let e = export_tal(&args.cube, &args.out, args.laser_origin_m)?;
     let c = &e.capture;
     println!(

@@ -26,6 +26,9 @@ pub struct IngestArgs {
     /// The cube to write (HDF5, camera time).
     #[arg(long, short = 'o', required_unless_present = "decode_only")]
     pub out: Option<PathBuf>,
+    /// Replace --out if it exists (without it, an existing --out is refused).
+    #[arg(long)]
+    pub force: bool,
     /// Number of scanlines of a printf pattern (rows 0..N).
     #[arg(long)]
     pub rows: Option<usize>,
@@ -268,6 +271,10 @@ fn with_hint(e: IngestError) -> anyhow::Error {
 }
 
 pub fn run(args: IngestArgs) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        let input = std::path::Path::new(&args.input);
+        femto::pipeline::overwrite::refuse_existing(out, &[input], args.force, "out")?;
+    }
     if let Some(done) = super::ingest_interop::run(&args) {
         return done;
     }

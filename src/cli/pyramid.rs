@@ -26,9 +26,26 @@ pub struct PyramidArgs {
     /// about twice the time (tools/bench_commands.sh measures both)
     #[arg(long, default_value = "none", value_parser = super::values::compression)]
     pub compression: CubeCompression,
+    /// Replace a pyramid the cube (or --side-file) already holds (without it, refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: PyramidArgs) -> anyhow::Result<()> {
+    match &args.side_file {
+        Some(side) => femto::pipeline::overwrite::refuse_existing(
+            side,
+            &[args.cube.as_path()],
+            args.force,
+            "side-file",
+        )?,
+        None => femto::pipeline::overwrite::refuse_existing_group(
+            &args.cube,
+            stored::GROUP,
+            args.force,
+            "a pyramid",
+        )?,
+    }
     let options = PyramidOptions {
         levels: args.levels,
         side_file: args.side_file.clone(),

@@ -106,6 +106,10 @@ pub struct RenderArgs {
     /// Frames per second of MP4 and GIF output.
     #[arg(long, value_name = "FPS", default_value_t = 30.0)]
     pub fps: f64,
+    /// Replace existing output: the video file, or the frame files this render writes
+    /// (without it, they are refused; frames of other --frames ranges are kept).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub threads: super::threads::ThreadsArg,
 }
@@ -155,6 +159,7 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
         contour_ps: args.contour_ps,
         format: output_format(args)?,
         fps: args.fps,
+        force: args.force,
     };
     Ok((camera, options))
 }

@@ -94,7 +94,7 @@ pub struct SimulateArgs {
     /// counters (render.json: paths, rays, wall and CPU seconds): the path tracer alone, as a
     /// transient renderer is run; no streak images, imperfections, fiducials or side files.
     #[arg(long, conflicts_with_all = ["format", "realistic", "photon_noise", "dark", "vignetting",
-          "jitter_ps", "power_sigma", "sweep", "saturation", "marker_spacing_m"])]
+          "jitter_ps", "power_sigma", "sweep", "saturation", "fiducial_photo_px", "marker_spacing_m"])]
     pub transient_only: bool,
     /// How arrival times are binned: sensor (the laser pulse and the streak sensor's
     /// one-bin response: femto's cubes) or box (a histogram of arrival times, each path sample
@@ -170,6 +170,16 @@ pub struct SimulateArgs {
         help_heading = "Imperfections"
     )]
     pub saturation: Option<f64>,
+    /// Fiducial detection noise: standard deviation of the markers' positions in a
+    /// 4032-pixel-wide photo of the scene, pixels (--realistic: 0.5); fiducials.toml holds
+    /// them in capture pixels, so the noise there is PX x width / 4032.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "PX",
+        help_heading = "Imperfections"
+    )]
+    pub fiducial_photo_px: Option<f64>,
 }
 
 /// The flag that sets each imperfection.
@@ -182,6 +192,7 @@ fn flaw_flag(flaw: Flaw) -> &'static str {
         Flaw::PowerSigma => "--power-sigma",
         Flaw::Sweep => "--sweep",
         Flaw::Saturation => "--saturation",
+        Flaw::FiducialPhotoPx => "--fiducial-photo-px",
     }
 }
 
@@ -250,6 +261,7 @@ fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
     set(&mut flaws.power_sigma, args.power_sigma);
     set(&mut flaws.sweep, args.sweep);
     set(&mut flaws.saturation, args.saturation);
+    set(&mut flaws.fiducial_photo_px, args.fiducial_photo_px);
     if dark.is_some() {
         flaws.dark = dark;
     }

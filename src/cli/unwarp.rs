@@ -16,9 +16,10 @@ use femto::container::CubeCompression;
 use femto::cube::TimeAxis;
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
+use femto::pipeline::overwrite::refuse_existing;
 use femto::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions};
 use femto::unwarp::Direction;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct UnwarpArgs {
@@ -52,9 +53,19 @@ pub struct UnwarpArgs {
     /// about 2.5 times faster than level 4 for about 4 % more bytes
     #[arg(long, value_parser = values::compression)]
     pub compression: Option<CubeCompression>,
+    /// Replace --out if it exists, whole: a pyramid or registration it held is dropped with
+    /// it (they describe the old data; run femto pyramid again). Without it, an existing
+    /// --out is refused.
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
+    let mut inputs = vec![args.cube.as_path()];
+    inputs.extend(args.calibration.as_deref());
+    inputs.extend(args.mesh.as_deref());
+    refuse_existing(&args.out, &inputs, args.force, "out")?;
+    let dropped = dropped_groups(&args.out);
     let direction = match args.to {
         Clock::World => Direction::CameraToWorld,
         Clock::Camera => Direction::WorldToCamera,
@@ -100,6 +111,15 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         &options,
         &super::Bar::default(),
     )?;
+    if !dropped.is_empty() {
+        eprintln!(
+            "femto unwarp: replaced {} whole; its {} group(s) were dropped with the old data \
+             (run femto pyramid {} again for a pyramid)",
+            args.out.display(),
+            dropped.join(", "),
+            args.out.display()
+        );
+    }
     let (a, o) = (done.input_axis, done.output_axis);
     println!(
         "wrote {}: {} -> {} time, {} x {} pixels, {} bins of {} ps from {} ps (input: {} bins from {} ps)",
@@ -132,4 +152,11 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
     Ok(())
+}
+
+/// The groups (pyramid, registration, ...) an existing `out` holds, which replacing it drops.
+fn dropped_groups(out: &Path) -> Vec<String> {
+    femto::container::GroupReader::open(out)
+        .map(|r| r.groups().to_vec())
+        .unwrap_or_default()
 }

@@ -59,8 +59,9 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// Noise added to each fiducial pixel coordinate, pixels (standard deviation).
-pub const FIDUCIAL_NOISE_PX: f64 = 0.5;
+/// Noise added to each fiducial pixel coordinate of the demo's photo, pixels (standard
+/// deviation): the same figure as `simulate --realistic`'s.
+pub const FIDUCIAL_NOISE_PX: f64 = crate::simulate::flaws::REALISTIC_FIDUCIAL_PHOTO_PX;
 /// Seed of that noise (and of the simulated capture).
 pub const DEMO_SEED: u64 = 20130721;
 
@@ -331,6 +332,9 @@ fn simulate_stage(
                 flaws: Flaws {
                     photon_noise: Some(30000.0),
                     dark: Some((0.01, 0.001)),
+                    // The demo detects its fiducials in its own photo of the scene
+                    // (calibrate_and_score), with FIDUCIAL_NOISE_PX there.
+                    fiducial_photo_px: None,
                     ..Flaws::realistic()
                 },
                 force: true,
@@ -509,7 +513,8 @@ struct ChainFiles<'a> {
 }
 
 /// The `femto` commands that reproduce this chain's data products from its capture folder
-/// (written by the demo into `commands.sh`), with paths relative to the demo's folder.
+/// (written by the demo into `commands.sh`), with paths relative to the demo's folder; run
+/// there, they replace the demo's own products, so each carries `--force`.
 fn commands(
     data_dir: &Path,
     f: &ChainFiles<'_>,
@@ -524,13 +529,13 @@ fn commands(
         .unwrap_or(data_dir);
     let rel = |p: &Path| super::relative(base, p);
     let ingest = format!(
-        "femto ingest {} -o {}{}",
+        "femto ingest {} -o {}{} --force",
         rel(f.capture),
         rel(f.cube),
         ingest_flags()
     );
     let mut calibrate = format!(
-        "femto calibrate {} --mesh {} --points {} --laser={},{},{} --out {}",
+        "femto calibrate {} --mesh {} --points {} --laser={},{},{} --out {} --force",
         rel(f.cube),
         rel(f.mesh),
         rel(f.points),
@@ -548,8 +553,12 @@ fn commands(
     vec![
         ingest,
         calibrate,
-        format!("femto unwarp {} --out {}", rel(f.cube), rel(f.world)),
-        format!("femto pyramid {}", rel(f.world)),
+        format!(
+            "femto unwarp {} --out {} --force",
+            rel(f.cube),
+            rel(f.world)
+        ),
+        format!("femto pyramid {} --force", rel(f.world)),
     ]
 }
 

@@ -130,6 +130,9 @@ pub struct DemoOptions {
     /// A bunny mesh (e.g. the Stanford bunny OBJ): also run the Cornell box with the bunny
     /// and write `fig7_bunny.mp4`.
     pub bunny: Option<PathBuf>,
+    /// Replace an earlier demo in `out_dir` (without it, a folder holding anything is
+    /// refused; with it, one holding other files than a demo's still is).
+    pub force: bool,
 }
 
 /// Sizes of one demo run (see [`DemoSizes::quick`] and [`DemoSizes::full`]).
@@ -363,8 +366,9 @@ fn create_dir(path: &Path) -> Result<(), DemoError> {
 }
 
 /// Refuse an output folder that holds files but no earlier demo (no `summary.json` and no
-/// `data/`), so that the demo never mixes its files into an unrelated folder.
-fn check_out_dir(out_dir: &Path) -> Result<(), DemoError> {
+/// `data/`), so that the demo never mixes its files into an unrelated folder; and one that
+/// holds an earlier demo unless `force` (the overwrite rule, [`crate::pipeline::overwrite`]).
+fn check_out_dir(out_dir: &Path, force: bool) -> Result<(), DemoError> {
     let entries = match std::fs::read_dir(out_dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
@@ -379,8 +383,17 @@ fn check_out_dir(out_dir: &Path) -> Result<(), DemoError> {
         .filter_map(|e| e.ok())
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
-    if names.is_empty() || names.iter().any(|n| n == SUMMARY_FILE || n == DATA_DIR) {
+    if names.is_empty() {
         Ok(())
+    } else if names.iter().any(|n| n == SUMMARY_FILE || n == DATA_DIR) {
+        if force {
+            Ok(())
+        } else {
+            Err(DemoError::OutDir {
+                path: out_dir.to_path_buf(),
+                message: "holds an earlier demo; add --force to replace it".into(),
+            })
+        }
     } else {
         Err(DemoError::OutDir {
             path: out_dir.to_path_buf(),
@@ -404,7 +417,7 @@ pub fn run_demo(
     } else {
         DemoSizes::full()
     };
-    check_out_dir(&opts.out_dir)?;
+    check_out_dir(&opts.out_dir, opts.force)?;
     let out = opts.out_dir.as_path();
     let data = out.join(DATA_DIR);
     create_dir(&data)?;
@@ -510,4 +523,25 @@ pub(crate) fn relative(base: &Path, path: &Path) -> String {
         .unwrap_or(path)
         .to_string_lossy()
         .replace('\\', "/")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_earlier_demo_is_replaced_only_with_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("demo");
+        assert!(check_out_dir(&out, false).is_ok(), "a new folder");
+        std::fs::create_dir(&out).unwrap();
+        assert!(check_out_dir(&out, false).is_ok(), "an empty folder");
+        std::fs::create_dir(out.join(DATA_DIR)).unwrap();
+        let e = check_out_dir(&out, false).unwrap_err().to_string();
+        assert!(e.contains("earlier demo") && e.contains("--force"), "{e}");
+        assert!(check_out_dir(&out, true).is_ok());
+        std::fs::write(dir.path().join("notes.txt"), "mine").unwrap();
+        let other = check_out_dir(dir.path(), true).unwrap_err().to_string();
+        assert!(other.contains("no earlier demo"), "{other}");
+    }
 }

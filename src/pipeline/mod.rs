@@ -20,6 +20,7 @@
 
 pub mod calibrate;
 pub mod describe;
+pub mod overwrite;
 pub mod pyramid;
 pub mod render;
 pub mod unwarp;
@@ -127,6 +128,13 @@ pub enum StageError {
     /// An output is one of the inputs.
     #[error("--{flag} {path} is also an input of this command; choose another path")]
     OutputIsInput { flag: &'static str, path: String },
+    /// An output exists and `--force` was not given ([`overwrite`]).
+    #[error("--{flag} {path}: {what} exists; add --force to replace it")]
+    OutputExists {
+        flag: &'static str,
+        path: String,
+        what: String,
+    },
     /// A request beyond what the machine can hold or a loop may walk ([`crate::limits`]).
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),

@@ -381,6 +381,9 @@ pub struct RenderOptions {
     pub format: VideoFormat,
     /// Frames per second of MP4 and GIF output.
     pub fps: f64,
+    /// Replace existing output (the video file, or the frame files this render writes);
+    /// without it they are refused ([`super::overwrite`]).
+    pub force: bool,
 }
 
 impl Default for RenderOptions {
@@ -398,6 +401,7 @@ impl Default for RenderOptions {
             contour_ps: None,
             format: VideoFormat::PngSequence,
             fps: 30.0,
+            force: false,
         }
     }
 }
@@ -509,6 +513,43 @@ pub fn check_options(options: &RenderOptions) -> Result<(), StageError> {
     Ok(())
 }
 
+/// Refuse a path that, in a medium of index `eta > 1` (the calibration's), moves any part of
+/// the sensor at or above `c / eta` in one of `frames`: light in the medium could not reach
+/// it from behind ([`crate::relativity::medium`]). The speed of a rotating sensor is taken at
+/// its corners, edge midpoints and centre, where the spin's speed is largest or the path's.
+fn check_medium_speed(
+    path: &crate::camera_path::CameraPath,
+    frames: std::ops::Range<usize>,
+    eta: f64,
+) -> Result<(), String> {
+    if eta == 1.0 {
+        return Ok(());
+    }
+    let spec = path.spec();
+    let half = nalgebra::Vector2::new(0.5 * spec.width as f64, 0.5 * spec.height as f64);
+    for k in frames {
+        let state = path.frame(k);
+        let mut speed: f64 = 0.0;
+        for (sx, sy) in [
+            (-1.0, -1.0),
+            (0.0, -1.0),
+            (1.0, -1.0),
+            (-1.0, 0.0),
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (-1.0, 1.0),
+            (0.0, 1.0),
+            (1.0, 1.0),
+        ] {
+            let offset = nalgebra::Vector2::new(sx * half.x, sy * half.y);
+            speed = speed.max(state.pixel_beta(&offset, &half).norm());
+        }
+        crate::relativity::medium::check_speed(speed, eta)
+            .map_err(|e| format!("frame {k}: {e} (eta from the calibration)"))?;
+    }
+    Ok(())
+}
+
 /// Resolve the camera path, frame range and settings of a render on `scene`.
 pub fn plan(
     scene: &RenderScene,
@@ -532,6 +573,13 @@ pub fn plan(
     check_frames(&path, &frames).map_err(|e| StageError::Option {
         name: StageOption::Frames,
         message: format!("{}..{}: {e}", frames.start, frames.end),
+    })?;
+    check_medium_speed(&path, frames.clone(), scene.capture.eta).map_err(|e| {
+        let (name, value) = camera_flag(camera);
+        StageError::Option {
+            name,
+            message: format!("{value}{}{e}", if value.is_empty() { "" } else { ": " }),
+        }
     })?;
 
     let mut settings = RenderSettings::for_path(&path);
@@ -583,7 +631,21 @@ fn camera_path(
                 height,
                 options.frame_count.unwrap_or(100),
                 options.dtau_ps,
-            )?;
+            )
+            .map_err(|e| match e {
+                // The shortcut's own setting: named by its flag, with the value given.
+                RenderError::Setting {
+                    name: "dolly" | "orbit",
+                    message,
+                } => {
+                    let (name, value) = camera_flag(camera);
+                    StageError::Option {
+                        name,
+                        message: format!("{value}: {message}"),
+                    }
+                }
+                other => other.into(),
+            })?;
             (s.path, s.time_offset_ps)
         }
     })
@@ -706,6 +768,14 @@ pub fn render_to(
         frames,
     } = plan(&scene, camera, options)?;
     let spec = path.spec();
+    if options.format.is_sequence() {
+        let names = frames
+            .clone()
+            .map(|k| out.join(crate::video::sequence_file_name(k, options.format)));
+        super::overwrite::refuse_existing_any(names, options.force, "out")?;
+    } else {
+        super::overwrite::refuse_existing(out, input_paths, options.force, "out")?;
+    }
     // Frames whose times miss the cube's light, predicted before rendering (a coarse probe
     // of each frame, render::coverage); the rendered black frames are counted below.
     let coverage = predict_coverage(&scene, &settings, &path, frames.clone())?;

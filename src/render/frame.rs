@@ -10,7 +10,7 @@ use super::{ColourOutput, RenderScene, RenderSettings, View};
 use crate::camera_path::FrameState;
 use crate::color;
 use crate::geometry::Ray;
-use crate::relativity::{constant_light_factor, Boost};
+use crate::relativity::{constant_light_factor, medium, Boost};
 use crate::units::flight_time_ps;
 use nalgebra::{Matrix3, Point3, Vector2, Vector3};
 use rayon::prelude::*;
@@ -24,7 +24,8 @@ pub struct PixelSample {
     pub d_world: Vector3<f64>,
     /// Velocity over c used for this pixel (world frame).
     pub beta: Vector3<f64>,
-    /// Doppler factor of the light received along this ray, `1 / (gamma (1 + beta . d))`.
+    /// Doppler factor of the light received along this ray, `1 / (gamma (1 + eta beta . d))`
+    /// (eta: the capture's refractive index, 1 in vacuum).
     pub doppler: f64,
     /// World time of reception, ps (0 = the pulse leaves the laser spot).
     pub t_receive_ps: f64,
@@ -84,6 +85,18 @@ impl PixelBoost {
     #[inline(always)]
     fn doppler_of_world_ray(&self, d: &Vector3<f64>) -> f64 {
         1.0 / (self.gamma * (1.0 + self.beta.dot(d)))
+    }
+
+    /// The same two in a medium of index `eta`: the vacuum formulas above at `eta == 1`
+    /// (bit-identical), else [`medium`]'s.
+    #[inline(always)]
+    fn in_medium(&self, d_cam: &Vector3<f64>, eta: f64, aberration: bool) -> (Vector3<f64>, f64) {
+        match (eta == 1.0, aberration) {
+            (true, true) => self.aberrate_with_doppler(d_cam),
+            (true, false) => (*d_cam, self.doppler_of_world_ray(d_cam)),
+            (false, true) => medium::camera_to_world(&self.beta, d_cam, eta),
+            (false, false) => (*d_cam, medium::doppler_of_world_ray(&self.beta, d_cam, eta)),
+        }
     }
 }
 
@@ -190,11 +203,7 @@ impl<'s> FrameCtx<'s> {
             Some(b) => b,
             None => PixelBoost::new(&boost_of(&self.state.pixel_beta(&offset, &self.half))),
         };
-        let (d_world, doppler) = if settings.effects.aberration {
-            boost.aberrate_with_doppler(&d_camera)
-        } else {
-            (d_camera, boost.doppler_of_world_ray(&d_camera))
-        };
+        let (d_world, doppler) = boost.in_medium(&d_camera, self.eta, settings.effects.aberration);
         PixelRay {
             d_camera,
             d_world,

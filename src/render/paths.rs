@@ -135,6 +135,18 @@ pub fn shortcut_path(
         Shortcut::Dolly { beta } | Shortcut::Orbit { beta } => beta,
         Shortcut::CaptureView => 0.0,
     };
+    if cal.eta != 1.0 {
+        let name = match shortcut {
+            Shortcut::Orbit { .. } => "orbit",
+            _ => "dolly",
+        };
+        crate::relativity::medium::check_speed(beta.abs(), cal.eta).map_err(|message| {
+            RenderError::Setting {
+                name,
+                message: format!("{message} (eta from the calibration)"),
+            }
+        })?;
+    }
     let build = |dtau_ps: f64| -> Result<CameraPath, RenderError> {
         let spec = FrameSpec {
             width,
@@ -145,7 +157,9 @@ pub fn shortcut_path(
         Ok(match shortcut {
             Shortcut::Dolly { beta } => CameraPath::dolly(start, target, up, beta, vfov_deg, spec)?,
             Shortcut::CaptureView => CameraPath::static_view(&cal.pose, vfov_deg, spec)?,
-            Shortcut::Orbit { beta } => orbit_path(target, start, up, beta, vfov_deg, spec)?,
+            Shortcut::Orbit { beta } => {
+                orbit_path(target, start, up, beta, vfov_deg, cal.eta, spec)?
+            }
         })
     };
     // The light a frame's pixels look at, as its camera receives it.
@@ -269,13 +283,15 @@ fn solve_increasing(
 
 /// The orbit of [`Shortcut::Orbit`]: keyframes at proper times `k dtau` for frames
 /// `0 ..= frames` on the circle about `target` through `start` (axis `up`), each with its
-/// world velocity and an orientation looking along the target's aberrated direction.
+/// world velocity and an orientation looking along the target's aberrated direction (in a
+/// medium of index `eta`, [`crate::relativity::medium`]'s aberration).
 fn orbit_path(
     target: Point3<f64>,
     start: Point3<f64>,
     up: Vector3<f64>,
     beta: f64,
     vfov_deg: f64,
+    eta: f64,
     spec: FrameSpec,
 ) -> Result<CameraPath, RenderError> {
     if !(beta.is_finite() && beta.abs() < 1.0) {
@@ -308,13 +324,15 @@ fn orbit_path(
         let position_m = centre + (e1 * cos + e2 * sin) * radius_m;
         let velocity = (e2 * cos - e1 * sin) * beta;
         let to_target = (target - position_m).normalize();
-        let apparent = Boost::new(velocity)
-            .map_err(|e| RenderError::Setting {
-                name: "orbit",
-                message: e.to_string(),
-            })?
-            .inverse()
-            .aberrate(&to_target);
+        let boost = Boost::new(velocity).map_err(|e| RenderError::Setting {
+            name: "orbit",
+            message: e.to_string(),
+        })?;
+        let apparent = if eta == 1.0 {
+            boost.inverse().aberrate(&to_target)
+        } else {
+            crate::relativity::medium::world_to_camera(&velocity, &to_target, eta).0
+        };
         let pose = Pose::look_at(position_m, position_m + apparent, up).ok_or_else(|| {
             RenderError::Setting {
                 name: "orbit",

@@ -430,7 +430,11 @@ fn write_side_files(
         .map_err(io_err(&calib_path))?;
     written.push(CALIBRATION_FILE.into());
 
-    let points = fiducials(scene, bvh, opts.marker_spacing_m);
+    let mut points = fiducials(scene, bvh, opts.marker_spacing_m);
+    if let Some(photo_px) = opts.flaws.fiducial_photo_px {
+        let sigma_px = super::flaws::fiducial_capture_px(photo_px, nx);
+        points = super::flaws::add_fiducial_noise(&points, sigma_px, opts.seed);
+    }
     save_points_toml(&dir.join(FIDUCIALS_FILE), &points)?;
     written.push(FIDUCIALS_FILE.into());
 

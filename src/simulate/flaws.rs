@@ -79,11 +79,13 @@ pub enum Flaw {
     Sweep,
     /// [`Flaws::saturation`].
     Saturation,
+    /// [`Flaws::fiducial_photo_px`].
+    FiducialPhotoPx,
 }
 
 impl Flaw {
     /// Every imperfection, in the order of the fields of [`Flaws`].
-    pub const ALL: [Flaw; 7] = [
+    pub const ALL: [Flaw; 8] = [
         Flaw::PhotonNoise,
         Flaw::Dark,
         Flaw::Vignetting,
@@ -91,6 +93,7 @@ impl Flaw {
         Flaw::PowerSigma,
         Flaw::Sweep,
         Flaw::Saturation,
+        Flaw::FiducialPhotoPx,
     ];
 
     /// The name of its field of [`Flaws`].
@@ -103,6 +106,7 @@ impl Flaw {
             Flaw::PowerSigma => "power_sigma",
             Flaw::Sweep => "sweep",
             Flaw::Saturation => "saturation",
+            Flaw::FiducialPhotoPx => "fiducial_photo_px",
         }
     }
 }
@@ -131,12 +135,19 @@ pub struct Flaws {
     pub sweep: Option<f64>,
     /// Saturation level, fraction of `full_scale` (> 0).
     pub saturation: Option<f64>,
+    /// Standard deviation of the fiducial markers' detected positions, in pixels of a photo
+    /// of the scene [`FIDUCIAL_PHOTO_WIDTH_PX`] wide (>= 0), where a lab finds its markers:
+    /// Gaussian noise of `sigma * nx / FIDUCIAL_PHOTO_WIDTH_PX` capture pixels added to each
+    /// coordinate of `fiducials.toml` ([`add_fiducial_noise`]). Not a flaw of the streak
+    /// images.
+    pub fiducial_photo_px: Option<f64>,
 }
 
 impl Flaws {
     /// A capture like a real lab's, for demos: 3000 photons at full scale, a dark offset of
     /// 1 % with 0.3 % noise, vignetting 0.25, 2 ps trigger jitter, 3 % laser power
-    /// fluctuation and a sweep non-linearity of 0.05. No saturation.
+    /// fluctuation, a sweep non-linearity of 0.05, and fiducials detected to 0.5 px in a
+    /// 4032-pixel-wide photo ([`REALISTIC_FIDUCIAL_PHOTO_PX`]). No saturation.
     pub fn realistic() -> Flaws {
         Flaws {
             photon_noise: Some(3000.0),
@@ -146,6 +157,7 @@ impl Flaws {
             power_sigma: Some(0.03),
             sweep: Some(0.05),
             saturation: None,
+            fiducial_photo_px: Some(REALISTIC_FIDUCIAL_PHOTO_PX),
         }
     }
 
@@ -186,6 +198,7 @@ impl Flaws {
         for (flaw, v) in [
             (Flaw::JitterPs, self.jitter_ps),
             (Flaw::PowerSigma, self.power_sigma),
+            (Flaw::FiducialPhotoPx, self.fiducial_photo_px),
         ] {
             if let Some(s) = v {
                 if !(s.is_finite() && s >= 0.0) {
@@ -213,6 +226,7 @@ enum Purpose {
     Photon = 103,
     Dark = 104,
     DarkFrame = 105,
+    Fiducial = 106,
 }
 
 fn splitmix64(mut z: u64) -> u64 {
@@ -232,6 +246,43 @@ fn stream(seed: u64, purpose: Purpose, row: usize) -> Pcg64Mcg {
 
 fn normal(rng: &mut Pcg64Mcg) -> f64 {
     rng.sample::<f64, _>(StandardNormal)
+}
+
+/// Width of the photo of the scene in which fiducial markers are found, pixels (a 12
+/// megapixel camera, 4032 x 3024, as the demo's fiducial image).
+pub const FIDUCIAL_PHOTO_WIDTH_PX: f64 = 4032.0;
+
+/// The fiducial noise of [`Flaws::realistic`], pixels of that photo: a marker centre found
+/// to half a pixel, the demo's own figure. At 320 capture pixels across it is 0.04 capture
+/// pixels; at 128, 0.016.
+pub const REALISTIC_FIDUCIAL_PHOTO_PX: f64 = 0.5;
+
+/// Capture-pixel standard deviation of fiducial noise `photo_px` (photo pixels, module
+/// constants above) for a capture `nx` pixels wide.
+pub fn fiducial_capture_px(photo_px: f64, nx: usize) -> f64 {
+    photo_px * nx as f64 / FIDUCIAL_PHOTO_WIDTH_PX
+}
+
+/// `points` with Gaussian noise of `sigma_px` added to each pixel coordinate, point `k`'s
+/// from the stream (seed, fiducial, `k`): the same whatever the threads, and independent
+/// of the streak images' draws.
+pub fn add_fiducial_noise(
+    points: &[crate::calibrate::points::Correspondence],
+    sigma_px: f64,
+    seed: u64,
+) -> Vec<crate::calibrate::points::Correspondence> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let mut rng = stream(seed, Purpose::Fiducial, k);
+            let (du, dv) = (normal(&mut rng), normal(&mut rng));
+            crate::calibrate::points::Correspondence {
+                pixel: (c.pixel.0 + sigma_px * du, c.pixel.1 + sigma_px * dv),
+                ..c.clone()
+            }
+        })
+        .collect()
 }
 
 /// Dark frames averaged into the dark frame a simulated capture comes with.
@@ -540,6 +591,11 @@ impl CaptureModel {
             saturation: self
                 .saturation_level
                 .map(|level| manifest::Saturation { level }),
+            fiducials: f.fiducial_photo_px.map(|photo_px| manifest::FiducialNoise {
+                photo_px,
+                photo_width_px: FIDUCIAL_PHOTO_WIDTH_PX,
+                sigma_px: fiducial_capture_px(photo_px, self.nx),
+            }),
         }
     }
 }

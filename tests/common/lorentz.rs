@@ -57,6 +57,26 @@ pub fn photon_camera_to_world(v: &Vector3<f64>, d_cam: &Vector3<f64>) -> (Vector
     (-p / p.norm(), k_world[0] / k_cam[0])
 }
 
+/// Light in a medium of index `eta` at rest in the world, arriving at a camera moving with `v`
+/// from world direction `n_world` (unit, camera towards source): the camera-frame direction
+/// towards the source and `D = lambda_camera / lambda_world`. The light's world line
+/// `(1, -n_world / eta)` (c = 1) and its wave 4-vector `(1, -eta n_world)` are boosted with
+/// the same matrix as [`photon_world_to_camera`]; nothing of the velocity-addition formula
+/// is used.
+pub fn medium_world_to_camera(
+    v: &Vector3<f64>,
+    n_world: &Vector3<f64>,
+    eta: f64,
+) -> (Vector3<f64>, f64) {
+    let l = lorentz_world_to_moving(v);
+    let x_world = Vector4::new(1.0, -n_world.x / eta, -n_world.y / eta, -n_world.z / eta);
+    let x_cam = l * x_world;
+    let p = Vector3::new(x_cam[1], x_cam[2], x_cam[3]);
+    let k_world = Vector4::new(1.0, -eta * n_world.x, -eta * n_world.y, -eta * n_world.z);
+    let k_cam = l * k_world;
+    (-p / p.norm(), k_world[0] / k_cam[0])
+}
+
 #[cfg(test)]
 mod oracle_checks {
     /// The oracle's own sanity: it preserves the Minkowski norm, a boost along +x is the

@@ -13,6 +13,7 @@ mod cli;
 mod consistency;
 mod numbers;
 mod outputs;
+mod overwrite;
 mod ranges;
 mod sizes;
 

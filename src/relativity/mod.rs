@@ -17,9 +17,14 @@
 //!   pixel ray into world axes with `world_from_camera` first, then aberrates.
 //! - `D = gamma (1 - beta mu')` with `mu' = d_cam . beta_hat`, and `lambda' = D lambda`;
 //!   approaching a source head-on gives `D < 1` (blue shift).
+//! - In a medium of index `eta > 1` at rest in the world, light travels at `c / eta` and the
+//!   aberration and Doppler factor are those of [`medium`] (velocity addition, the wave
+//!   4-vector `(omega / c)(1, eta n)`); `eta = 1` is the vacuum, computed by [`Boost`].
 
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
+
+pub mod medium;
 
 /// Errors of the relativity kernels.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -313,7 +318,7 @@ pub fn sensor_velocity(
 
 /// The tests' Lorentz oracle, written independently of this module.
 #[cfg(test)]
-#[path = "../tests/common/lorentz.rs"]
+#[path = "../../tests/common/lorentz.rs"]
 mod lorentz_oracle;
 
 #[cfg(test)]
