@@ -138,7 +138,14 @@ fn ingest_and_check(
 ) -> femto::container::CubeMeta {
     let out = path.with_extension("h5");
     FemtoCmd::new()
-        .args(["ingest", arg(path), "-o", arg(&out), "--no-jitter"])
+        .args([
+            "ingest",
+            arg(path),
+            "-o",
+            arg(&out),
+            "--no-jitter",
+            "--force",
+        ])
         .args(extra)
         .ok();
     let cube = container::read_cube(&out).unwrap();

@@ -282,7 +282,9 @@ fn manifest_for(ny: usize, fmt: Fmt, flaws: &Flaws) -> Manifest {
 /// `femto ingest ARGS`, required to succeed. These tests check one correction at a time, so
 /// jitter removal (on by default) is off unless the test asks for it with `--jitter`.
 fn ingest_ok(args: &[&str]) -> String {
-    let mut all = vec!["ingest"];
+    // --force: these tests check readings and corrections, and several write one output
+    // path in turn (tests/faults/overwrite.rs checks the overwrite rule).
+    let mut all = vec!["ingest", "--force"];
     all.extend_from_slice(args);
     if !args.contains(&"--jitter") {
         all.push("--no-jitter");
@@ -431,12 +433,20 @@ fn glob_printf_and_manifest_inputs_agree() {
     assert!(worst_abs <= 0.5 * VPC + 1e-4, "{worst_abs}");
     // Without a manifest a missing time axis is refused, and a contradicting one too.
     let out = FemtoCmd::new()
-        .args(["ingest", &glob, "-o", s(&b)])
+        .args(["ingest", &glob, "-o", s(&b), "--force"])
         .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps"));
     let out = FemtoCmd::new()
-        .args(["ingest", s(dir.path()), "-o", s(&b), "--dt-ps", "2.5"])
+        .args([
+            "ingest",
+            s(dir.path()),
+            "-o",
+            s(&b),
+            "--dt-ps",
+            "2.5",
+            "--force",
+        ])
         .output();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--dt-ps 2.5: contradicts manifest"));
@@ -1384,7 +1394,8 @@ fn allow_missing_interpolates_and_masks() {
 /// nothing left in `dir` but what was there before.
 fn assert_refused(dir: &Path, args: &[&str], names: &str) {
     let before = list(dir);
-    let mut all = vec!["ingest"];
+    // --force: the refusal tested is another than an existing output's.
+    let mut all = vec!["ingest", "--force"];
     all.extend_from_slice(args);
     let out = FemtoCmd::new().args(&all).output();
     let stderr = String::from_utf8_lossy(&out.stderr);

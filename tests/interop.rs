@@ -112,7 +112,15 @@ fn export_to_tal_writes_the_cube_as_t_sx_sy_on_the_registrations_grid() {
     let o = reg.camera_m;
     assert_eq!(cap.laser_xyz_m, [o.x, o.y, o.z]);
     FemtoCmd::new()
-        .args(["export", "--to", "tal", arg(&cube_path), "-o", arg(&out)])
+        .args([
+            "export",
+            "--to",
+            "tal",
+            arg(&cube_path),
+            "-o",
+            arg(&out),
+            "--force",
+        ])
         .args(["--laser-origin-m", "0.5,-1,2"])
         .ok();
     assert_eq!(read_tal(&out).unwrap().laser_xyz_m, [0.5, -1.0, 2.0]);

@@ -20,11 +20,13 @@ fn femto(args: &[&str]) -> Output {
 
 /// Run `femto ingest INPUT -o OUT ARGS`, assert success, return the cube.
 fn ingest(input: &Path, out: &Path, args: &[&str]) -> Cube {
+    // --force: these tests read formats, and several write one output path in turn.
     let mut all = vec![
         "ingest",
         input.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
+        "--force",
     ];
     all.extend_from_slice(args);
     let o = femto(&all);
@@ -38,11 +40,13 @@ fn ingest(input: &Path, out: &Path, args: &[&str]) -> Cube {
 
 /// Run an ingest that must fail: exit 2, one line on stderr naming `names`, no output.
 fn refused(input: &Path, out: &Path, args: &[&str], names: &str) {
+    // --force: these tests read formats, and several write one output path in turn.
     let mut all = vec![
         "ingest",
         input.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
+        "--force",
     ];
     all.extend_from_slice(args);
     let o = femto(&all);
@@ -388,6 +392,7 @@ fn npy_of_every_dtype_order_and_byte_order_is_row_column_bin() {
         out.to_str().unwrap(),
         "--dt-ps",
         "1",
+        "--force",
     ]);
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("2^24"));

@@ -2086,7 +2086,7 @@ fn a_camera_faster_than_light_in_the_medium_is_refused() {
     };
     let cube = world_cube(&cal, &wall, axis, |_, _, a, b| b - a);
     let pyramid = Pyramid::build(&cube);
-    let scene = RenderScene::new(&wall, cal.clone(), &pyramid, 670.0).unwrap();
+    let scene = RenderScene::new(&wall, cal, &pyramid, 670.0).unwrap();
     let options = RenderOptions {
         size: Some((32, 24)),
         frame_count: Some(2),

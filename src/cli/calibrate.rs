@@ -72,8 +72,8 @@ pub struct CalibrateArgs {
     /// Where to write the calibration TOML [default: next to the cube, <stem>.calibration.toml].
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Replace an existing calibration: the --out file, and the registration group the cube
-    /// holds from an earlier calibrate (without it, either is refused).
+    /// Replace the --out file if it exists (without it, refused). The cube's registration
+    /// group always follows the calibration written last.
     #[arg(long)]
     pub force: bool,
 }
@@ -119,12 +119,6 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     ];
     inputs.extend(args.intrinsics.as_deref());
     femto::pipeline::overwrite::refuse_existing(&out, &inputs, args.force, "out")?;
-    femto::pipeline::overwrite::refuse_existing_group(
-        &args.cube,
-        femto::store::registration::GROUP,
-        args.force,
-        "a registration from an earlier calibrate",
-    )?;
     let meta = femto::container::read_meta(&args.cube)?;
     let points = load_points(&args.points)?;
     let (intrinsics, file_laser, file_eta) = match &args.intrinsics {

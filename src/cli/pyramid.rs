@@ -26,25 +26,20 @@ pub struct PyramidArgs {
     /// about twice the time (tools/bench_commands.sh measures both)
     #[arg(long, default_value = "none", value_parser = super::values::compression)]
     pub compression: CubeCompression,
-    /// Replace a pyramid the cube (or --side-file) already holds (without it, refused).
+    /// Replace --side-file if it exists (without it, refused). A pyramid in the cube itself is
+    /// derived data and always replaced by the new one.
     #[arg(long)]
     pub force: bool,
 }
 
 pub fn run(args: PyramidArgs) -> anyhow::Result<()> {
-    match &args.side_file {
-        Some(side) => femto::pipeline::overwrite::refuse_existing(
+    if let Some(side) = &args.side_file {
+        femto::pipeline::overwrite::refuse_existing(
             side,
             &[args.cube.as_path()],
             args.force,
             "side-file",
-        )?,
-        None => femto::pipeline::overwrite::refuse_existing_group(
-            &args.cube,
-            stored::GROUP,
-            args.force,
-            "a pyramid",
-        )?,
+        )?;
     }
     let options = PyramidOptions {
         levels: args.levels,

@@ -1,13 +1,14 @@
 //! One overwrite rule for every command: an output that already exists is refused unless
 //! the user adds `--force`, and then it is replaced whole.
 //!
-//! "Output" means what the command writes: a file (`ingest --out`, `unwarp --out`,
-//! `calibrate --out`, `export --out`, a video), the frame files of a frame sequence (the
-//! frames a split job would write, not the folder, so that jobs of one video share a
-//! folder), a capture or demo folder, and the group a command adds to a cube
-//! (`calibrate`'s registration, `pyramid`'s prefix sums). The check runs before any work,
-//! so a refused command costs nothing and writes nothing. docs/faults.md, "Overwriting",
-//! is the user's statement of this rule.
+//! "Output" means a file the command writes (`ingest --out`, `unwarp --out`,
+//! `calibrate --out`, `export --out`, `pyramid --side-file`, a video), the frame files of a
+//! frame sequence (the frames a split job would write, not the folder, so that jobs of one
+//! video share a folder), or a capture or demo folder. The group that `calibrate`
+//! (registration) and `pyramid` (prefix sums) keep in a cube is that command's own state of
+//! the cube, replaced by each run with the rest of the file kept. The check runs before any
+//! work, so a refused command costs nothing and writes nothing. docs/faults.md,
+//! "Overwriting", is the user's statement of this rule.
 
 use super::StageError;
 use std::path::Path;
@@ -47,30 +48,6 @@ pub fn refuse_existing_any(
     Ok(())
 }
 
-/// Refuse to replace the group `group` of the cube file `cube` (what `what` names, e.g. "a
-/// pyramid") when the file holds it and `force` is false. A file that cannot be opened is
-/// left to the stage, which names what is wrong with it.
-pub fn refuse_existing_group(
-    cube: &Path,
-    group: &str,
-    force: bool,
-    what: &str,
-) -> Result<(), StageError> {
-    if force {
-        return Ok(());
-    }
-    let held = crate::container::GroupReader::open(cube)
-        .map(|r| r.groups().iter().any(|g| g == group))
-        .unwrap_or(false);
-    if !held {
-        return Ok(());
-    }
-    Err(StageError::Input {
-        path: cube.display().to_string(),
-        message: format!("already holds {what}; add --force to replace it"),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,7 +75,5 @@ mod tests {
         let frames = [dir.path().join("frame_0000.png"), file.clone()];
         assert!(refuse_existing_any(frames.clone(), false, "out").is_err());
         assert!(refuse_existing_any(frames, true, "out").is_ok());
-        // Not an HDF5 file: left to the stage.
-        assert!(refuse_existing_group(&file, "pyramid", false, "a pyramid").is_ok());
     }
 }

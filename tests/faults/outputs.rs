@@ -34,6 +34,8 @@ fn render_args(frames: usize, format: &str, out: &str) -> Vec<String> {
         format,
         "--out",
         out,
+        // Several cases render over an earlier sequence on purpose.
+        "--force",
     ];
     super::render_args("cube.calibration.toml", &extra)
         .into_iter()
@@ -515,7 +517,7 @@ fn sigterm_during_an_ingest_keeps_the_earlier_cube() {
     let started = Instant::now();
     let code = interrupted(
         d,
-        &["ingest", "cap", "-o", "cube.h5"],
+        &["ingest", "cap", "-o", "cube.h5", "--force"],
         "cube.h5",
         libc::SIGTERM,
     );

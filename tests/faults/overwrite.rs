@@ -29,10 +29,6 @@ fn groups(path: &std::path::Path) -> Vec<String> {
 fn ingest_unwarp_and_export_refuse_an_existing_out_unless_forced() {
     let dir = case(&["cap", "cube.h5", "world.h5", "cube.calibration.toml"]);
     let d = dir.path();
-    let ingest = ["ingest", "cap", "-o", "cube.h5"];
-    refused_unchanged(d, &ingest, &[], &["--out cube.h5", "--force"]);
-    ok(d, &[&ingest[..], &["--force"]].concat());
-
     // world.h5 holds a pyramid: replaced whole, the pyramid goes, and the user is told.
     assert!(groups(&d.join("world.h5")).contains(&"pyramid".to_string()));
     let unwarp = ["unwarp", "cube.h5", "--out", "world.h5"];
@@ -52,34 +48,37 @@ fn ingest_unwarp_and_export_refuse_an_existing_out_unless_forced() {
     ok(d, &export);
     refused_unchanged(d, &export, &[], &["--out tal.hdf5", "--force"]);
     ok(d, &[&export[..], &["--force"]].concat());
+
+    // Last: the new cube has no registration for the unwarp above.
+    let ingest = ["ingest", "cap", "-o", "cube.h5"];
+    refused_unchanged(d, &ingest, &[], &["--out cube.h5", "--force"]);
+    ok(d, &[&ingest[..], &["--force"]].concat());
 }
 
 #[test]
-fn calibrate_and_pyramid_refuse_to_replace_what_the_cube_holds_unless_forced() {
+fn calibrate_and_pyramid_refuse_an_existing_file_unless_forced() {
     let dir = case(&["cap", "cube.h5", "world.h5", "cube.calibration.toml"]);
     let d = dir.path();
     let laser = laser_flag();
     // The default --out exists.
     let again = calibrate_args(&[&laser]);
     refused_unchanged(d, &again, &[], &["cube.calibration.toml", "--force"]);
-    // A new --out, but the cube holds the earlier calibration's registration.
-    let elsewhere = calibrate_args(&[&laser, "--out", "new.toml"]);
-    refused_unchanged(d, &elsewhere, &[], &["cube.h5", "registration", "--force"]);
     ok(d, &[&again[..], &["--force"]].concat());
+    // A new --out: the cube's registration follows it.
+    ok(d, &calibrate_args(&[&laser, "--out", "new.toml"]));
 
-    refused_unchanged(
-        d,
-        &["pyramid", "world.h5"],
-        &[],
-        &["world.h5", "pyramid", "--force"],
-    );
-    ok(d, &["pyramid", "world.h5", "--levels", "2", "--force"]);
+    // The cube's own pyramid is derived data: replaced by a new one.
+    ok(d, &["pyramid", "world.h5", "--levels", "2"]);
     ok(d, &["pyramid", "world.h5", "--side-file", "side.h5"]);
     refused_unchanged(
         d,
         &["pyramid", "world.h5", "--side-file", "side.h5"],
         &[],
         &["--side-file side.h5", "--force"],
+    );
+    ok(
+        d,
+        &["pyramid", "world.h5", "--side-file", "side.h5", "--force"],
     );
 }
 
