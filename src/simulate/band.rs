@@ -12,7 +12,7 @@
 //! the whole clean cube's peaks ([`super::flaws::Peaks`]): the merge takes the largest of the
 //! bands' peaks, copies the rows into the whole truth cubes in row order, and then writes the
 //! streak images, side files and manifest as a single run does
-//! ([`super::capture::finish_capture`]).
+//! (`capture::finish_capture`).
 //!
 //! Why a band equals the same rows of a whole run: each pixel's paths draw from a random
 //! stream keyed by the seed and the pixel ([`crate::tracer`]'s `pixel_rng`), and each
