@@ -4,7 +4,8 @@
 //! every state, spool and log folder in a temporary folder) runs `tools/slurm/submit.sh
 //! --wait`: a simulate job array, the merge, the chain job, a render job array and the
 //! encode. The merged capture must equal a single-process `femto simulate` file for file
-//! and byte for byte, and the encoded MP4 a single-process `femto render`'s. The daemons are
+//! and byte for byte, and the encoded MP4 a single-process `femto render`'s; a pipeline
+//! whose first task fails must end with a non-zero status and no video. The daemons are
 //! stopped when the test ends, pass or fail (a Drop guard).
 
 #[path = "common/cli.rs"]
@@ -255,6 +256,33 @@ fn slurm_job_arrays_merge_and_encode_as_one_process_would() {
     );
     println!("{}", String::from_utf8_lossy(&run.stdout));
     println!("submit.sh --wait: {seconds:.1} s");
+
+    // A failing task (simulate refuses --spp 0) fails the pipeline: Slurm cancels the jobs
+    // after it and submit.sh --wait says so with a non-zero status.
+    let failed_work = tmp.path().join("failed");
+    let failed = Command::new(repo.join("tools/slurm/submit.sh"))
+        .args([
+            "--work",
+            failed_work.to_str().unwrap(),
+            "--bands",
+            "2",
+            "--parts",
+            "2",
+        ])
+        .args([
+            "--sim",
+            "--scene cube --size 32x24 --spp 0",
+            "--render",
+            RENDER,
+        ])
+        .args(["--frames", FRAMES, "--femto", femto, "--wait"])
+        .env("SLURM_CONF", cluster.join("slurm.conf"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&failed.stderr);
+    assert_eq!(failed.status.code(), Some(1), "a failed task: {stderr}");
+    assert!(stderr.contains("a job failed or was cancelled"), "{stderr}");
+    assert!(!failed_work.join("video.mp4").exists());
     drop(daemons);
 
     // The same capture in one process, from a folder of its own with the same --out, so

@@ -18,7 +18,8 @@
 #   --frames   frames of the video (default 100); --video: default video.mp4; --fps: 30
 #   --cpus     CPUs per task (--cpus-per-task, and the tasks' thread count; default 1)
 #   --femto    the femto binary (default: `femto` on PATH), at the same path on every node
-#   --wait     wait for the last job (sbatch --wait) and exit with its status
+#   --wait     wait for the last job (sbatch --wait) and exit with its status, or 1 when
+#              it was cancelled because a job before it failed (no video)
 # Anything after -- goes to every sbatch (e.g. --partition=... --time=...).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -87,5 +88,11 @@ fi
 status=0
 encode_job=$(sbatch "${common[@]}" $wait --dependency="afterok:$render_job" \
     "$here/encode.sbatch") || status=$?
+# sbatch --wait exits 0 for a job Slurm cancelled because a job it depends on failed
+# (--kill-on-invalid-dep): no video then means a failed pipeline.
+if [ -n "$wait" ] && [ "$status" = 0 ] && [ ! -s "$work/$video" ]; then
+    echo "submit.sh: no $work/$video: a job failed or was cancelled (see $work/logs)" >&2
+    status=1
+fi
 echo "encode: job ${encode_job%%;*}${wait:+, exit status $status}; video: $work/$video"
 exit "$status"
