@@ -9,7 +9,9 @@
 //! summary counts a test that needs one as ignored, with the reason, rather than as a pass
 //! that checked nothing: `cfg(femto_skip_shared)` (no shared data folder: `$FEMTO_SHARED`,
 //! else `../shared`), `cfg(femto_skip_interop)` (no `$FEMTO_INTEROP_PYTHON`),
-//! `cfg(femto_skip_browser)` (no `chromium` or `chromedriver` on `PATH`). Under `CI=true`
+//! `cfg(femto_skip_browser)` (no `chromium` or `chromedriver` on `PATH`),
+//! `cfg(femto_skip_slurm)` (no Slurm daemons and commands or no munge on `PATH`: Debian's
+//! `slurm-wlm` and `munge`). Under `CI=true`
 //! none is set: there a missing input fails its test.
 
 use std::path::{Path, PathBuf};
@@ -51,6 +53,7 @@ fn outside_inputs() {
         "femto_skip_shared",
         "femto_skip_interop",
         "femto_skip_browser",
+        "femto_skip_slurm",
     ] {
         println!("cargo::rustc-check-cfg=cfg({name})");
     }
@@ -82,5 +85,16 @@ fn outside_inputs() {
     };
     if !on_path(&["chromedriver"]) || !on_path(&["chromium", "chromium-browser", "google-chrome"]) {
         println!("cargo::rustc-cfg=femto_skip_browser");
+    }
+    let slurm = [
+        "munged",
+        "mungekey",
+        "slurmctld",
+        "slurmd",
+        "sbatch",
+        "sinfo",
+    ];
+    if !slurm.iter().all(|p| on_path(&[p])) {
+        println!("cargo::rustc-cfg=femto_skip_slurm");
     }
 }

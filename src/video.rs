@@ -123,6 +123,10 @@ pub enum VideoError {
     /// Writing or renaming an output file failed.
     #[error("cannot write {path}: {source}")]
     Io { path: PathBuf, source: io::Error },
+    /// Frame sequences that cannot be encoded into one video ([`encode`]): a gap, a frame
+    /// in two folders, EXR frames, frames of different sizes.
+    #[error("{message}")]
+    Sequence { message: String },
     /// The PNG or GIF encoder failed.
     #[error("cannot encode {path}: {source}")]
     Image {
@@ -859,6 +863,8 @@ fn write_mp4(
             })
     })
 }
+
+pub mod encode;
 
 #[cfg(test)]
 mod tests;

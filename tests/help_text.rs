@@ -12,14 +12,16 @@ mod cli;
 use regex::Regex;
 use std::path::Path;
 
-const COMMANDS: [&str; 11] = [
+const COMMANDS: [&str; 13] = [
     "",
     "simulate",
+    "merge",
     "ingest",
     "calibrate",
     "unwarp",
     "pyramid",
     "render",
+    "encode",
     "view",
     "export",
     "demo",

@@ -6,10 +6,12 @@
 
 pub mod calibrate;
 pub mod demo;
+pub mod encode;
 pub mod export;
 pub mod info;
 pub mod ingest;
 pub mod ingest_interop;
+pub mod merge;
 pub mod pyramid;
 pub mod render;
 pub mod render_inputs;
@@ -51,9 +53,15 @@ pub enum Command {
     /// Simulate a streak-camera capture of a scene: streak images per scanline, manifest,
     /// geometry, true calibration, fiducials and ground-truth cubes.
     Simulate(Box<simulate::SimulateArgs>),
+    /// Assemble the band folders of `simulate --rows A..B` (separate processes or cluster
+    /// jobs) into the capture folder one `simulate` writes, bit for bit.
+    Merge(merge::MergeArgs),
     /// Render a relativistic novel-view video of a world-time cube: a camera moving at
     /// speeds close to that of light (aberration, Doppler colour, searchlight, time dilation).
     Render(Box<render::RenderArgs>),
+    /// Encode the PNG frame folders of a split render (`render --frames A..B`) into one MP4
+    /// or GIF, identical to a single render's.
+    Encode(encode::EncodeArgs),
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
     Ingest(ingest::IngestArgs),
@@ -74,6 +82,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Pyramid(args) => pyramid::run(args),
         Command::Simulate(args) => simulate::run(*args),
         Command::Render(args) => render::run(*args),
+        Command::Merge(args) => merge::run(args),
+        Command::Encode(args) => encode::run(args),
         Command::Ingest(args) => ingest::run(args),
         Command::View(args) => view::run(args),
         Command::Export(args) => export::run(args),

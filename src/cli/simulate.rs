@@ -2,12 +2,15 @@
 //! [`femto::simulate`]). Flags are checked here and named in errors; the scene, the render,
 //! the imperfections and the files are the library's.
 
-use super::values::{offset_sigma, positive_finite, EnumArg, Size, StreakFormatArg, TimeFilterArg};
+use super::values::{
+    offset_sigma, positive_finite, row_range, EnumArg, Size, StreakFormatArg, TimeFilterArg,
+};
 use anyhow::{bail, Context};
 use clap::Args;
 use femto::scene::{Scene, BUILTIN_NAMES};
 use femto::simulate::{
-    simulate_capture, Flaw, Flaws, SimulateError, SimulateOption, SimulateOptions, Stage,
+    simulate_capture, Flaw, Flaws, SimulateError, SimulateOption, SimulateOptions, SimulateSummary,
+    Stage,
 };
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -103,6 +106,11 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILTER", default_value = "sensor", requires = "transient_only",
           ignore_case = true, value_parser = EnumArg::<TimeFilterArg>::new())]
     pub time_filter: TimeFilterArg,
+    /// Render only image rows A..B (B excluded) into a band folder: the true cubes of those
+    /// rows and band.toml, bit-identical to the same rows of a whole run; `femto merge`
+    /// assembles the bands into the capture folder (docs/cluster.md).
+    #[arg(long, value_name = "A..B", value_parser = row_range, conflicts_with = "transient_only")]
+    pub rows: Option<std::ops::Range<usize>>,
     #[command(flatten)]
     pub threads: super::threads::ThreadsArg,
     /// Spacing of the fiducial marker grid on flat surfaces, metres.
@@ -237,12 +245,12 @@ fn load_scene(args: &SimulateArgs) -> anyhow::Result<Scene> {
 }
 
 /// Everything the flags ask for, checked.
-struct Plan {
-    scene: Scene,
-    opts: SimulateOptions,
+pub(super) struct Plan {
+    pub scene: Scene,
+    pub opts: SimulateOptions,
 }
 
-fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
+pub(super) fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
     let formats = args.format.iter().map(|&f| f.into()).collect();
     let mut flaws = if args.realistic {
         Flaws::realistic()
@@ -343,6 +351,17 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         scene.camera.intrinsics.width,
         scene.camera.intrinsics.height,
     );
+    if let Some(rows) = &args.rows {
+        if rows.end > ny {
+            bail!(
+                "--rows {}..{}: beyond the image's {ny} rows (0 <= A < B <= {ny})",
+                rows.start,
+                rows.end
+            );
+        }
+    }
+    // Rows rendered: the band's, or all.
+    let rows_len = args.rows.as_ref().map_or(ny, |r| r.len());
     let axis = scene.camera.axis;
     // On stdout, with the summary: a failure later (a full disk) is then the only line on
     // stderr.
@@ -366,7 +385,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             String::new()
         }
     );
-    let render_bar = super::progress(ny as u64, "rendering");
+    let render_bar = super::progress(rows_len as u64, "rendering");
     let write_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
     let on_progress = |stage: Stage, n: usize| match stage {
         Stage::Render => render_bar.inc(n as u64),
@@ -379,7 +398,18 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             .inc(n as u64);
         }
     };
-    let summary = simulate_capture(&scene, &opts, &args.out, &on_progress);
+    let command: Vec<String> = std::env::args().collect();
+    let summary = match &args.rows {
+        Some(rows) => femto::simulate::band::simulate_band(
+            &scene,
+            &opts,
+            rows.clone(),
+            &command,
+            &args.out,
+            &on_progress,
+        ),
+        None => simulate_capture(&scene, &opts, &args.out, &on_progress),
+    };
     render_bar.finish_and_clear();
     if let Some(bar) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
         bar.finish_and_clear();
@@ -390,6 +420,16 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         }
         other => other.into(),
     })?;
+    if let Some(rows) = &args.rows {
+        println!(
+            "band of rows {}..{} written to {} (femto merge assembles the bands)",
+            rows.start,
+            rows.end,
+            summary.out_dir.display()
+        );
+        print_render_line(&summary);
+        return Ok(());
+    }
     if opts.transient_only {
         println!(
             "transient cube written to {}",
@@ -415,16 +455,27 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     }
+    println!("capture written to {}", summary.out_dir.display());
+    print_capture_lines(&summary);
+    Ok(())
+}
+
+/// The render's counters, one line.
+pub(super) fn print_render_line(summary: &SimulateSummary) {
+    println!(
+        "  paths: {} ({} rays) in {:.2} s: {:.0} paths/s",
+        summary.paths, summary.rays, summary.render_seconds, summary.paths_per_second
+    );
+}
+
+/// The lines a finished capture folder is reported with (simulate and merge).
+pub(super) fn print_capture_lines(summary: &SimulateSummary) {
+    print_render_line(summary);
     let scanline_files = summary
         .files
         .iter()
         .filter(|f| f.parent().and_then(|p| p.file_name()) == Some("scanlines".as_ref()))
         .count();
-    println!("capture written to {}", summary.out_dir.display());
-    println!(
-        "  paths: {} ({} rays) in {:.2} s: {:.0} paths/s",
-        summary.paths, summary.rays, summary.render_seconds, summary.paths_per_second
-    );
     println!(
         "  files: {} ({} streak images in scanlines/, {} fiducials), {:.2} s in all",
         summary.files.len(),
@@ -445,5 +496,4 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             summary.values_at_top_count
         );
     }
-    Ok(())
 }

@@ -70,6 +70,13 @@ impl FromStr for FrameRange {
     }
 }
 
+/// `A..B`: image rows A to B, B excluded (a band of `simulate --rows`).
+pub fn row_range(text: &str) -> Result<std::ops::Range<usize>, String> {
+    text.parse::<FrameRange>()
+        .map(|r| r.0)
+        .map_err(|_| "expected A..B with A < B, row B excluded, e.g. 0..100".into())
+}
+
 /// A finite number > 0 (a bin width, a spacing).
 pub fn positive_finite(text: &str) -> Result<f64, String> {
     let v: f64 = text.trim().parse().map_err(|e| format!("{e}"))?;

@@ -67,6 +67,9 @@ pub enum SimulateError {
     /// The fiducials could not be written.
     #[error(transparent)]
     Points(#[from] CalibrateError),
+    /// Bands that cannot be merged, or a band that cannot be made ([`super::band`]).
+    #[error("{message}")]
+    Band { message: String },
     /// Any of the above while the capture was written into its temporary folder, with the
     /// temporary folder's name replaced by the destination's.
     #[error("{message}")]
@@ -285,26 +288,10 @@ pub fn simulate_capture(
 ) -> Result<SimulateSummary, SimulateError> {
     let started = Instant::now();
     opts.validate(scene)?;
-    check_destination(out_dir, opts.force)?;
-    let parent = match out_dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).map_err(io_err(&parent))?;
-    // Registered for removal on SIGINT/SIGTERM; named so that a killed run's is removed by
-    // the next (crate::atomic).
-    let tmp = crate::atomic::temp_dir_beside(out_dir).map_err(io_err(&parent))?;
-    // Everything is written into the temporary folder; an error names the file by its place
-    // in `out_dir`, where the user looks for it, not by the temporary folder's name.
-    let staged =
-        stage_capture(scene, opts, tmp.path(), progress).map_err(|e| SimulateError::Staged {
-            message: e.to_string().replace(
-                &tmp.path().display().to_string(),
-                &out_dir.display().to_string(),
-            ),
-        })?;
+    let staged = stage_and_install(out_dir, opts.force, |tmp| {
+        stage_capture(scene, opts, tmp, progress)
+    })?;
     let (stats, written, fiducials, values_at_top_count) = staged;
-    install(tmp, out_dir, opts.force)?;
 
     Ok(SimulateSummary {
         out_dir: out_dir.to_path_buf(),
@@ -318,6 +305,35 @@ pub fn simulate_capture(
         fiducials,
         values_at_top_count,
     })
+}
+
+/// Write a folder with `stage` into a temporary folder beside `out_dir` and put it in place
+/// as `out_dir` once `stage` succeeds ([`install`]); `out_dir` must not exist or be an empty
+/// folder, unless `force`. An error of `stage` names its file by its place in `out_dir`.
+pub(crate) fn stage_and_install<T>(
+    out_dir: &Path,
+    force: bool,
+    stage: impl FnOnce(&Path) -> Result<T, SimulateError>,
+) -> Result<T, SimulateError> {
+    check_destination(out_dir, force)?;
+    let parent = match out_dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(io_err(&parent))?;
+    // Registered for removal on SIGINT/SIGTERM; named so that a killed run's is removed by
+    // the next (crate::atomic).
+    let tmp = crate::atomic::temp_dir_beside(out_dir).map_err(io_err(&parent))?;
+    // Everything is written into the temporary folder; an error names the file by its place
+    // in `out_dir`, where the user looks for it, not by the temporary folder's name.
+    let staged = stage(tmp.path()).map_err(|e| SimulateError::Staged {
+        message: e.to_string().replace(
+            &tmp.path().display().to_string(),
+            &out_dir.display().to_string(),
+        ),
+    })?;
+    install(tmp, out_dir, force)?;
+    Ok(staged)
 }
 
 /// Everything [`simulate_capture`] writes, written into the folder `dir` (the temporary
@@ -336,15 +352,38 @@ fn stage_capture(
         return Ok((stats, written, 0, 0));
     }
     let bvh = Bvh::new(scene.mesh.clone());
-    let trace_opts = TraceOptions {
+    let ny = scene.camera.intrinsics.height;
+    let shape = capture_shape(scene, opts)?;
+    let (peaks, stats) = render_truths(
+        scene,
+        &bvh,
+        &trace_options(opts),
+        &shape,
+        0..ny,
+        dir,
+        &provenance(scene, opts),
+        progress,
+    )?;
+    let (written, n_points, values_at_top_count) =
+        finish_capture(scene, opts, &bvh, shape, &peaks, dir, progress)?;
+    Ok((stats, written, n_points, values_at_top_count))
+}
+
+/// The tracer's options of a capture made with `opts`.
+pub(crate) fn trace_options(opts: &SimulateOptions) -> TraceOptions {
+    TraceOptions {
         spp: opts.spp,
         max_bounces: opts.max_bounces,
         seed: opts.seed,
         split_bounces: true,
         world_time: true,
         ..TraceOptions::default()
-    };
-    let provenance = Provenance::new(opts.created_by.clone())
+    }
+}
+
+/// The provenance of a capture's truth cubes.
+pub(crate) fn provenance(scene: &Scene, opts: &SimulateOptions) -> Provenance {
+    Provenance::new(opts.created_by.clone())
         .with_note("scene", scene.name.clone())
         .with_note("seed", opts.seed.to_string())
         .with_note("spp", opts.spp.to_string())
@@ -352,17 +391,43 @@ fn stage_capture(
         .with_note(
             "values",
             "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",
-        );
+        )
+}
+
+/// The capture model of `scene` with `opts` before the clean cube's scale is known.
+pub(crate) fn capture_shape(
+    scene: &Scene,
+    opts: &SimulateOptions,
+) -> Result<CaptureModel, SimulateError> {
     let (nx, ny, axis) = (
         scene.camera.intrinsics.width,
         scene.camera.intrinsics.height,
         scene.camera.axis,
     );
-    let shape = CaptureModel::unscaled(&opts.flaws, nx, ny, axis, opts.seed)?;
-    let (peaks, stats) =
-        render_truths(scene, &bvh, &trace_opts, &shape, dir, &provenance, progress)?;
-    let model = shape.scaled(&peaks);
+    Ok(CaptureModel::unscaled(
+        &opts.flaws,
+        nx,
+        ny,
+        axis,
+        opts.seed,
+    )?)
+}
 
+/// The files of a capture folder `dir` that follow the truth cubes (written in `dir` by the
+/// time this runs, with their camera-time `peaks`): the streak images, the side files and
+/// the manifest. Returns every file of the folder (relative to `dir`), the number of
+/// fiducial markers and of streak-image values at the top count.
+pub(crate) fn finish_capture(
+    scene: &Scene,
+    opts: &SimulateOptions,
+    bvh: &Bvh,
+    shape: CaptureModel,
+    peaks: &Peaks,
+    dir: &Path,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+) -> Result<(Vec<PathBuf>, usize, usize), SimulateError> {
+    let ny = scene.camera.intrinsics.height;
+    let model = shape.scaled(peaks);
     let (mut written, values_at_top_count) = write_scanlines(
         dir,
         &dir.join(TRUTH_CAMERA_FILE),
@@ -377,7 +442,7 @@ fn stage_capture(
     );
     let scanlines = scanline_entries(ny, &opts.formats);
 
-    let (capture_files, n_points) = write_side_files(scene, opts, &bvh, &model, dir, &mut written)?;
+    let (capture_files, n_points) = write_side_files(scene, opts, bvh, &model, dir, &mut written)?;
 
     let manifest = Manifest {
         capture: capture_info(scene, opts, &model),
@@ -389,11 +454,11 @@ fn stage_capture(
     written.push(MANIFEST_FILE.into());
 
     set_folder_permissions(&[dir.to_path_buf(), dir.join("scanlines")])?;
-    Ok((stats, written, n_points, values_at_top_count))
+    Ok((written, n_points, values_at_top_count))
 }
 
 /// Outputs are ordinary folders, not tempfile's owner-only ones.
-fn set_folder_permissions(dirs: &[PathBuf]) -> Result<(), SimulateError> {
+pub(crate) fn set_folder_permissions(dirs: &[PathBuf]) -> Result<(), SimulateError> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
@@ -499,15 +564,18 @@ fn capture_info(scene: &Scene, opts: &SimulateOptions, model: &CaptureModel) -> 
 /// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
 pub(crate) const BAND_TARGET_BYTES: usize = 64 << 20;
 
-/// Render the true cubes band by band, writing the three truth files into `dir` as the bands
-/// come (so only one band of rows is ever held), and return the camera-time cube's peaks
-/// that scale the capture (`shape`: the capture model before scaling) with the render's
-/// counters (`seconds`: the tracer's time, without the file writes).
-fn render_truths(
+/// Render image rows `rows` of the true cubes band by band, writing the three truth files
+/// (of `rows.len()` rows) into `dir` as the bands come (so only one band of rows is ever
+/// held), and return the camera-time peaks of those rows that scale the capture (`shape`:
+/// the capture model before scaling) with the render's counters (`seconds`: the tracer's
+/// time, without the file writes).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn render_truths(
     scene: &Scene,
     bvh: &Bvh,
     trace_opts: &TraceOptions,
     shape: &CaptureModel,
+    rows: std::ops::Range<usize>,
     dir: &Path,
     provenance: &Provenance,
     progress: &(dyn Fn(Stage, usize) + Sync),
@@ -519,11 +587,7 @@ fn render_truths(
     let world_axis = tracer
         .world_axis()
         .expect("the tracer was asked for world time");
-    let (nx, ny, axis) = (
-        scene.camera.intrinsics.width,
-        scene.camera.intrinsics.height,
-        scene.camera.axis,
-    );
+    let (nx, ny, axis) = (scene.camera.intrinsics.width, rows.len(), scene.camera.axis);
     let writer = |file: &str, axis, frame, what: &str| {
         CubeWriter::create(
             &dir.join(file),
@@ -559,8 +623,10 @@ fn render_truths(
     let band = (BAND_TARGET_BYTES / row_bytes.max(1)).max(4 * rayon::current_num_threads());
     let row_len = nx * axis.nt;
     let mut stats = TraceStats::default();
-    for y0 in (0..ny).step_by(band.max(1)) {
-        let r = tracer.render_rows(y0..y0 + band, &|n| progress(Stage::Render, n));
+    for y0 in rows.clone().step_by(band.max(1)) {
+        let r = tracer.render_rows(y0..(y0 + band).min(rows.end), &|n| {
+            progress(Stage::Render, n)
+        });
         stats.add(&r.stats);
         render_seconds += r.stats.seconds;
         render_cpu_seconds += r.stats.cpu_seconds;
@@ -571,11 +637,12 @@ fn render_truths(
             .enumerate()
             .map(|(dy, row)| shape.row_peaks(y0 + dy, row))
             .reduce(|| peaks, Peaks::max);
-        camera_file.write_rows(y0, &r.camera_time.data)?;
+        let y = y0 - rows.start;
+        camera_file.write_rows(y, &r.camera_time.data)?;
         let world = r.world_time.expect("the tracer was asked for world time");
-        world_file.write_rows(y0, &world.data)?;
+        world_file.write_rows(y, &world.data)?;
         let direct = r.direct.expect("the tracer was asked for the bounce split");
-        direct_file.write_rows(y0, &direct.data)?;
+        direct_file.write_rows(y, &direct.data)?;
     }
     camera_file.finish()?;
     world_file.finish()?;

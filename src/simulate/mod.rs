@@ -26,9 +26,13 @@
 //! With `transient_only` ([`transient`]) the folder holds only `truth_camera.h5` and the
 //! render's counters, `render.json`.
 //!
+//! A capture can also be made in bands of rows by separate processes ([`band`]:
+//! `simulate --rows A..B`, then `merge`), bit-identical to the capture of one process.
+//!
 //! Determinism: the tracer and every imperfection draw from streams seeded by the seed and
 //! the pixel or scanline, so a capture is bit-identical whatever the thread count.
 
+pub mod band;
 pub mod budget;
 pub mod capture;
 pub mod fiducials;
