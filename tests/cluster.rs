@@ -227,4 +227,12 @@ fn encode_makes_the_single_renders_mp4_and_gif_from_split_png_frames() {
         &[],
         &["--out", "bad.avi"],
     );
+    // The overwrite rule: an existing video is refused, and replaced with --force.
+    let again = ["encode", "part0", "part1", "part2", "--out", "split.mp4"];
+    refused_unchanged(dir, &again, &[], &["--out split.mp4", "--force"]);
+    FemtoCmd::new()
+        .args(again)
+        .arg("--force")
+        .current_dir(dir)
+        .ok();
 }

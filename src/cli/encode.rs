@@ -26,6 +26,9 @@ pub struct EncodeArgs {
     /// Frames per second (as given to femto render).
     #[arg(long, value_name = "FPS", default_value_t = 30.0)]
     pub fps: f64,
+    /// Replace --out if it exists (without it, an existing --out is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: EncodeArgs) -> anyhow::Result<()> {
@@ -38,6 +41,8 @@ pub fn run(args: EncodeArgs) -> anyhow::Result<()> {
             ))
         }
     };
+    let inputs: Vec<&std::path::Path> = args.frames.iter().map(PathBuf::as_path).collect();
+    femto::pipeline::overwrite::refuse_existing(&args.out, &inputs, args.force, "out")?;
     let started = std::time::Instant::now();
     let done = encode_sequences(&args.frames, &args.out, format, args.fps)?;
     eprintln!(
