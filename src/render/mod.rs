@@ -68,7 +68,9 @@
 //!   world time of reception).
 //! - `aberration` off: the world ray is the camera ray `d'` (the image geometry of a camera at
 //!   rest at the same place).
-//! - `doppler` off: colour at the laser wavelength.
+//! - `doppler` off: colour at the laser wavelength; a laser outside the visible range at its
+//!   nearest end, 380 or 780 nm ([`crate::color::nearest_visible_nm`]), so that its light is
+//!   drawn in colour, not in the grey of invisible wavelengths.
 //! - `searchlight` off: `D = 1` in the accumulation window and the radiometric factor.
 //! - `dilation` off: `t_receive = tau` (world time advancing at the proper time's rate; the
 //!   path's two clocks agree at its start).
