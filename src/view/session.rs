@@ -559,3 +559,29 @@ fn distance_range_m(scene: &RenderScene) -> (f64, f64) {
     );
     ((near - o).norm(), far)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lit_range_spans_the_samples_above_the_dark_level_and_a_flat_curve_has_none() {
+        let t: Vec<f64> = (0..8).map(|k| 100.0 + 10.0 * k as f64).collect();
+        // Dark 1.0, light from the third to the sixth sample; 1.2 is under 5 % of the span.
+        let mean = [1.0, 1.2, 5.0, 40.0, 30.0, 2.9, 1.0, 1.0];
+        assert_eq!(lit_range(&t, &mean, 10.0), Some([115.0, 145.0]));
+        assert_eq!(lit_range(&t, &[3.0; 8], 10.0), None);
+        assert_eq!(lit_fraction(&[0, 0, 0, 0, 3, 0]), 0.5);
+        assert_eq!(lit_fraction(&[2, 2, 2]), 0.0);
+    }
+
+    #[test]
+    fn the_legend_spectrum_is_grey_outside_the_visible_range_and_coloured_inside() {
+        let s = spectrum();
+        let at = |nm: f64| s.iter().find(|c| c.nm == nm).unwrap().srgb8;
+        assert_eq!(at(300.0), [255, 255, 255]);
+        assert_eq!(at(900.0), [255, 255, 255]);
+        let red = at(650.0);
+        assert!(red[0] == 255 && red[1] < 100 && red[2] < 100, "{red:?}");
+    }
+}
