@@ -187,7 +187,7 @@ pub fn frame_memory_bytes(width: usize, height: usize) -> f64 {
     pixels * (crate::pipeline::render::BYTES_PER_FRAME_PIXEL + 6.0) + RENDER_OVERHEAD_BYTES
 }
 
-/// Samples of the light curve ([`ViewSession::light_curve`]).
+/// Samples of the light curve ([`LightCurve`]).
 pub const LIGHT_CURVE_SAMPLES: usize = 64;
 
 /// Default frame size of the viewer, pixels.
@@ -490,7 +490,7 @@ impl<'a> ViewSession<'a> {
 pub fn lit_range(t_ps: &[f64], mean: &[f64], spacing_ps: f64) -> Option<[f64; 2]> {
     let lo = mean.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = mean.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let lit = |k: &usize| mean[*k] - lo > LIT_FRACTION * (hi - lo);

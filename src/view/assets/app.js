@@ -267,7 +267,8 @@ function showLegend(h) {
   for (const e of s) { g.fillStyle = spectrumColour(e.nm); g.fillRect(x(e.nm - 2.5), 0, x(e.nm + 2.5) - x(e.nm - 2.5) + 1, 12); }
   g.clearRect(0, 12, c.width, c.height - 12);
   const doppler = state.effects.doppler;
-  const [lo, hi] = doppler ? [h.doppler_min * h.laser_nm, h.doppler_max * h.laser_nm] : [h.laser_nm, h.laser_nm];
+  const visible = (nm) => Math.min(info.visible_nm[1], Math.max(info.visible_nm[0], nm));
+  const [lo, hi] = doppler ? [h.doppler_min * h.laser_nm, h.doppler_max * h.laser_nm] : [visible(h.laser_nm), visible(h.laser_nm)];
   g.fillStyle = '#ffffff';
   g.fillRect(x(lo), 13, Math.max(2, x(hi) - x(lo)), 8);
   g.font = '10px sans-serif'; g.fillStyle = '#000';
@@ -277,10 +278,14 @@ function showLegend(h) {
   g.fillStyle = '#fff'; g.fillRect(x(h.laser_nm), 0, 1, 12);
   const [v0, v1] = info.visible_nm;
   const band = (nm) => nm < v0 ? 'UV' : nm > v1 ? 'IR' : 'visible';
-  const outside = [lo, hi].some((nm) => nm < v0 || nm > v1);
+  const outside = doppler && [lo, hi].some((nm) => nm < v0 || nm > v1);
+  // color::nearest_visible_nm: without Doppler an invisible laser is drawn at the nearer end
+  // of the visible range.
+  const drawn = visible(h.laser_nm);
   const range = doppler
     ? `received ${lo.toFixed(0)}-${hi.toFixed(0)} nm (${band(lo)}${band(hi) !== band(lo) ? ' to ' + band(hi) : ''})`
-    : `doppler off: every pixel at the laser's ${h.laser_nm.toFixed(0)} nm`;
+    : `doppler off: every pixel in the laser's colour` +
+      (drawn !== h.laser_nm ? ` (${band(h.laser_nm)}: drawn at ${drawn} nm, the nearest visible colour)` : '');
   $('legend-text').textContent =
     `laser ${h.laser_nm.toFixed(0)} nm (black tick); ${range} (white bar). ` +
     `Light outside ${v0}-${v1} nm (UV or IR) is drawn grey` +
