@@ -92,7 +92,8 @@
 //!   light, `eta (|laser - p| + r) / c` (world time of first arrival at `p` plus the flight to
 //!   the camera; with `unwarp` off, the world time alone), colour-coded from blue (early) to
 //!   red (late) over [`Isochrones`]' range with dark contour lines every `contour_ps` (seed
-//!   Fig. 4 bottom). Points the laser spot does not see directly are dark grey. The values are
+//!   Fig. 4 bottom). Points the laser spot does not see directly (no direct pulse reaches them) are a neutral
+//!   mid-grey ([`views::UNLIT_ISOCHRONE_RGB`]). The values are
 //!   display colours, not tone mapped.
 //! - [`View::Integrated`]: the time-integrated (classic, steady-state) image: the whole
 //!   integral of the capture pixel's signal, times the constant-light factor

@@ -309,7 +309,7 @@ function showIsoLegend(iso) {
   $('iso-text').textContent =
     `arrival of the laser's direct light at the camera: ${iso.t_min_ps.toFixed(0)} ps (blue) to ` +
     `${iso.t_max_ps.toFixed(0)} ps (red), contours every ${round(iso.contour_ps, 3)} ps; ` +
-    'dark grey: the laser does not see the point; black: no surface. From the mesh, not the cube.';
+    'mid-grey: the laser does not see the point (no direct pulse); black: no surface. From the mesh, not the cube.';
 }
 
 // What each toggle changes, shown when it is toggled.
