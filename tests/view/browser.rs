@@ -438,6 +438,15 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         10,
         "the second keyframe",
     );
+    // With keyframes listed the Export section is still in sight.
+    let export = browser.run(
+        "return document.getElementById('export-section').getBoundingClientRect().bottom <= innerHeight",
+    );
+    assert_eq!(
+        export,
+        json!(true),
+        "two keyframes push Export below the fold"
+    );
     browser.click("#export-path");
     browser.wait_for(
         "return document.getElementById('path-toml').value.includes('[[keyframe]]')",

@@ -495,7 +495,7 @@ function showKeyframes() {
   ol.textContent = '';
   keyframes.forEach((k, i) => {
     const li = document.createElement('li');
-    li.textContent = `t ${k.t_world_ps.toFixed(1)} ps, beta ${norm(k.beta).toFixed(3)}`;
+    li.textContent = `${k.t_world_ps.toFixed(1)} ps, \u03b2 ${norm(k.beta).toFixed(3)}`;
     const go = document.createElement('button');
     go.textContent = 'Go to';
     go.onclick = () => { state = JSON.parse(JSON.stringify(k)); loadedFrames = null; syncControls(); changed(false); };
