@@ -149,6 +149,15 @@ pub fn laser_colour(lambda_nm: f64) -> [f64; 3] {
     }
 }
 
+/// The wavelength at which light of `lambda_nm` is drawn when the Doppler effect is off
+/// (`femto render` and `femto view` alike): the wavelength itself inside [`VISIBLE_NM`], else
+/// the nearer end of that range (380 or 780 nm), so that an infrared or ultraviolet laser's
+/// light is drawn in the colour nearest to it rather than the grey of invisible light, and
+/// the Doppler toggle shows what the shift does.
+pub fn nearest_visible_nm(lambda_nm: f64) -> f64 {
+    lambda_nm.clamp(VISIBLE_NM.0, VISIBLE_NM.1)
+}
+
 /// Exposure and tone mapping of a scene-linear sRGB colour to display-linear `[0, 1]`:
 /// multiply by `exposure`; gamut-map ([`desaturate_into_gamut`]); scale all channels so that
 /// the luminance becomes Reinhard's `Y / (1 + Y)`; if a channel then exceeds 1, mix with white
@@ -230,6 +239,17 @@ pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8
 mod tests {
     use super::*;
     use crate::relativity::Boost;
+
+    #[test]
+    fn doppler_off_draws_an_invisible_laser_at_the_nearest_visible_colour() {
+        assert_eq!(nearest_visible_nm(670.0), 670.0);
+        assert_eq!(nearest_visible_nm(795.0), 780.0);
+        assert_eq!(nearest_visible_nm(266.0), 380.0);
+        // 795 nm itself is grey; its drawn colour is a red, not grey.
+        assert_eq!(laser_colour(795.0), [1.0; 3]);
+        let red = laser_colour(nearest_visible_nm(795.0));
+        assert!(red[1] < 0.2 * red[0] && red[2] < 0.2 * red[0], "{red:?}");
+    }
     use nalgebra::{Matrix3, Vector3};
 
     /// physics.md spot values of the table.

@@ -1939,7 +1939,10 @@ fn cli_isochrones_of_a_realistic_capture_are_graded_not_one_red() {
     for y in 0..h {
         for x in 0..w {
             let s = probe_pixel(&scene, &settings, &path.frame(0), x, y);
-            let (Some(t_iso), false) = (s.t_arrival_ps, s.rgb == [0.02; 3]) else {
+            let (Some(t_iso), false) = (
+                s.t_arrival_ps,
+                s.rgb == femto::render::views::UNLIT_ISOCHRONE_RGB,
+            ) else {
                 continue; // no hit, or a point the laser does not see
             };
             let p = truth.profile(x, y);

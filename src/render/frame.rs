@@ -182,7 +182,8 @@ impl<'s> FrameCtx<'s> {
             eta: scene.capture.eta,
             eta_over_c_ps_per_m: flight_time_ps(scene.capture.eta, 1.0),
             inv_dtau_per_ps: 1.0 / settings.dtau_ps,
-            fixed_colour: (!e.doppler).then(|| colour_of(settings.colour, scene.laser_nm)),
+            fixed_colour: (!e.doppler)
+                .then(|| colour_of(settings.colour, color::nearest_visible_nm(scene.laser_nm))),
         }
     }
 

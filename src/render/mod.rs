@@ -68,7 +68,9 @@
 //!   world time of reception).
 //! - `aberration` off: the world ray is the camera ray `d'` (the image geometry of a camera at
 //!   rest at the same place).
-//! - `doppler` off: colour at the laser wavelength.
+//! - `doppler` off: colour at the laser wavelength; a laser outside the visible range at its
+//!   nearest end, 380 or 780 nm ([`crate::color::nearest_visible_nm`]), so that its light is
+//!   drawn in colour, not in the grey of invisible wavelengths.
 //! - `searchlight` off: `D = 1` in the accumulation window and the radiometric factor.
 //! - `dilation` off: `t_receive = tau` (world time advancing at the proper time's rate; the
 //!   path's two clocks agree at its start).
@@ -90,7 +92,8 @@
 //!   light, `eta (|laser - p| + r) / c` (world time of first arrival at `p` plus the flight to
 //!   the camera; with `unwarp` off, the world time alone), colour-coded from blue (early) to
 //!   red (late) over [`Isochrones`]' range with dark contour lines every `contour_ps` (seed
-//!   Fig. 4 bottom). Points the laser spot does not see directly are dark grey. The values are
+//!   Fig. 4 bottom). Points the laser spot does not see directly (no direct pulse reaches them) are a neutral
+//!   mid-grey ([`views::UNLIT_ISOCHRONE_RGB`]). The values are
 //!   display colours, not tone mapped.
 //! - [`View::Integrated`]: the time-integrated (classic, steady-state) image: the whole
 //!   integral of the capture pixel's signal, times the constant-light factor

@@ -112,13 +112,19 @@ fn hue_ramp(s: f64) -> [f64; 3] {
     [r, g, b]
 }
 
+/// Display colour (linear) of an isochrone pixel whose point the laser does not reach
+/// directly, so that no direct pulse arrives there: a neutral mid-grey (sRGB 118), apart from
+/// every colour of the hue ramp, its darkened contour lines and the black of rays that leave
+/// the scene.
+pub const UNLIT_ISOCHRONE_RGB: [f64; 3] = [0.18; 3];
+
 /// Display colour (linear, in `[0, 1]`) of an isochrone pixel with arrival time `t_ps`:
 /// the hue ramp over the range, darkened to 15 % on contour lines (within 6 % of a contour
-/// spacing of a multiple of `contour_ps`), dark grey where the laser does not reach the point
-/// directly.
+/// spacing of a multiple of `contour_ps`), [`UNLIT_ISOCHRONE_RGB`] where the laser does not
+/// reach the point directly.
 pub fn isochrone_colour(iso: &Isochrones, t_ps: f64, lit: bool) -> [f64; 3] {
     if !lit {
-        return [0.02; 3];
+        return UNLIT_ISOCHRONE_RGB;
     }
     let s = (t_ps - iso.t_min_ps) / (iso.t_max_ps - iso.t_min_ps);
     let c = hue_ramp(s);
@@ -176,7 +182,7 @@ mod tests {
         };
         assert!(bright(30.0) < 0.2 && bright(29.7) < 0.2 && bright(30.4) < 0.2);
         assert!(bright(35.0) > 0.99 && bright(31.0) > 0.99);
-        assert_eq!(isochrone_colour(&iso, 35.0, false), [0.02; 3]);
+        assert_eq!(isochrone_colour(&iso, 35.0, false), UNLIT_ISOCHRONE_RGB);
         assert!(iso.validate().is_ok());
         let bad = Isochrones {
             contour_ps: 0.0,

@@ -104,6 +104,35 @@ pub fn parse_frame_query(query: &str) -> Result<FrameOptions, String> {
     Ok(q)
 }
 
+/// A JSON array of states (a page's own keyframes), each checked as a state is, at most
+/// [`super::keyframes::MAX_KEYFRAMES`].
+fn keyframes_of_json(body: &[u8]) -> Result<Vec<ViewState>, BadState> {
+    let values: Vec<serde_json::Value> = serde_json::from_slice(body).map_err(|e| BadState {
+        field: "keyframes".into(),
+        message: format!("{e}: expected a JSON array of states"),
+    })?;
+    if values.len() > super::keyframes::MAX_KEYFRAMES {
+        return Err(BadState {
+            field: "keyframes".into(),
+            message: format!(
+                "{} keyframes: at most {}",
+                values.len(),
+                super::keyframes::MAX_KEYFRAMES
+            ),
+        });
+    }
+    values
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            ViewState::from_json(v.to_string().as_bytes()).map_err(|e| BadState {
+                field: format!("keyframes[{i}].{}", e.field),
+                message: e.message,
+            })
+        })
+        .collect()
+}
+
 /// Answer one request. `url` is the request target (path and query), `body` its body.
 pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Reply {
     if body.len() > MAX_BODY_BYTES {
@@ -181,6 +210,15 @@ pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Re
         }
         ("GET", "/api/path.toml") => match session.path_toml() {
             Ok(text) => Reply::ok("application/toml", text.into_bytes()),
+            Err(e) => e.into(),
+        },
+        ("POST", "/api/path.toml") => match keyframes_of_json(body) {
+            Ok(states) => {
+                match super::keyframes::export_path(&states, &session.info().render_inputs) {
+                    Ok(text) => Reply::ok("application/toml", text.into_bytes()),
+                    Err(e) => e.into(),
+                }
+            }
             Err(e) => e.into(),
         },
         ("POST", "/api/path") => {

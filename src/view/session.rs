@@ -60,6 +60,69 @@ pub struct Hud {
     pub height: usize,
     /// Milliseconds spent rendering and encoding the frame.
     pub render_ms: f64,
+    /// Laser wavelength in its rest frame, nm (the received wavelengths are `D` times it).
+    pub laser_nm: f64,
+    /// Fraction of the frame's pixels brighter than 2 of 255 in some channel: 0 is a black
+    /// frame, which the page explains.
+    pub lit_fraction: f64,
+    /// The times the isochrone view colour-codes, blue to red, ps; None in other views.
+    pub isochrones: Option<IsochroneScale>,
+}
+
+/// The colour scale of an isochrone frame: arrival times `t_min_ps` (blue) to `t_max_ps`
+/// (red), dark contour lines every `contour_ps` ([`crate::render::views::isochrone_colour`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct IsochroneScale {
+    pub t_min_ps: f64,
+    pub t_max_ps: f64,
+    pub contour_ps: f64,
+}
+
+/// Light the capture camera at rest receives at each world time: the mean display value
+/// (0-255) of a small frame of the capture view, at [`LIGHT_CURVE_SAMPLES`] times evenly
+/// spaced over the slider's range, and the lit range.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LightCurve {
+    /// World times of reception, ps.
+    pub t_ps: Vec<f64>,
+    /// Mean display value of the frame at each time, 0-255.
+    pub mean: Vec<f64>,
+    /// From the first to the last sample whose mean rises above the darkest sample's by more
+    /// than [`LIT_FRACTION`] of the curve's span (half a sample's spacing either side), ps;
+    /// the whole range when the curve is flat.
+    pub lit_range_ps: [f64; 2],
+}
+
+/// A sample of the light curve is lit when it rises above the darkest sample by more than
+/// this fraction of the curve's span.
+pub const LIT_FRACTION: f64 = 0.05;
+
+/// One colour of the page's wavelength legend: the colour the renderer draws light of
+/// `nm` in ([`crate::color::laser_colour`], its largest channel brought to 1), as 8-bit sRGB.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SpectrumColour {
+    pub nm: f64,
+    pub srgb8: [u8; 3],
+}
+
+/// Wavelengths of the page's legend, nm: from, to, step.
+const SPECTRUM_NM: (f64, f64, f64) = (200.0, 1000.0, 5.0);
+
+/// The legend's colours, [`SPECTRUM_NM`].
+fn spectrum() -> Vec<SpectrumColour> {
+    let (a, b, step) = SPECTRUM_NM;
+    let n = ((b - a) / step).round() as usize;
+    (0..=n)
+        .map(|k| {
+            let nm = a + step * k as f64;
+            let c = crate::color::laser_colour(nm);
+            let top = c.iter().cloned().fold(f64::MIN, f64::max).max(1e-12);
+            SpectrumColour {
+                nm,
+                srgb8: crate::color::encode_u8([c[0] / top, c[1] / top, c[2] / top]),
+            }
+        })
+        .collect()
 }
 
 /// What the page needs to start: the capture's numbers, the time range of its light and the
@@ -83,6 +146,12 @@ pub struct SessionInfo {
     pub render_inputs: String,
     pub max_side: usize,
     pub notes: Vec<String>,
+    /// The light curve under the page's time slider.
+    pub light_curve: LightCurve,
+    /// Wavelengths drawn in colour, nm ([`crate::color::VISIBLE_NM`]); outside, grey.
+    pub visible_nm: [f64; 2],
+    /// The colours of the wavelength legend.
+    pub spectrum: Vec<SpectrumColour>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -118,8 +187,8 @@ pub fn frame_memory_bytes(width: usize, height: usize) -> f64 {
     pixels * (crate::pipeline::render::BYTES_PER_FRAME_PIXEL + 6.0) + RENDER_OVERHEAD_BYTES
 }
 
-/// World times tried for the first picture ([`ViewSession::brightest_time_ps`]).
-const TIME_PROBES: usize = 32;
+/// Samples of the light curve ([`LightCurve`]).
+pub const LIGHT_CURVE_SAMPLES: usize = 64;
 
 /// Default frame size of the viewer, pixels.
 pub const DEFAULT_SIZE: (usize, usize) = (640, 480);
@@ -171,6 +240,13 @@ impl<'a> ViewSession<'a> {
             render_inputs,
             max_side: super::state::MAX_VIEW_SIDE,
             notes: inputs.notes.clone(),
+            light_curve: LightCurve {
+                t_ps: Vec::new(),
+                mean: Vec::new(),
+                lit_range_ps: [0.0; 2],
+            },
+            visible_nm: [crate::color::VISIBLE_NM.0, crate::color::VISIBLE_NM.1],
+            spectrum: spectrum(),
         };
         let mut session = ViewSession {
             scene: RwLock::new(scene),
@@ -179,34 +255,46 @@ impl<'a> ViewSession<'a> {
             latest: Mutex::new(capture_state),
             admission: Admission::new(rayon::current_num_threads()),
         };
-        let t = session.brightest_time_ps()?;
-        session.info.capture_state.t_world_ps = t;
+        let curve = session.light_curve()?;
+        let brightest = (0..curve.mean.len())
+            .max_by(|&a, &b| curve.mean[a].total_cmp(&curve.mean[b]))
+            .map(|k| curve.t_ps[k]);
+        if let Some(t) = brightest {
+            session.info.capture_state.t_world_ps = t;
+        }
+        session.info.light_curve = curve;
         *session.latest.get_mut().unwrap_or_else(|p| p.into_inner()) =
             session.info.capture_state.clone();
         Ok(session)
     }
 
-    /// The world time, among [`TIME_PROBES`] evenly spaced over the slider's range, at
-    /// which the capture view at rest shows the most light (mean display value of a small
-    /// frame): the page's first picture shows light in flight, not the dark before it.
-    fn brightest_time_ps(&self) -> Result<f64, StageError> {
+    /// The light curve: the capture view at rest, at an eighth of its size, at
+    /// [`LIGHT_CURVE_SAMPLES`] world times evenly spaced over the slider's range (each at the
+    /// middle of its interval), and the mean display value of each frame. The page's first
+    /// picture is at its brightest sample: light in flight, not the dark before it.
+    fn light_curve(&self) -> Result<LightCurve, StageError> {
         let mut probe = self.info.capture_state.scaled(0.125);
         let [t0, t1] = self.info.time_range_ps;
-        let mut best = (f64::NEG_INFINITY, probe.t_world_ps);
-        for k in 0..TIME_PROBES {
-            probe.t_world_ps = t0 + (t1 - t0) * (k as f64 + 0.5) / TIME_PROBES as f64;
+        let spacing = (t1 - t0) / LIGHT_CURVE_SAMPLES as f64;
+        let mut t_ps = Vec::with_capacity(LIGHT_CURVE_SAMPLES);
+        let mut mean = Vec::with_capacity(LIGHT_CURVE_SAMPLES);
+        for k in 0..LIGHT_CURVE_SAMPLES {
+            probe.t_world_ps = t0 + spacing * (k as f64 + 0.5);
             let (srgb8, _) = self.render_srgb8(&probe).map_err(|e| {
                 StageError::Render(crate::render::RenderError::Setting {
                     name: "view",
                     message: e.to_string(),
                 })
             })?;
-            let mean = srgb8.iter().map(|&v| v as f64).sum::<f64>() / srgb8.len() as f64;
-            if mean > best.0 {
-                best = (mean, probe.t_world_ps);
-            }
+            t_ps.push(probe.t_world_ps);
+            mean.push(srgb8.iter().map(|&v| v as f64).sum::<f64>() / srgb8.len() as f64);
         }
-        Ok(best.1)
+        let lit_range_ps = lit_range(&t_ps, &mean, spacing).unwrap_or([t0, t1]);
+        Ok(LightCurve {
+            t_ps,
+            mean,
+            lit_range_ps,
+        })
     }
 
     pub fn info(&self) -> &SessionInfo {
@@ -269,6 +357,16 @@ impl<'a> ViewSession<'a> {
                 width: settings.width,
                 height: settings.height,
                 render_ms: 0.0,
+                laser_nm: scene.laser_nm,
+                lit_fraction: lit_fraction(&srgb8),
+                isochrones: match settings.view {
+                    crate::render::View::Isochrones(iso) => Some(IsochroneScale {
+                        t_min_ps: iso.t_min_ps,
+                        t_max_ps: iso.t_max_ps,
+                        contour_ps: iso.contour_ps,
+                    }),
+                    _ => None,
+                },
             };
             Ok((srgb8, hud))
         };
@@ -386,6 +484,37 @@ impl<'a> ViewSession<'a> {
     }
 }
 
+/// The lit range of a light curve sampled at `t_ps` (spaced `spacing_ps`): from the first to
+/// the last sample above the darkest by more than [`LIT_FRACTION`] of the span, widened by
+/// half a spacing either side; None when the curve is flat.
+pub fn lit_range(t_ps: &[f64], mean: &[f64], spacing_ps: f64) -> Option<[f64; 2]> {
+    let lo = mean.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = mean.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let lit = |k: &usize| mean[*k] - lo > LIT_FRACTION * (hi - lo);
+    let first = (0..mean.len()).find(lit)?;
+    let last = (0..mean.len()).rev().find(lit)?;
+    Some([
+        t_ps[first] - 0.5 * spacing_ps,
+        t_ps[last] + 0.5 * spacing_ps,
+    ])
+}
+
+/// Fraction of the pixels of an 8-bit RGB frame with some channel above 2.
+fn lit_fraction(srgb8: &[u8]) -> f64 {
+    let pixels = srgb8.len() / 3;
+    if pixels == 0 {
+        return 0.0;
+    }
+    let lit = srgb8
+        .chunks_exact(3)
+        .filter(|p| p.iter().any(|&v| v > 2))
+        .count();
+    lit as f64 / pixels as f64
+}
+
 /// The smallest and largest Doppler factor over a grid of the frame's pixels.
 fn doppler_range(
     scene: &RenderScene,
@@ -429,4 +558,30 @@ fn distance_range_m(scene: &RenderScene) -> (f64, f64) {
         clamp(o.z, b.min.z, b.max.z),
     );
     ((near - o).norm(), far)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lit_range_spans_the_samples_above_the_dark_level_and_a_flat_curve_has_none() {
+        let t: Vec<f64> = (0..8).map(|k| 100.0 + 10.0 * k as f64).collect();
+        // Dark 1.0, light from the third to the sixth sample; 1.2 is under 5 % of the span.
+        let mean = [1.0, 1.2, 5.0, 40.0, 30.0, 2.9, 1.0, 1.0];
+        assert_eq!(lit_range(&t, &mean, 10.0), Some([115.0, 145.0]));
+        assert_eq!(lit_range(&t, &[3.0; 8], 10.0), None);
+        assert_eq!(lit_fraction(&[0, 0, 0, 0, 3, 0]), 0.5);
+        assert_eq!(lit_fraction(&[2, 2, 2]), 0.0);
+    }
+
+    #[test]
+    fn the_legend_spectrum_is_grey_outside_the_visible_range_and_coloured_inside() {
+        let s = spectrum();
+        let at = |nm: f64| s.iter().find(|c| c.nm == nm).unwrap().srgb8;
+        assert_eq!(at(300.0), [255, 255, 255]);
+        assert_eq!(at(900.0), [255, 255, 255]);
+        let red = at(650.0);
+        assert!(red[0] == 255 && red[1] < 100 && red[2] < 100, "{red:?}");
+    }
 }

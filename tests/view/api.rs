@@ -134,6 +134,24 @@ fn keyframes_export_a_path_whose_first_frame_is_the_first_keyframes_still() {
     let (status, toml) = request("GET", &url("/api/path.toml"), None);
     assert_eq!(status, 200, "{}", String::from_utf8_lossy(&toml));
     let toml = String::from_utf8(toml).unwrap();
+    // A page's own keyframes (POST, a JSON array of states): the same path.
+    let (status, posted) = request(
+        "POST",
+        &url("/api/path.toml"),
+        Some(&serde_json::to_vec(&vec![b.clone(), a.clone()]).unwrap()),
+    );
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&posted));
+    assert_eq!(String::from_utf8(posted).unwrap(), toml);
+    let mut bad = b.clone();
+    bad["vfov_deg"] = json!(200.0);
+    let (status, why) = request(
+        "POST",
+        &url("/api/path.toml"),
+        Some(&serde_json::to_vec(&vec![a.clone(), bad]).unwrap()),
+    );
+    let why = String::from_utf8_lossy(&why);
+    assert_eq!(status, 400, "{why}");
+    assert!(why.starts_with("keyframes[1].vfov_deg:"), "{why}");
     let frames = render_path(&fx.root, &toml, "keyframes_path");
     assert_eq!(
         frames.len(),

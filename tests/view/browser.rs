@@ -70,7 +70,7 @@ impl Browser {
                 "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                          "--no-first-run", "--disable-background-networking",
                          "--disable-component-update", "--disable-sync",
-                         "--window-size=1100,700",
+                         "--window-size=1280,800",
                          format!("--user-data-dir={}", browser._profile.path().display())]
             }
         }}});
@@ -173,6 +173,42 @@ impl Browser {
         )
     }
 
+    /// Press and release `keys` (WebDriver key values: "w", "\u{E013}" for the up arrow)
+    /// as a user types them: to whatever has the focus.
+    fn keys(&self, keys: &[&str]) {
+        let actions: Vec<Value> = keys
+            .iter()
+            .flat_map(|k| {
+                [
+                    json!({"type": "keyDown", "value": k}),
+                    json!({"type": "keyUp", "value": k}),
+                ]
+            })
+            .collect();
+        self.call(
+            "POST",
+            "/actions",
+            Some(json!({"actions": [{"type": "key", "id": "keyboard", "actions": actions}]})),
+        )
+        .unwrap_or_else(|e| panic!("keys {keys:?}: {e}"));
+    }
+
+    /// The camera position of the page's state, as the page writes it in JSON.
+    fn position(&self) -> String {
+        self.run("return JSON.stringify(window.femto.state.position_m)")
+            .as_str()
+            .expect("a string")
+            .to_string()
+    }
+
+    /// Set a `<select>` or range input by script, as a user's choice (a change event).
+    fn choose(&self, id: &str, value: &str, event: &str) {
+        self.run(&format!(
+            "const e = document.getElementById('{id}'); e.value = '{value}'; \
+             e.dispatchEvent(new Event('{event}', {{bubbles: true}}));"
+        ));
+    }
+
     fn screenshot(&self, to: &Path) {
         let b64 = self.call("GET", "/screenshot", None).expect("a screenshot");
         let png = base64::engine::general_purpose::STANDARD
@@ -228,11 +264,83 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         !shown_url.as_str().unwrap().contains("token"),
         "the token stays in the address bar: {shown_url}"
     );
-    let (mean, max, before) = browser.canvas();
+    let (mean, max, _) = browser.canvas();
     assert!(
         max > 60.0 && mean > 2.0,
         "the canvas is black: mean {mean}, max {max}"
     );
+
+    // The layout at 1280 x 800: the Keyframes and Export sections in sight without
+    // scrolling; neither the panel nor the heads-up line covers the picture.
+    let layout = browser.run(
+        "const r = (id) => document.getElementById(id).getBoundingClientRect(); \
+         const v = r('view'), p = r('panel'), h = r('hud'); \
+         const apart = (a, b) => a.right <= b.left || b.right <= a.left || a.bottom <= b.top || b.bottom <= a.top; \
+         return {keyframes: r('keyframes-section').bottom, export: r('export-section').bottom, \
+                 viewport: innerHeight, panel: apart(v, p), hud: apart(v, h)};",
+    );
+    let viewport = layout["viewport"].as_f64().unwrap();
+    assert!(
+        layout["keyframes"].as_f64().unwrap() <= viewport
+            && layout["export"].as_f64().unwrap() <= viewport,
+        "Keyframes or Export below the fold: {layout}"
+    );
+    assert!(
+        layout["panel"] == json!(true) && layout["hud"] == json!(true),
+        "the picture is covered: {layout}"
+    );
+
+    // The light curve: drawn under the time slider, the first picture inside its lit range.
+    let curve = browser.run(
+        "const f = window.femto, c = f.info.light_curve, [a, b] = c.lit_range_ps; \
+         const g = document.getElementById('light-curve'); \
+         const d = g.getContext('2d').getImageData(0, 0, g.width, g.height).data; \
+         let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; \
+         return {samples: c.t_ps.length, inside: f.state.t_world_ps >= a && f.state.t_world_ps <= b, \
+                 painted: n / (g.width * g.height)};",
+    );
+    assert_eq!(curve["samples"], json!(64), "{curve}");
+    assert_eq!(curve["inside"], json!(true), "{curve}");
+    assert!(curve["painted"].as_f64().unwrap() > 0.05, "{curve}");
+
+    // Honest readouts: the frame rate says idle when nothing is drawn; the frame interval
+    // is rounded; edge beta is off without a sensor rotation.
+    std::thread::sleep(Duration::from_millis(1600));
+    let readouts = browser.run(
+        "return [document.getElementById('hud').textContent, \
+                 document.getElementById('dtau').value, document.getElementById('spin-beta').disabled];",
+    );
+    assert!(readouts[0].as_str().unwrap().contains("idle"), "{readouts}");
+    assert!(readouts[1].as_str().unwrap().len() <= 6, "{readouts}");
+    assert_eq!(readouts[2], json!(true), "{readouts}");
+
+    // Keys fly the camera after a click on a slider (which keeps its value) and on a button.
+    let exposure = browser.run("return document.getElementById('exposure').value");
+    let at = browser.position();
+    browser.click("#exposure");
+    browser.keys(&["\u{E013}", "\u{E013}"]);
+    browser.wait_for(
+        &format!("return JSON.stringify(window.femto.state.position_m) !== '{at}'"),
+        10,
+        "the up arrow after clicking the exposure slider moves the camera",
+    );
+    assert_eq!(
+        browser.run("return document.getElementById('exposure').value"),
+        exposure,
+        "the up arrow moved the slider"
+    );
+    browser.click("#reset");
+    let at = browser.position();
+    browser.keys(&["w"]);
+    browser.wait_for(
+        &format!("return JSON.stringify(window.femto.state.position_m) !== '{at}'"),
+        10,
+        "W after clicking Reset moves the camera",
+    );
+    browser.click("#reset");
+    browser.wait_settled("the capture view again");
+    let (_, _, before) = browser.canvas();
+    let range_at_rest = browser.run("return document.getElementById('legend-text').dataset.range");
 
     // The beta slider (forward at 0.5 c): a new frame, another picture.
     let seq = browser.run("return window.femto.shownSeq");
@@ -251,6 +359,59 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
     assert!(max_fast > 30.0, "black at beta 0.5");
     let hud = browser.run("return window.femto.hud");
     assert!((hud["beta"].as_f64().unwrap() - 0.5).abs() < 1e-9, "{hud}");
+
+    // The legend: the received wavelengths move with beta; at 0.9 the Doppler toggle
+    // changes the picture (its light is drawn at the laser's colour) and says what it did.
+    let range_moving = browser.run("return document.getElementById('legend-text').dataset.range");
+    assert_ne!(
+        range_at_rest, range_moving,
+        "the legend's range did not move with beta"
+    );
+    browser.choose("beta", "0.9", "input");
+    browser.wait_settled("the frame at beta 0.9");
+    let (_, _, doppler_on) = browser.canvas();
+    browser.click("[data-effect=doppler]");
+    browser.wait_settled("the frame at beta 0.9 without Doppler");
+    let (_, _, doppler_off) = browser.canvas();
+    assert_ne!(
+        doppler_on, doppler_off,
+        "the Doppler toggle did not change the picture at beta 0.9"
+    );
+    let said = browser.run(
+        "return [document.getElementById('legend-text').textContent, \
+                 document.getElementById('effect-note').textContent]",
+    );
+    assert!(
+        said[0].as_str().unwrap().contains("doppler off")
+            && said[1].as_str().unwrap().starts_with("doppler:"),
+        "{said}"
+    );
+    if let Some(shot) = std::env::var_os("FEMTO_VIEW_LEGEND_SCREENSHOT") {
+        browser.click("[data-effect=doppler]");
+        browser.wait_settled("the frame at beta 0.9 with Doppler");
+        browser.screenshot(Path::new(&shot));
+        browser.click("[data-effect=doppler]");
+        browser.wait_settled("the frame at beta 0.9 without Doppler");
+    }
+    browser.click("[data-effect=doppler]");
+    browser.choose("beta", "0.5", "input");
+    browser.wait_settled("the frame at beta 0.5 again");
+
+    // Isochrones: a colour bar of their times replaces the wavelength legend.
+    browser.choose("view-kind", "isochrones", "change");
+    browser.wait_settled("the isochrone frame");
+    let iso = browser.run(
+        "return [document.getElementById('iso-legend').hidden, \
+                 document.getElementById('iso-text').textContent, window.femto.hud.isochrones]",
+    );
+    assert_eq!(iso[0], json!(false), "{iso}");
+    assert!(iso[1].as_str().unwrap().contains("ps (blue)"), "{iso}");
+    assert!(
+        iso[2]["t_min_ps"].as_f64().unwrap() < iso[2]["t_max_ps"].as_f64().unwrap(),
+        "{iso}"
+    );
+    browser.choose("view-kind", "transient", "change");
+    browser.wait_settled("the transient frame again");
 
     // Two keyframes: here, and after a few frames of play.
     browser.click("#add-keyframe");
@@ -276,6 +437,15 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         "return document.querySelectorAll('#keyframes li').length === 2",
         10,
         "the second keyframe",
+    );
+    // With keyframes listed the Export section is still in sight.
+    let export = browser.run(
+        "return document.getElementById('export-section').getBoundingClientRect().bottom <= innerHeight",
+    );
+    assert_eq!(
+        export,
+        json!(true),
+        "two keyframes push Export below the fold"
     );
     browser.click("#export-path");
     browser.wait_for(
@@ -352,13 +522,20 @@ fn the_page_shows_frames_follows_the_beta_slider_and_exports_a_path_femto_render
         "the canvas is black after a reload: mean {mean}, max {max}"
     );
     let listed = browser.run("return document.querySelectorAll('#keyframes li').length");
-    assert_eq!(listed, json!(2), "the reloaded page lists the keyframes");
+    assert_eq!(
+        listed,
+        json!(2),
+        "the reloaded page (the same tab) lists its keyframes"
+    );
 
     // femto render renders the exported path; its frame 0 is the first keyframe's still.
     let frames = render_path(&fx.root, &toml, "browser_path");
     assert!(frames.len() >= 8, "{} frames", frames.len());
-    let (_, keyframes) = request("GET", &format!("{}/api/keyframes", server.url), None);
-    let keyframes: Vec<Value> = serde_json::from_slice(&keyframes).unwrap();
+    // The keyframes are the page's own: the server's list stays empty.
+    let (_, on_server) = request("GET", &format!("{}/api/keyframes", server.url), None);
+    assert_eq!(on_server, b"[]", "the page's keyframes went to the server");
+    let keyframes = browser.run("return window.femto.keyframes");
+    let keyframes = keyframes.as_array().unwrap();
     let body = serde_json::to_vec(&keyframes[0]).unwrap();
     let (status, still) = request("POST", &format!("{}/api/still", server.url), Some(&body));
     assert_eq!(status, 200);
