@@ -15,6 +15,16 @@ from ._femto import __version__, Pyramid
 from ._errors import FemtoError, FemtoOSError, FemtoFileNotFoundError
 from ._cube import Cube, Registration, open_cube, cube_from_array
 from ._render import FemtoWarning, RenderResult, render, render_still, state_path_toml
+from ._stages import (
+    StageResult,
+    ingest,
+    calibrate,
+    unwarp,
+    pyramid,
+    export_tal,
+    ingest_tal,
+    ingest_mitransient,
+)
 
 __all__ = [
     "__version__",
@@ -31,4 +41,12 @@ __all__ = [
     "render",
     "render_still",
     "state_path_toml",
+    "StageResult",
+    "ingest",
+    "calibrate",
+    "unwarp",
+    "pyramid",
+    "export_tal",
+    "ingest_tal",
+    "ingest_mitransient",
 ]
