@@ -74,6 +74,7 @@ def cube_from_array(
     units: str = ...,
     mask: Optional[npt.ArrayLike] = ...,
     force: bool = ...,
+    compression: Union[int, str, None] = ...,
     **attrs: Any,
 ) -> Cube: ...
 def render(

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Union
 
 import numpy as np
 
@@ -142,6 +142,7 @@ def cube_from_array(
     units: str = "arbitrary",
     mask: Optional[np.ndarray] = None,
     force: bool = False,
+    compression: Union[int, str, None] = None,
     **attrs: Any,
 ) -> Cube:
     """Write ``array`` (``(ny, nx, nt)``, converted to float32) as a cube file at ``path``.
@@ -150,8 +151,9 @@ def cube_from_array(
     ``"world"``; ``units``: units of the values (signal integrated over a bin); ``mask``:
     optional ``(ny, nx)`` validity mask; further keyword arguments become string attributes
     of ``/cube`` (e.g. ``laser_nm=532``, read by ``femto render``). The file is written
-    atomically, shuffle + deflate compressed; an existing file is refused unless
-    ``force=True``. Returns the written cube, opened.
+    atomically, shuffle + deflate compressed (``compression``: ``"none"`` or a level 0-9,
+    default the library's); an existing file is refused unless ``force=True``. Returns the
+    written cube, opened.
     """
     a = np.asarray(array, dtype=np.float32)
     if a.ndim != 3:
@@ -161,7 +163,8 @@ def cube_from_array(
     m = None if mask is None else np.asarray(mask, dtype=np.uint8)
     notes = [(str(k), str(v)) for k, v in attrs.items()]
     _femto.write_cube(
-        a, float(dt_ps), float(t0_ps), os.fspath(path), clock, units, notes, m, force
+        a, float(dt_ps), float(t0_ps), os.fspath(path), clock, units, notes, m, force,
+        None if compression is None else str(compression),
     )
     return Cube(path)
 

@@ -197,7 +197,7 @@ pub fn read_pyramid(
 /// bins of `dt_ps` from `t0_ps`, on `clock`, values in `units`, with `notes` as string
 /// attributes of `/cube`. Atomic: nothing is left at `path` on failure.
 #[pyfunction]
-#[pyo3(signature = (array, dt_ps, t0_ps, path, clock, units, notes, mask=None, force=false))]
+#[pyo3(signature = (array, dt_ps, t0_ps, path, clock, units, notes, mask=None, force=false, compression=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn write_cube(
     py: Python<'_>,
@@ -210,7 +210,13 @@ pub fn write_cube(
     notes: Vec<(String, String)>,
     mask: Option<numpy::PyReadonlyArray2<'_, u8>>,
     force: bool,
+    compression: Option<String>,
 ) -> PyResult<()> {
+    let compression = match compression.as_deref() {
+        None => femto::container::CubeCompression::default(),
+        Some(c) => femto::container::CubeCompression::parse(c)
+            .map_err(|e| value_error(format!("compression {c}: {e}")))?,
+    };
     let frame = TimeFrame::parse(clock)
         .ok_or_else(|| value_error(format!("clock {clock:?}: must be \"camera\" or \"world\"")))?;
     for (name, v) in [("dt_ps", dt_ps), ("t0_ps", t0_ps)] {
@@ -256,6 +262,28 @@ pub fn write_cube(
     };
     let mut provenance = Provenance::new("python: femto.cube_from_array");
     provenance.notes = notes;
-    py.detach(|| femto::container::write_cube_with_units(&path, &cube, units, &provenance))
-        .py_err()
+    py.detach(|| {
+        let mut w = femto::container::CubeWriter::create_with(
+            &path,
+            nx,
+            ny,
+            cube.axis,
+            cube.frame,
+            units,
+            &provenance,
+            compression,
+        )?;
+        // In slabs of about 32 MiB, as the library's own writers stream.
+        let row_len = nx * cube.axis.nt;
+        let slab = ((32usize << 20) / (4 * row_len)).max(1);
+        for y0 in (0..ny).step_by(slab) {
+            let y1 = (y0 + slab).min(ny);
+            w.write_rows(y0, &cube.data[y0 * row_len..y1 * row_len])?;
+        }
+        if let Some(m) = &cube.mask {
+            w.write_mask(m)?;
+        }
+        w.finish()
+    })
+    .py_err()
 }
