@@ -398,7 +398,7 @@ mod tests {
         assert_eq!(power_ref("auto").unwrap(), PowerRef::Auto);
         assert_eq!(
             power_ref("1:5,2:9").unwrap(),
-            PowerRef::Region(RefRegion {
+            PowerRef::Region(femto::ingest::corrections::RefRegion {
                 x0: 1,
                 x1: 5,
                 t0_bin: 2,
