@@ -8,18 +8,16 @@
 //! [`femto::pipeline::calibrate::calibrate_cube`] and
 //! [`femto::pipeline::calibrate::write_calibration`] (both files or neither).
 
-use anyhow::bail;
 use clap::Args;
 use femto::calibrate::load_points;
-use femto::camera::{Intrinsics, KnownIntrinsics};
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
 use femto::pipeline::calibrate::{
-    calibrate_cube, write_calibration, CalibrateOptions, Calibrated, DetectionFloor, NOISE_SIGMAS,
+    calibrate_cube, default_calibration_path, laser_spot, read_intrinsics, write_calibration,
+    CalibrateOptions, Calibrated, DetectionFloor, NOISE_SIGMAS,
 };
 use femto::pipeline::StageError;
 use femto::store::registration;
-use nalgebra::Point3;
 use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
@@ -61,7 +59,7 @@ pub struct CalibrateArgs {
     pub keep_outliers: bool,
     /// First-arrival detection (the first pass of the time fit): the direct pulse is searched
     /// from the first bin at or above this fraction of a pixel's maximum.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = CalibrateOptions::default().threshold_fraction)]
     pub threshold: f64,
     /// Time fit: skip pixels whose maximum is below this value, in the cube's value units
     /// [default: 20 times the cube's noise, its values' robust standard deviation, so that a
@@ -81,37 +79,11 @@ pub struct CalibrateArgs {
 /// Above this many correspondences the report lists only the worst (and every outlier).
 const MAX_POINTS_LISTED: usize = 40;
 
-/// The `--intrinsics` file ([`KnownIntrinsics`]: the same tables and keys as a calibration
-/// file), for a cube of `nx x ny` pixels.
-fn read_intrinsics(
-    path: &Path,
-    nx: usize,
-    ny: usize,
-) -> anyhow::Result<(Intrinsics, Option<[f64; 3]>, Option<f64>)> {
-    let known = KnownIntrinsics::load(path)?;
-    let k = known.intrinsics;
-    if (k.width, k.height) != (nx, ny) {
-        bail!(
-            "{}: the intrinsics are for {} x {} pixels but the cube is {nx} x {ny}",
-            path.display(),
-            k.width,
-            k.height
-        );
-    }
-    Ok((k, known.laser_m.map(|p| p.coords.into()), known.eta))
-}
-
-/// The calibration TOML's default path: `<dir>/<stem>.calibration.toml`.
-fn default_out(cube: &Path) -> PathBuf {
-    let stem = cube
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "cube".into());
-    cube.with_file_name(format!("{stem}.calibration.toml"))
-}
-
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let out = args.out.clone().unwrap_or_else(|| default_out(&args.cube));
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| default_calibration_path(&args.cube));
     let mut inputs = vec![
         args.cube.as_path(),
         args.mesh.as_path(),
@@ -123,25 +95,23 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let points = load_points(&args.points)?;
     let (intrinsics, file_laser, file_eta) = match &args.intrinsics {
         Some(p) => {
-            let (k, laser, eta) = read_intrinsics(p, meta.nx, meta.ny)?;
-            (Some(k), laser, eta)
+            let known = read_intrinsics(p, meta.nx, meta.ny)?;
+            let laser = known.laser_m.map(|l| l.coords.into());
+            (Some(known.intrinsics), laser, known.eta)
         }
         None => (None, None, None),
     };
-    let laser_m = match args.laser.or(file_laser) {
-        Some(l) => Point3::from(l),
-        None => bail!(
-            "the laser spot is unknown: give --laser X,Y,Z (metres, mesh frame), or an \
-             --intrinsics file with a [laser] section"
-        ),
-    };
+    let laser_m = laser_spot(args.laser, file_laser)?;
     let options = CalibrateOptions {
         intrinsics,
         square_pixels: args.square_pixels,
         centred_principal_point: args.centred_principal_point,
         fit_distortion: args.fit_distortion,
         keep_outliers: args.keep_outliers,
-        eta: args.eta.or(file_eta).unwrap_or(1.0),
+        eta: args
+            .eta
+            .or(file_eta)
+            .unwrap_or(CalibrateOptions::default().eta),
         fit_time_scale: args.fit_time_scale,
         threshold_fraction: args.threshold,
         floor: match args.min_peak {

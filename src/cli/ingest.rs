@@ -11,8 +11,7 @@ use femto::ingest::assemble::{self, Pass};
 use femto::ingest::plan::{
     DarkInput, IngestOptions, IngestPlan, InputSpec, PowerRef, SaturationInput,
 };
-use femto::ingest::time_axis::AxisValue;
-use femto::ingest::{IngestError, IngestValue};
+use femto::ingest::IngestError;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -143,129 +142,11 @@ fn options(args: &IngestArgs) -> anyhow::Result<IngestOptions> {
     })
 }
 
-/// `x` rounded up to three significant digits (a bin width to suggest).
-fn round_up_3_digits(x: f64) -> f64 {
-    if !(x.is_finite() && x > 0.0) {
-        return x;
-    }
-    let unit = 10f64.powf(x.log10().floor() - 2.0);
-    (x / unit).ceil() * unit
-}
-
-/// The flag of a time-axis value.
-fn axis_flag(what: AxisValue) -> &'static str {
-    match what {
-        AxisValue::BinWidth => "--dt-ps",
-        AxisValue::Start => "--t0-ps",
-    }
-}
-
-/// The flag that gives each value the library can refuse ([`IngestError::BadValue`]).
-fn value_flag(what: IngestValue) -> &'static str {
-    match what {
-        IngestValue::ValueScale => "--value-scale",
-        IngestValue::DtPs => "--dt-ps",
-        IngestValue::T0Ps => "--t0-ps",
-        IngestValue::LaserNm => "--laser-nm",
-        IngestValue::DarkLevel => "--dark",
-        IngestValue::SaturationLevel => "--saturation",
-    }
-}
-
-/// Name the flag where the library's message names an option, and add the flag to use where
-/// it names a missing value.
+/// The error as `femto ingest` reports it: the line naming the flag where the library has
+/// one ([`femto::ingest::flags::flag_message`]), else the error with its causes.
 fn with_hint(e: IngestError) -> anyhow::Error {
-    match &e {
-        IngestError::AxisConflict {
-            what,
-            given,
-            source_name,
-            recorded,
-        } => {
-            return anyhow::anyhow!(
-                "{} {given}: contradicts {source_name}, whose {} is {recorded} ps (leave the \
-                 flag out to keep the recorded axis, or add --resample-time to resample the \
-                 recorded rows onto the axis asked for)",
-                axis_flag(*what),
-                what.quantity()
-            )
-        }
-        IngestError::StartAfterRecording {
-            t0_ps,
-            first_edge_ps,
-            source_name,
-        } => {
-            return anyhow::anyhow!(
-                "--t0-ps {t0_ps}: after the start of the recorded rows ({source_name}: \
-                 {first_edge_ps} ps); resampling from there would lose the signal before \
-                 it (give --t0-ps {first_edge_ps} or earlier)"
-            )
-        }
-        IngestError::TooManyBins {
-            dt_ps,
-            first_edge_ps,
-            last_edge_ps,
-            needed,
-            max,
-            source_name,
-        } => {
-            let span = last_edge_ps - first_edge_ps;
-            return anyhow::anyhow!(
-                "--dt-ps {dt_ps}: the recorded rows ({source_name}) span {first_edge_ps} to \
-                 {last_edge_ps} ps, which would take {needed} bins of {dt_ps} ps (at most \
-                 {max}, 16 per recorded row; give --dt-ps {} or more)",
-                round_up_3_digits(span / *max as f64)
-            );
-        }
-        IngestError::LaserConflict {
-            given,
-            manifest,
-            recorded,
-        } => {
-            return anyhow::anyhow!(
-                "--laser-nm {given}: contradicts {}, whose [capture] laser_wavelength_nm is \
-                 {recorded} nm (leave the flag out)",
-                manifest.display()
-            )
-        }
-        IngestError::BadValue {
-            what,
-            value,
-            message,
-        } => return anyhow::anyhow!("{} {value}: {message}", value_flag(*what)),
-        IngestError::Correction { what, source } if what == "power reference region" => {
-            return anyhow::anyhow!("--power-ref: {source}");
-        }
-        IngestError::FolderWithoutManifest { dir, found } => {
-            let ext = found.first().map_or("png", |(e, _)| e.as_str());
-            let axis = if ext == "img" {
-                ""
-            } else {
-                " --dt-ps PS --t0-ps PS"
-            };
-            return anyhow::anyhow!(
-                "{e}; give its scanlines as a quoted glob: femto ingest '{}/*.{ext}'{axis} -o \
-                 CUBE.h5",
-                dir.display().to_string().trim_end_matches('/')
-            );
-        }
-        _ => {}
-    }
-    let hint = match &e {
-        IngestError::PrintfNeedsRows { .. } => Some("give --rows N"),
-        IngestError::NoTimeAxis { .. } => Some("give --dt-ps and --t0-ps"),
-        IngestError::ImgTimeUncalibrated { .. } => {
-            Some("give --dt-ps PS, the time per row; --t0-ps defaults to 0")
-        }
-        IngestError::NothingToResample { .. } => Some("leave out --resample-time"),
-        IngestError::SaturationAuto { .. } => Some("use --saturation LEVEL"),
-        IngestError::MissingScanline { .. } | IngestError::ManifestFileMissing { .. } => {
-            Some("--allow-missing fills missing scanlines by interpolation")
-        }
-        _ => None,
-    };
-    match hint {
-        Some(h) => anyhow::anyhow!("{e} ({h})"),
+    match femto::ingest::flags::flag_message(&e) {
+        Some(line) => anyhow::anyhow!(line),
         None => anyhow::Error::new(e),
     }
 }

@@ -21,7 +21,7 @@
 use super::values::{
     EffectsArg, EnumArg, FrameRange, RadiometryArg, Size, VideoFormatArg, ViewArg,
 };
-use anyhow::{anyhow, bail};
+use anyhow::anyhow;
 use clap::{ArgGroup, Args};
 use femto::pipeline::render::{render_to, Camera, RenderOptions};
 use femto::render::paths::Shortcut;
@@ -130,13 +130,6 @@ fn output_format(args: &RenderArgs) -> anyhow::Result<VideoFormat> {
 
 /// The flags as the render stage's options (every flag checked before a file is read).
 fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
-    for (flag, beta) in [("--dolly", args.dolly), ("--orbit", args.orbit)] {
-        if let Some(b) = beta {
-            if !(b.is_finite() && b.abs() < 1.0) {
-                bail!("{flag} {b}: the camera must move slower than light (|beta| < 1)");
-            }
-        }
-    }
     let camera = if let Some(p) = &args.path {
         Camera::PathFile(p.clone())
     } else if let Some(beta) = args.dolly {
@@ -146,6 +139,7 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
     } else {
         Camera::Shortcut(Shortcut::CaptureView)
     };
+    femto::pipeline::render::check_camera(&camera)?;
     let options = RenderOptions {
         size: args.size.map(Size::pair),
         frame_count: args.frame_count,

@@ -12,7 +12,6 @@
 use clap::builder::{EnumValueParser, PossibleValue, TypedValueParser};
 use clap::ValueEnum;
 use femto::container::CubeCompression;
-use femto::ingest::corrections::RefRegion;
 use femto::ingest::plan::{PowerRef, SaturationInput};
 use femto::manifest::StreakFormat;
 use femto::pipeline::render::ViewKind;
@@ -112,59 +111,17 @@ pub fn point(s: &str) -> Result<[f64; 3], String> {
 
 /// `none` or a deflate level 0-9 (with shuffle).
 pub fn compression(s: &str) -> Result<CubeCompression, String> {
-    if s == "none" {
-        return Ok(CubeCompression::None);
-    }
-    match s.parse::<u32>() {
-        Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
-        _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
-    }
+    CubeCompression::parse(s)
 }
 
 /// `auto` or a level in value units (the library checks its range).
 pub fn saturation(s: &str) -> Result<SaturationInput, String> {
-    if s == "auto" {
-        return Ok(SaturationInput::Auto);
-    }
-    s.parse()
-        .map(SaturationInput::Level)
-        .map_err(|e| format!("expected a level or 'auto': {e}"))
-}
-
-/// `A:B`, two non-negative integers.
-fn range(s: &str, what: &str) -> Result<(usize, usize), String> {
-    let (a, b) = s
-        .split_once(':')
-        .ok_or_else(|| format!("{what} '{s}' is not A:B"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<usize>()
-            .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
-    };
-    Ok((parse(a)?, parse(b)?))
+    SaturationInput::parse(s)
 }
 
 /// `auto` or `x0:x1,t0:t1` (ingest's laser power reference).
 pub fn power_ref(s: &str) -> Result<PowerRef, String> {
-    if s == "auto" {
-        return Ok(PowerRef::Auto);
-    }
-    region(s).map(PowerRef::Region)
-}
-
-/// `x0:x1,t0:t1`.
-fn region(s: &str) -> Result<RefRegion, String> {
-    let (xs, ts) = s
-        .split_once(',')
-        .ok_or_else(|| format!("'{s}' is not x0:x1,t0:t1"))?;
-    let (x0, x1) = range(xs, "x range")?;
-    let (t0_bin, t1_bin) = range(ts, "bin range")?;
-    Ok(RefRegion {
-        x0,
-        x1,
-        t0_bin,
-        t1_bin,
-    })
+    PowerRef::parse(s)
 }
 
 /// A [`ValueEnum`] parsed after trimming the value's whitespace (and, for
@@ -448,7 +405,7 @@ mod tests {
         assert_eq!(power_ref("auto").unwrap(), PowerRef::Auto);
         assert_eq!(
             power_ref("1:5,2:9").unwrap(),
-            PowerRef::Region(RefRegion {
+            PowerRef::Region(femto::ingest::corrections::RefRegion {
                 x0: 1,
                 x1: 5,
                 t0_bin: 2,

@@ -65,6 +65,20 @@ pub enum CubeCompression {
     None,
 }
 
+impl CubeCompression {
+    /// Parse `none` or a deflate level 0-9 (with shuffle): the value of the `--compression`
+    /// flags; the message says what was expected.
+    pub fn parse(s: &str) -> std::result::Result<CubeCompression, String> {
+        if s == "none" {
+            return Ok(CubeCompression::None);
+        }
+        match s.parse::<u32>() {
+            Ok(level) if level <= 9 => Ok(CubeCompression::Deflate(level)),
+            _ => Err(format!("'{s}' is not 'none' or a deflate level 0-9")),
+        }
+    }
+}
+
 impl Default for CubeCompression {
     fn default() -> Self {
         CubeCompression::Deflate(DEFLATE_LEVEL)

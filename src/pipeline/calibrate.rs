@@ -27,13 +27,13 @@ use crate::calibrate::{
     ArrivalOptions, ArrivalSample, CalibrateError, Correspondence, Footprints, Registration,
     SpatialFit, SpatialOptions, TimeFit,
 };
-use crate::camera::{Calibration, Intrinsics};
+use crate::camera::{Calibration, Intrinsics, KnownIntrinsics};
 use crate::container::{CubeReader, GroupUpdate};
 use crate::cube::{row_slabs, Cube, TimeFrame};
 use crate::geometry::bvh::Bvh;
 use crate::store::registration::{self, FitSummary};
 use nalgebra::Point3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Default detection floor, in noise standard deviations (module doc).
 pub const NOISE_SIGMAS: f64 = 20.0;
@@ -88,6 +88,48 @@ impl Default for CalibrateOptions {
             floor: DetectionFloor::NoiseSigmas(NOISE_SIGMAS),
         }
     }
+}
+
+/// The `--intrinsics` file ([`KnownIntrinsics`]: the same tables and keys as a calibration
+/// file) for a cube of `nx x ny` pixels: its intrinsics, and its laser spot and medium when
+/// it records them.
+pub fn read_intrinsics(path: &Path, nx: usize, ny: usize) -> Result<KnownIntrinsics, StageError> {
+    let known = KnownIntrinsics::load(path)?;
+    let k = known.intrinsics;
+    if (k.width, k.height) != (nx, ny) {
+        return Err(StageError::Input {
+            path: path.display().to_string(),
+            message: format!(
+                "the intrinsics are for {} x {} pixels but the cube is {nx} x {ny}",
+                k.width, k.height
+            ),
+        });
+    }
+    Ok(known)
+}
+
+/// The laser spot of a calibration: `given` (`--laser`), else the `--intrinsics` file's.
+pub fn laser_spot(
+    given: Option<[f64; 3]>,
+    from_file: Option<[f64; 3]>,
+) -> Result<Point3<f64>, StageError> {
+    match given.or(from_file) {
+        Some(l) => Ok(Point3::from(l)),
+        None => Err(StageError::Missing(
+            "the laser spot is unknown: give --laser X,Y,Z (metres, mesh frame), or an \
+             --intrinsics file with a [laser] section",
+        )),
+    }
+}
+
+/// Where the calibration TOML of the cube at `cube` goes by default:
+/// `<dir>/<stem>.calibration.toml`.
+pub fn default_calibration_path(cube: &Path) -> PathBuf {
+    let stem = cube
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "cube".into());
+    cube.with_file_name(format!("{stem}.calibration.toml"))
 }
 
 /// One time fit and the floor it was made with.

@@ -125,6 +125,9 @@ pub enum StageError {
     /// An input does not fit the stage (a world-time cube given for calibration, ...).
     #[error("{path}: {message}")]
     Input { path: String, message: String },
+    /// A required input is missing; the message says which flag gives it.
+    #[error("{0}")]
+    Missing(&'static str),
     /// An output is one of the inputs.
     #[error("--{flag} {path} is also an input of this command; choose another path")]
     OutputIsInput { flag: &'static str, path: String },

@@ -431,6 +431,25 @@ pub struct Plan {
     pub frames: Range<usize>,
 }
 
+/// Refuse a shortcut camera that would move at or faster than light (`--dolly`, `--orbit`
+/// with `|beta| >= 1`, or not finite), naming the flag. The CLI checks this before opening
+/// its inputs; [`plan`] checks it again.
+pub fn check_camera(camera: &Camera) -> Result<(), StageError> {
+    let (name, beta) = match camera {
+        Camera::Shortcut(Shortcut::Dolly { beta }) => (StageOption::Dolly, *beta),
+        Camera::Shortcut(Shortcut::Orbit { beta }) => (StageOption::Orbit, *beta),
+        _ => return Ok(()),
+    };
+    if beta.is_finite() && beta.abs() < 1.0 {
+        Ok(())
+    } else {
+        Err(StageError::Option {
+            name,
+            message: format!("{beta}: the camera must move slower than light (|beta| < 1)"),
+        })
+    }
+}
+
 /// Refuse render options out of range (frame count, size, interval, exposure, ...), naming
 /// the option. [`plan`] checks them; the CLI checks them first as well, so that a bad flag is
 /// refused before the inputs (gigabytes, at times) are opened.
@@ -557,6 +576,7 @@ pub fn plan(
     options: &RenderOptions,
 ) -> Result<Plan, StageError> {
     check_options(options)?;
+    check_camera(camera)?;
     let (path, default_offset_ps) = camera_path(scene, camera, options)?;
     check_frame_size(scene, &path.spec(), options.format)?;
     let spec = path.spec();
@@ -762,54 +782,77 @@ pub fn render_to(
 ) -> Result<Rendered, StageError> {
     refuse_same_file(out, input_paths, "out")?;
     let scene = inputs.scene()?;
-    let Plan {
-        path,
-        settings,
-        frames,
-    } = plan(&scene, camera, options)?;
-    let spec = path.spec();
+    let plan = plan(&scene, camera, options)?;
+    let spec = plan.path.spec();
     if options.format.is_sequence() {
-        let names = frames
+        let names = plan
+            .frames
             .clone()
             .map(|k| out.join(crate::video::sequence_file_name(k, options.format)));
         super::overwrite::refuse_existing_any(names, options.force, "out")?;
     } else {
         super::overwrite::refuse_existing(out, input_paths, options.force, "out")?;
     }
-    // Frames whose times miss the cube's light, predicted before rendering (a coarse probe
-    // of each frame, render::coverage); the rendered black frames are counted below.
-    let coverage = predict_coverage(&scene, &settings, &path, frames.clone())?;
     let mut writer =
         VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
-            .first_frame_index(frames.start)
+            .first_frame_index(plan.frames.start)
             .sequence_length(spec.frames);
-    progress.start("render", frames.len() as u64);
-    let started = Instant::now();
     let mut frame = Frame {
         width: spec.width,
         height: spec.height,
         linear_rgb: Vec::new(),
         srgb8: Vec::new(),
     };
-    let mut black_frames = Vec::new();
-    let mut done = 0u64;
-    render_sequence::<StageError>(&scene, &settings, &path, frames.clone(), |k, pixels| {
-        if frame_is_black(pixels) {
-            black_frames.push(k);
-        }
+    let mut rendered = render_planned(inputs, &scene, &plan, progress, |_, pixels, settings| {
         if options.format == VideoFormat::ExrSequence {
             frame.linear_rgb.clear();
             frame.linear_rgb.extend(pixels.iter().flatten());
         } else {
             frame.srgb8.resize(3 * pixels.len(), 0);
-            encode_srgb8(&settings, pixels, &mut frame.srgb8);
+            encode_srgb8(settings, pixels, &mut frame.srgb8);
         }
         writer.push(&frame)?;
+        Ok(())
+    })?;
+    rendered.frames_written = writer.finish()?;
+    Ok(rendered)
+}
+
+/// Render the frames of `plan` (from [`plan`] on `scene`, the scene of `inputs`), handing
+/// each to `on_frame` with its global index, its linear RGB pixels (row-major, top row
+/// first; what EXR frames hold) and the settings that encode it for display
+/// ([`encode_srgb8`]; what PNG frames hold). The front ends that keep frames in memory
+/// (the Python package) call this; [`render_to`] calls it with a video writer.
+/// `frames_written` of the outcome counts the frames handed over.
+pub fn render_planned(
+    inputs: &RenderInputs,
+    scene: &RenderScene,
+    plan: &Plan,
+    progress: &dyn Progress,
+    mut on_frame: impl FnMut(usize, &[[f32; 3]], &RenderSettings) -> Result<(), StageError>,
+) -> Result<Rendered, StageError> {
+    let Plan {
+        path,
+        settings,
+        frames,
+    } = plan;
+    let spec = path.spec();
+    // Frames whose times miss the cube's light, predicted before rendering (a coarse probe
+    // of each frame, render::coverage); the rendered black frames are counted below.
+    let coverage = predict_coverage(scene, settings, path, frames.clone())?;
+    progress.start("render", frames.len() as u64);
+    let started = Instant::now();
+    let mut black_frames = Vec::new();
+    let mut done = 0u64;
+    render_sequence::<StageError>(scene, settings, path, frames.clone(), |k, pixels| {
+        if frame_is_black(pixels) {
+            black_frames.push(k);
+        }
+        on_frame(k, pixels, settings)?;
         done += 1;
         progress.set(done);
         Ok(())
     })?;
-    let frames_written = writer.finish()?;
     progress.finish();
     let mut warnings = inputs.notes.clone();
     if !black_frames.is_empty() {
@@ -838,8 +881,8 @@ pub fn render_to(
         ));
     }
     Ok(Rendered {
-        frames,
-        frames_written,
+        frames: frames.clone(),
+        frames_written: done as usize,
         width: spec.width,
         height: spec.height,
         seconds: started.elapsed().as_secs_f64(),

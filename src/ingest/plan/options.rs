@@ -37,6 +37,52 @@ pub enum SaturationInput {
     Auto,
 }
 
+impl SaturationInput {
+    /// Parse `auto` or a level in value units (the value of `--saturation`; the range is
+    /// checked with the other values).
+    pub fn parse(s: &str) -> Result<SaturationInput, String> {
+        if s == "auto" {
+            return Ok(SaturationInput::Auto);
+        }
+        s.parse()
+            .map(SaturationInput::Level)
+            .map_err(|e| format!("expected a level or 'auto': {e}"))
+    }
+}
+
+impl PowerRef {
+    /// Parse `auto` or a reference region `x0:x1,t0:t1` (the value of `--power-ref`).
+    pub fn parse(s: &str) -> Result<PowerRef, String> {
+        if s == "auto" {
+            return Ok(PowerRef::Auto);
+        }
+        let (xs, ts) = s
+            .split_once(',')
+            .ok_or_else(|| format!("'{s}' is not x0:x1,t0:t1"))?;
+        let (x0, x1) = range(xs, "x range")?;
+        let (t0_bin, t1_bin) = range(ts, "bin range")?;
+        Ok(PowerRef::Region(RefRegion {
+            x0,
+            x1,
+            t0_bin,
+            t1_bin,
+        }))
+    }
+}
+
+/// `A:B`, two non-negative integers.
+fn range(s: &str, what: &str) -> Result<(usize, usize), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("{what} '{s}' is not A:B"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("{what} '{s}': '{v}' is not a non-negative integer"))
+    };
+    Ok((parse(a)?, parse(b)?))
+}
+
 /// The options of an ingest, as typed values (the command line maps its flags onto these);
 /// `Default` is what `femto ingest` does without flags: the manifest's corrections and jitter
 /// removal.

@@ -1,0 +1,237 @@
+"""The file stages: :func:`ingest`, :func:`calibrate`, :func:`unwarp`, :func:`pyramid`,
+and the y-tal / mitransient interop. Keyword arguments are the ``femto`` flags (underscores
+for dashes); each returns a :class:`StageResult` with the figures the command prints."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from typing import Any, Dict, Optional, Sequence, Union
+
+from . import _femto
+from ._progress import progress_callback
+from ._render import FemtoWarning, _path
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class StageResult:
+    """The figures a stage's command prints, as attributes (see each stage's docstring);
+    ``warnings`` lists its warnings (also issued as :class:`FemtoWarning`)."""
+
+    def __init__(self, figures: Dict[str, Any]):
+        figures.setdefault("warnings", [])
+        self.__dict__.update(figures)
+        for w in figures["warnings"]:
+            warnings.warn(w, FemtoWarning, stacklevel=3)
+
+    def __repr__(self) -> str:
+        return f"StageResult({self.__dict__!r})"
+
+
+def _compression(value: Any) -> Optional[str]:
+    return None if value is None else str(value)
+
+
+def _point(p: Optional[Sequence[float]]):
+    return None if p is None else [float(v) for v in p]
+
+
+def ingest(
+    source: PathLike,
+    out: PathLike,
+    *,
+    rows: Optional[int] = None,
+    dataset: Optional[str] = None,
+    dt_ps: Optional[float] = None,
+    t0_ps: Optional[float] = None,
+    resample_time: bool = False,
+    laser_nm: Optional[float] = None,
+    transpose: bool = False,
+    dark: Union[float, PathLike, None] = None,
+    flat: Optional[PathLike] = None,
+    sweep_table: Optional[PathLike] = None,
+    no_manifest_corrections: bool = False,
+    jitter: bool = True,
+    power_ref: Optional[str] = None,
+    saturation: Union[float, str, None] = None,
+    allow_missing: bool = False,
+    value_scale: Optional[float] = None,
+    compression: Union[int, str, None] = None,
+    force: bool = False,
+    progress: Any = None,
+) -> StageResult:
+    """Assemble a streak capture into an x-y-t cube in camera time (``femto ingest``).
+
+    ``source``: a folder with manifest.toml, a manifest, a glob (``"scan_*.png"``), a printf
+    pattern with ``rows=N``, an HDF5 stack with ``dataset=``, or one scanline image. ``out``:
+    the cube (HDF5). ``dt_ps`` / ``t0_ps``: bin width and start of bin 0, ps, for files that
+    record no time axis (``resample_time=True`` resamples a recorded axis onto them).
+    ``laser_nm``: laser wavelength, nm. ``dark``: a level (value units) or a dark-frame file;
+    ``flat``: flat-field gains image; ``sweep_table``: nt+1 true bin-edge times, ps.
+    ``jitter=False`` keeps trigger jitter (``--no-jitter``); ``power_ref``: ``"auto"`` or
+    ``"x0:x1,t0:t1"``; ``saturation``: a level or ``"auto"``; ``value_scale``: signal per
+    stored count; ``compression``: ``"none"`` or deflate level 0-9 (default 1).
+
+    Returns ``path``, ``rows``, ``shape`` (ny, nx, nt), ``t0_ps``, ``dt_ps``, ``time_axis``
+    (where the axis came from), ``laser_nm``, ``corrections``, ``jitter_shifts_ps``,
+    ``power_gains``, ``missing_rows``, ``saturated_pixels``, ``masked_pixels``, ``passes``.
+    y-tal captures and mitransient arrays: :func:`ingest_tal`, :func:`ingest_mitransient`.
+    ``force``: replace ``out`` if it exists (``--force``; without it an existing cube is
+    refused, docs/faults.md "Overwriting").
+    """
+    return StageResult(
+        _femto.ingest(
+            os.fspath(source), _path(out), rows, dataset, dt_ps, t0_ps, bool(resample_time),
+            laser_nm, bool(transpose),
+            None if dark is None else (float(dark) if isinstance(dark, (int, float)) else os.fspath(dark)),
+            _path(flat), _path(sweep_table), bool(no_manifest_corrections), bool(jitter),
+            power_ref, saturation, bool(allow_missing), value_scale, _compression(compression),
+            bool(force), progress_callback(progress),
+        )
+    )
+
+
+def calibrate(
+    cube: Any,
+    *,
+    mesh: PathLike,
+    points: PathLike,
+    laser: Optional[Sequence[float]] = None,
+    intrinsics: Optional[PathLike] = None,
+    eta: Optional[float] = None,
+    square_pixels: bool = False,
+    centred_principal_point: bool = False,
+    fit_distortion: bool = False,
+    fit_time_scale: bool = False,
+    keep_outliers: bool = False,
+    threshold: Optional[float] = None,
+    min_peak: Optional[float] = None,
+    out: Optional[PathLike] = None,
+    force: bool = False,
+    progress: Any = None,
+) -> StageResult:
+    """Fit the capture camera and ``t0`` (``femto calibrate``); writes the calibration TOML
+    (``out``, default ``<cube stem>.calibration.toml`` beside the cube) and the cube's
+    ``registration`` group, both or neither.
+
+    ``mesh``: scene mesh in metres; ``points``: 2D-3D correspondences (.toml or .csv);
+    ``laser``: laser spot (X, Y, Z) in metres, mesh frame; ``intrinsics``: a calibration TOML
+    whose intrinsics are known (only the pose is fitted); ``eta``: refractive index (default
+    1); ``threshold``: first-arrival detection fraction of a pixel's maximum (library default
+    0.3); ``min_peak``: detection floor in value units (default 20 noise sigmas).
+
+    Returns ``t0_ps`` and ``t0_std_error_ps``, ``time_scale``, ``time_residual_rms_ps``,
+    ``time_residual_sigma_ps``, ``time_samples``, ``time_inliers``, ``check_t0_ps`` (with the
+    floor doubled), ``noise_sigma``, ``reprojection_rms_px``, ``reprojection_median_px``,
+    ``per_point_px``, ``outliers``, ``calibration`` (the TOML's path), ``warnings``.
+    ``force``: replace the TOML if it exists (``--force``; without it, refused). The cube's
+    registration group follows the calibration written last.
+    """
+    return StageResult(
+        _femto.calibrate(
+            _path(cube), _path(mesh), _path(points), _point(laser), _path(intrinsics), eta,
+            bool(square_pixels), bool(centred_principal_point), bool(fit_distortion),
+            bool(fit_time_scale), bool(keep_outliers), threshold, min_peak, _path(out),
+            bool(force), progress_callback(progress),
+        )
+    )
+
+
+def unwarp(
+    cube: Any,
+    out: PathLike,
+    *,
+    to: str = "world",
+    t0_ps: Optional[float] = None,
+    nt: Optional[int] = None,
+    dt_ps: Optional[float] = None,
+    calibration: Optional[PathLike] = None,
+    mesh: Optional[PathLike] = None,
+    compression: Union[int, str, None] = None,
+    force: bool = False,
+    progress: Any = None,
+) -> StageResult:
+    """Convert a cube between camera and world time (``femto unwarp``, seed Eq. 2:
+    ``t_world = t_camera - eta |p - o| / c``) with its registration's distances (or rays cast
+    through ``calibration`` into ``mesh``). ``to``: ``"world"`` or ``"camera"``; ``t0_ps``,
+    ``nt``, ``dt_ps``: the output axis (default: covering every shifted sample, the input's
+    bins); ``compression``: default the input's.
+
+    Returns ``path``, ``from_clock``, ``to_clock``, ``shape``, ``t0_ps``, ``dt_ps``,
+    ``input_t0_ps``, ``input_nt``, ``eta``, ``valid_pixels``, ``dist_range_m``.
+    ``force``: replace ``out`` whole if it exists (``--force``; without it, refused); groups
+    the old file held (a pyramid) go with it.
+    """
+    return StageResult(
+        _femto.unwarp(
+            _path(cube), _path(out), to, t0_ps, nt, dt_ps, _path(calibration), _path(mesh),
+            _compression(compression), bool(force), progress_callback(progress),
+        )
+    )
+
+
+def pyramid(
+    cube: Any,
+    *,
+    levels: Optional[int] = None,
+    side_file: Optional[PathLike] = None,
+    compression: Union[int, str, None] = None,
+    force: bool = False,
+    progress: Any = None,
+) -> StageResult:
+    """Store a cube's temporal prefix sums and mip levels (``femto pyramid``), in the cube's
+    file or ``side_file``. ``levels``: mip levels above level 0 (default all);
+    ``compression``: ``"none"`` (the library's default) or a deflate level.
+
+    Returns ``path``, ``shape``, ``levels``, ``level_nts`` (samples per pixel of each level).
+    ``force``: replace ``side_file`` if it exists (``--force``; without it, refused). A
+    pyramid group in the cube itself is replaced by each run.
+    """
+    return StageResult(
+        _femto.pyramid(
+            _path(cube), levels, _path(side_file), _compression(compression), bool(force),
+            progress_callback(progress),
+        )
+    )
+
+
+def export_tal(
+    cube: Any, out: PathLike, *, laser_origin_m: Optional[Sequence[float]] = None
+) -> StageResult:
+    """Write a cube with a registration (or tal) group as a y-tal capture (HDF5,
+    ``femto export --to tal``). Returns ``path``, ``H_shape`` (nt, sx, sy), ``delta_t_m``,
+    ``t_start_m``, ``t_accounts_first_and_last_bounces``, ``unseen_points``."""
+    return StageResult(_femto.export_tal(_path(cube), _path(out), _point(laser_origin_m)))
+
+
+def ingest_tal(
+    source: PathLike, out: PathLike, *, saturation: Optional[float] = None
+) -> StageResult:
+    """Ingest a y-tal capture (HDF5 with ``H`` and ``H_format``) into a cube
+    (``femto ingest CAPTURE.hdf5``). Returns ``path``, ``shape``, ``t0_ps``, ``dt_ps``,
+    ``clock``."""
+    return StageResult(_femto.ingest_tal(_path(source), _path(out), saturation))
+
+
+def ingest_mitransient(
+    source: PathLike,
+    out: PathLike,
+    *,
+    start_opl_m: float,
+    bin_width_opl_m: float,
+    channels: str = "mean",
+    opl_clock: str = "camera",
+) -> StageResult:
+    """Ingest a mitransient transient array ``(H, W, T, C)`` saved with ``np.save``
+    (``femto ingest RENDER.npy``). ``start_opl_m`` / ``bin_width_opl_m``: the film's binning
+    in metres of optical path (t = opl / c); ``channels``: ``"mean"``, ``"r"``, ``"g"``,
+    ``"b"`` or ``"luminance"``; ``opl_clock``: ``"camera"`` (mitransient's default) or
+    ``"world"`` (rendered with camera_unwarp). Returns ``path``, ``shape``, ``t0_ps``,
+    ``dt_ps``, ``clock``."""
+    return StageResult(
+        _femto.ingest_mitransient(
+            _path(source), _path(out), float(start_opl_m), float(bin_width_opl_m), channels,
+            opl_clock,
+        )
+    )

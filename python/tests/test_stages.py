@@ -1,0 +1,150 @@
+"""The file stages against the command line: same inputs and flags, same outputs."""
+
+import h5py
+import numpy as np
+import pytest
+from PIL import Image
+
+import femto
+from conftest import run_cli
+
+
+def cube_values(path):
+    with h5py.File(path, "r") as f:
+        return f["cube"][...]
+
+
+def test_chain_equals_the_cli_chain(demo, femto_bin, tmp_path):
+    py, cli = tmp_path / "py", tmp_path / "cli"
+    py.mkdir(), cli.mkdir()
+    seen = []
+    r = femto.ingest(demo["capture"], py / "cube.h5", power_ref="auto", saturation="auto",
+                     progress=lambda what, done, total: seen.append((what, done, total)))
+    run_cli(femto_bin, "ingest", demo["capture"], "-o", cli / "cube.h5", "--power-ref", "auto",
+            "--saturation", "auto")
+    assert np.array_equal(cube_values(py / "cube.h5"), cube_values(cli / "cube.h5"))
+    assert r.shape == cube_values(cli / "cube.h5").shape and r.passes == 2
+    assert seen and all(t == 2 * r.rows for _, _, t in seen)
+
+    laser = "-0.13,0.06,-0.07"
+    c = femto.calibrate(py / "cube.h5", mesh=demo["mesh"], points=demo["points"],
+                        laser=[-0.13, 0.06, -0.07], square_pixels=True,
+                        centred_principal_point=True, out=py / "cal.toml")
+    out = run_cli(femto_bin, "calibrate", cli / "cube.h5", "--mesh", demo["mesh"], "--points",
+                  demo["points"], f"--laser={laser}", "--square-pixels",
+                  "--centred-principal-point", "--out", cli / "cal.toml").stdout
+    assert f"time: t0 {c.t0_ps:.3f} +- {c.t0_std_error_ps:.3f} ps" in out, out
+    assert f"reprojection: rms {c.reprojection_rms_px:.3f} px" in out
+    assert abs(c.t0_ps) < 50 and c.t0_std_error_ps > 0
+
+    u = femto.unwarp(py / "cube.h5", py / "world.h5")
+    run_cli(femto_bin, "unwarp", cli / "cube.h5", "--out", cli / "world.h5")
+    assert np.array_equal(cube_values(py / "world.h5"), cube_values(cli / "world.h5"))
+    assert u.to_clock == "world" and u.valid_pixels > 0
+
+    p = femto.pyramid(py / "world.h5")
+    run_cli(femto_bin, "pyramid", cli / "world.h5")
+    assert p.levels >= 1
+    with h5py.File(py / "world.h5", "r") as a, h5py.File(cli / "world.h5", "r") as b:
+        assert sorted(a["pyramid"]) == sorted(b["pyramid"])
+        for name in a["pyramid"]:
+            assert np.array_equal(a["pyramid"][name][...], b["pyramid"][name][...]), name
+
+
+def test_ingest_of_a_numpy_made_png16_capture_equals_the_cli(femto_bin, tmp_path):
+    rng = np.random.default_rng(3)
+    ny, nt, nx = 6, 40, 9
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    for y in range(ny):
+        img = rng.integers(0, 60000, size=(nt, nx), dtype=np.uint16)
+        Image.fromarray(img, mode="I;16").save(scans / f"scan_{y:03d}.png")
+    pattern = str(scans / "scan_*.png")
+    r = femto.ingest(pattern, tmp_path / "py.h5", dt_ps=2.0, t0_ps=-5.0, jitter=False,
+                     progress=False)
+    run_cli(femto_bin, "ingest", pattern, "-o", tmp_path / "cli.h5", "--dt-ps", "2",
+            "--t0-ps=-5", "--no-jitter")
+    a, b = cube_values(tmp_path / "py.h5"), cube_values(tmp_path / "cli.h5")
+    assert a.shape == (ny, nx, nt) and np.array_equal(a, b)
+    assert r.dt_ps == 2.0 and r.t0_ps == -5.0
+    # The values are the counts (value scale 1), time along the image's rows.
+    first = np.asarray(Image.open(scans / "scan_000.png"), dtype=np.float32)
+    assert np.array_equal(a[0], first.T)
+
+
+@pytest.mark.parametrize(
+    "kwargs,flags",
+    [
+        (dict(dt_ps=-1.0, t0_ps=0.0), ["--dt-ps=-1", "--t0-ps", "0"]),
+        (dict(), []),
+        (dict(dt_ps=1.0, t0_ps=0.0, power_ref="1:2"), ["--dt-ps", "1", "--t0-ps", "0", "--power-ref", "1:2"]),
+    ],
+)
+def test_bad_ingest_arguments_raise_the_cli_message(femto_bin, tmp_path, kwargs, flags):
+    scans = tmp_path / "s"
+    scans.mkdir()
+    for y in range(2):
+        Image.fromarray(np.ones((4, 3), np.uint16), mode="I;16").save(scans / f"s{y}.png")
+    pattern = str(scans / "s*.png")
+    with pytest.raises(femto.FemtoError) as e:
+        femto.ingest(pattern, tmp_path / "o.h5", progress=False, **kwargs)
+    cli = run_cli(femto_bin, "ingest", pattern, "-o", tmp_path / "o.h5", *flags, check=False)
+    assert cli.returncode == 2
+    line = cli.stderr.strip()
+    if "invalid value" in line:
+        # A value clap's parser refused: clap words the line, the library gives the reason.
+        assert str(e.value).split(": ", 1)[1] in line, (str(e.value), line)
+    else:
+        assert line == f"femto: error: {e.value}", (str(e.value), line)
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_ytal_round_trip(demo, tmp_path):
+    tal = pytest.importorskip("tal")
+    r = femto.export_tal(demo["cube"], tmp_path / "capture.hdf5")
+    cap = tal.io.read_capture(str(tmp_path / "capture.hdf5"))
+    assert cap.H.shape == tuple(r.H_shape)
+    back = femto.ingest_tal(tmp_path / "capture.hdf5", tmp_path / "back.h5")
+    orig = femto.open_cube(demo["cube"])
+    again = femto.open_cube(back.path)
+    assert again.shape == orig.shape
+    assert np.allclose(again.data, orig.data, rtol=1e-6, atol=0)
+    # y-tal's times start at the laser's emission: the calibration's t0 is taken off.
+    t0_cal = orig.registration.attrs["t0_ps"]
+    assert abs(again.t0_ps - (orig.t0_ps - t0_cal)) < 1e-6 * abs(orig.t0_ps)
+    assert abs(again.dt_ps - orig.dt_ps) < 1e-9 * orig.dt_ps
+
+
+def test_mitransient_array_in_memory(tmp_path):
+    rng = np.random.default_rng(5)
+    h = rng.random((4, 5, 16, 3), dtype=np.float32)
+    np.save(tmp_path / "render.npy", h)
+    r = femto.ingest_mitransient(tmp_path / "render.npy", tmp_path / "m.h5",
+                                 start_opl_m=0.3, bin_width_opl_m=0.003)
+    cube = femto.open_cube(r.path)
+    assert cube.shape == (4, 5, 16)
+    assert np.allclose(cube.data, h.mean(axis=3), rtol=1e-6)
+    c_m_per_ps = 299792458e-12
+    assert np.isclose(cube.dt_ps, 0.003 / c_m_per_ps) and np.isclose(cube.t0_ps, 0.3 / c_m_per_ps)
+    with pytest.raises(femto.FemtoError, match="--channels"):
+        femto.ingest_mitransient(tmp_path / "render.npy", tmp_path / "n.h5", start_opl_m=0.3,
+                                 bin_width_opl_m=0.003, channels="x")
+
+
+def test_an_existing_output_is_refused_as_the_cli_refuses_it(femto_bin, tmp_path):
+    scans = tmp_path / "s"
+    scans.mkdir()
+    for y in range(2):
+        Image.fromarray(np.ones((4, 3), np.uint16), mode="I;16").save(scans / f"s{y}.png")
+    pattern = str(scans / "s*.png")
+    out = tmp_path / "o.h5"
+    femto.ingest(pattern, out, dt_ps=1.0, t0_ps=0.0, progress=False)
+    before = out.read_bytes()
+    with pytest.raises(femto.FemtoError) as e:
+        femto.ingest(pattern, out, dt_ps=1.0, t0_ps=0.0, progress=False)
+    cli = run_cli(femto_bin, "ingest", pattern, "-o", out, "--dt-ps", "1", "--t0-ps", "0",
+                  check=False)
+    assert cli.returncode == 2
+    assert cli.stderr.strip() == f"femto: error: {e.value}", (str(e.value), cli.stderr)
+    assert "--force" in str(e.value) and out.read_bytes() == before
+    femto.ingest(pattern, out, dt_ps=1.0, t0_ps=0.0, force=True, progress=False)
