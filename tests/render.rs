@@ -44,6 +44,21 @@ fn lum(px: [f32; 3]) -> f64 {
     color::luminance([px[0] as f64, px[1] as f64, px[2] as f64])
 }
 
+/// Luminance-weighted centroid (pixel coordinates, centres at +0.5) of a `w x h` frame; None
+/// when the frame is black.
+fn centroid(img: &[[f32; 3]], w: usize, h: usize) -> Option<(f64, f64)> {
+    let (mut sum, mut su, mut sv) = (0.0, 0.0, 0.0);
+    for j in 0..h {
+        for i in 0..w {
+            let l = lum(img[j * w + i]);
+            sum += l;
+            su += l * (i as f64 + 0.5);
+            sv += l * (j as f64 + 0.5);
+        }
+    }
+    (sum > 0.0).then(|| (su / sum, sv / sum))
+}
+
 /// Focal length in pixels of a frame `height` pixels high with vertical field of view
 /// `vfov_deg` (pinhole, principal point at the centre).
 fn focal_px(height: usize, vfov_deg: f64) -> f64 {
@@ -144,17 +159,8 @@ fn marker_centroid_lies_within_half_a_pixel_of_the_boosted_photon_direction() {
             .unwrap();
             let settings = RenderSettings::for_path(&path);
             let img = render(&scene, &settings, &path.frame(0));
-            let (mut sum, mut su, mut sv) = (0.0, 0.0, 0.0);
-            for j in 0..h {
-                for i in 0..w {
-                    let l = lum(img[j * w + i]);
-                    sum += l;
-                    su += l * (i as f64 + 0.5);
-                    sv += l * (j as f64 + 0.5);
-                }
-            }
-            assert!(sum > 0.0, "beta {signed}: the marker is not in the frame");
-            let (cu, cv) = (su / sum, sv / sum);
+            let (cu, cv) = centroid(&img, w, h)
+                .unwrap_or_else(|| panic!("beta {signed}: the marker is not in the frame"));
             let err = (cu - pu).hypot(cv - pv);
             assert!(
                 err < 0.5,
@@ -2028,17 +2034,8 @@ fn marker_in_a_medium_lies_where_the_boosted_world_line_points() {
         let settings = RenderSettings::for_path(&path);
         let state = path.frame(0);
         let img = render(&scene, &settings, &state);
-        let (mut sum, mut su, mut sv) = (0.0, 0.0, 0.0);
-        for j in 0..h {
-            for i in 0..w {
-                let l = lum(img[j * w + i]);
-                sum += l;
-                su += l * (i as f64 + 0.5);
-                sv += l * (j as f64 + 0.5);
-            }
-        }
-        assert!(sum > 0.0, "{angle_deg} deg: the marker is not in the frame");
-        let (cu, cv) = (su / sum, sv / sum);
+        let (cu, cv) = centroid(&img, w, h)
+            .unwrap_or_else(|| panic!("{angle_deg} deg: the marker is not in the frame"));
         let err = (cu - pu).hypot(cv - pv);
         println!("eta {eta}, beta {beta}, {angle_deg} deg: centroid {err:.3} px from the boost");
         assert!(
