@@ -406,13 +406,13 @@ pub fn merge_bands(
     }
     let (files, n_points, top) = stage_and_install(out_dir, opts.force, |dir| {
         copy_truths(scene, opts, &bands, dir)?;
-        let peaks = bands
-            .iter()
-            .map(|(_, b)| Peaks {
-                clean_max: b.peaks.clean_max as f32,
-                noiseless: b.peaks.noiseless,
-            })
-            .fold(Peaks::default(), Peaks::max);
+        // Two folds, one per type: a single loop taking an f32 and an f64 maximum together
+        // is vectorised by rustc 1.95's LLVM 22 into invalid IR (an `fcmp` of a double and a
+        // float vector) that crashes `cargo build --release` (SIGSEGV in x86 isel).
+        let peaks = Peaks {
+            clean_max: bands.iter().map(|(_, b)| b.peaks.clean_max).fold(0.0, f64::max) as f32,
+            noiseless: bands.iter().map(|(_, b)| b.peaks.noiseless).fold(0.0, f64::max),
+        };
         let bvh = Bvh::new(scene.mesh.clone());
         let shape = capture_shape(scene, opts)?;
         finish_capture(scene, opts, &bvh, shape, &peaks, dir, progress)
