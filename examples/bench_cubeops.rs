@@ -150,6 +150,7 @@ fn main() {
                 ny,
                 &src_axis,
                 &dist_m,
+                &[],
                 None,
                 1.0,
                 Direction::CameraToWorld,

@@ -70,10 +70,17 @@ impl Direction {
     /// Time shift in ps applied to a profile seen at `dist_m` metres in a medium of index `eta`.
     #[inline]
     pub fn shift_ps(self, eta: f64, dist_m: f64) -> f64 {
-        let tof_ps = flight_time_ps(eta, dist_m);
+        self.toward_target(flight_time_ps(eta, dist_m))
+    }
+
+    /// A delay `delay_ps` of the camera clock behind the world's (a flight time, a scanline's
+    /// trigger offset) as a shift of this direction: removed going to world time, added back
+    /// going to camera time.
+    #[inline]
+    pub fn toward_target(self, delay_ps: f64) -> f64 {
         match self {
-            Direction::CameraToWorld => -tof_ps,
-            Direction::WorldToCamera => tof_ps,
+            Direction::CameraToWorld => -delay_ps,
+            Direction::WorldToCamera => delay_ps,
         }
     }
 }
@@ -166,9 +173,10 @@ pub fn covering_axis(
 
 /// Shift `rows` full rows of `nx` pixels (`src_rows`: `[y][x][t]` on `src_axis`) into
 /// `dst_rows` (`[y][x][t]` on `dst_axis`), one shift per pixel from `dist_m` (metres, one per
-/// pixel of these rows; NaN, infinite or negative = no geometry). A pixel with no geometry or
-/// with `mask` 0 is written as zeros with `dst_mask` 0; every other pixel gets `dst_mask` 1.
-/// Runs in parallel over pixels.
+/// pixel of these rows; NaN, infinite or negative = no geometry) and, when `row_delay_ps` is
+/// not empty, one delay of the camera clock per row (a scanline's trigger offset, ps; NaN:
+/// none). A pixel with no geometry or with `mask` 0 is written as zeros with `dst_mask` 0;
+/// every other pixel gets `dst_mask` 1. Runs in parallel over pixels.
 ///
 /// Panics if a slice length does not match `nx`, `rows` and the axes.
 #[allow(clippy::too_many_arguments)]
@@ -178,6 +186,7 @@ pub fn unwarp_rows(
     rows: usize,
     src_axis: &TimeAxis,
     dist_m: &[f32],
+    row_delay_ps: &[f64],
     mask: Option<&[u8]>,
     eta: f64,
     direction: Direction,
@@ -194,6 +203,18 @@ pub fn unwarp_rows(
     if let Some(m) = mask {
         assert_eq!(m.len(), n_pix, "source mask size");
     }
+    assert!(
+        row_delay_ps.is_empty() || row_delay_ps.len() == rows,
+        "row delays size"
+    );
+    let row_delay = |p: usize| {
+        let d = row_delay_ps.get(p / nx.max(1)).copied().unwrap_or(0.0);
+        if d.is_finite() {
+            d
+        } else {
+            0.0
+        }
+    };
     let valid = |p: usize| has_geometry(dist_m[p]) && mask.is_none_or(|m| m[p] != 0);
     dst_mask
         .par_iter_mut()
@@ -209,7 +230,8 @@ pub fn unwarp_rows(
         .for_each(|(p, dst)| {
             if valid(p) {
                 let src = &src_rows[p * nt_src..(p + 1) * nt_src];
-                let shift_ps = direction.shift_ps(eta, dist_m[p] as f64);
+                let shift_ps = direction.shift_ps(eta, dist_m[p] as f64)
+                    + direction.toward_target(row_delay(p));
                 resample::shift_into(src_axis, src, shift_ps, dst_axis, dst);
             } else {
                 dst.fill(0.0);
@@ -289,6 +311,7 @@ pub fn unwarp_cube(
         cube.ny,
         &cube.axis,
         dist_m,
+        &[],
         mask,
         eta,
         direction,
@@ -423,6 +446,7 @@ mod tests {
             1,
             &a,
             &[d],
+            &[],
             None,
             1.0,
             Direction::CameraToWorld,

@@ -72,7 +72,7 @@ fn check_chain(dir: &Path, cap: &Path, cube: &Path, expect_laser: Option<f64>) {
     let l = truth.laser_m;
 
     // Calibrate, with defaults.
-    femto_ok(&[
+    let run = femto_ok(&[
         "calibrate",
         arg(cube),
         "--mesh",
@@ -95,6 +95,25 @@ fn check_chain(dir: &Path, cap: &Path, cube: &Path, expect_laser: Option<f64>) {
     let distance_m = (truth.pose.position_m.coords - centroid_m).norm();
     let pos_mm_per_m = 1e3 * (fitted.pose.position_m - truth.pose.position_m).norm() / distance_m;
     println!("calibrate: t0 {t0_bins:+.4} bins, camera {pos_mm_per_m:.4} mm/m");
+    // Scanline times against the geometry take what ingest's jitter estimate leaves (its slow
+    // part): with both, no scanline ends more than 1 ps further from on time than it began.
+    let line = run
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("jitter against the manifest's truth, ingest's shifts and these"))
+        .unwrap_or_else(|| panic!("no scanline truth line in {}", run.stdout));
+    println!("{line}");
+    let figure = |after: &str| -> f64 {
+        let tail = &line[line.find(after).unwrap() + after.len()..];
+        tail.split_whitespace()
+            .next()
+            .unwrap()
+            .trim_end_matches(',')
+            .parse()
+            .unwrap()
+    };
+    assert!(figure("ps before; rms ") < 1.0, "{line}");
+    assert!(line.contains(", 0 made worse by more than 1 ps"), "{line}");
     assert!(t0_bins.abs() <= 0.1, "t0 off by {t0_bins} bins");
     assert!(pos_mm_per_m <= 1.0, "camera off by {pos_mm_per_m} mm/m");
 

@@ -23,6 +23,7 @@ pub mod dlt;
 pub mod points;
 pub mod refine;
 pub mod register;
+pub mod scanline_time;
 pub mod temporal;
 
 pub use dlt::{Extent, SpatialInit};

@@ -392,13 +392,16 @@ pub fn window_centroid_bin(
 /// window where the model puts its direct light (from `options.window_margin_bins` before the
 /// footprint's shortest path to as much after its longest), paired with the footprint's mean
 /// path (module doc). `footprints` must have the cube's size (use [`Footprints::rows`] for a
-/// row slab).
+/// row slab). `row_shift_ps` moves row `y`'s windows later by `row_shift_ps[y]` (a scanline's
+/// own offset, [`super::scanline_time`]; empty: none).
+#[allow(clippy::too_many_arguments)]
 pub fn direct_arrival_samples(
     cube: &Cube,
     footprints: &Footprints,
     eta: f64,
     t0_ps: f64,
     time_scale: f64,
+    row_shift_ps: &[f64],
     options: &ArrivalOptions,
 ) -> Result<Vec<ArrivalSample>, CalibrateError> {
     if cube.frame != TimeFrame::Camera {
@@ -417,6 +420,7 @@ pub fn direct_arrival_samples(
     let rows: Vec<Vec<ArrivalSample>> = (0..cube.ny)
         .into_par_iter()
         .map(|y| {
+            let row_t0_ps = t0_ps + row_shift_ps.get(y).copied().unwrap_or(0.0);
             (0..cube.nx)
                 .filter_map(|x| {
                     let f = footprints.pixels[y * cube.nx + x]?;
@@ -424,7 +428,7 @@ pub fn direct_arrival_samples(
                         return None;
                     }
                     let at = |path_m: f64| {
-                        axis.bin_coord(t0_ps + time_scale * flight_time_ps(eta, path_m))
+                        axis.bin_coord(row_t0_ps + time_scale * flight_time_ps(eta, path_m))
                     };
                     let (c, _) = window_centroid_bin(
                         cube.profile(x, y),
@@ -491,7 +495,9 @@ pub fn calibrate_time(
     let prints = footprints(registration, laser_m);
     fit_direct_time(eta, fit_scale, &mut |model| match model {
         None => arrival_samples(cube, registration, laser_m, options),
-        Some((t0_ps, scale)) => direct_arrival_samples(cube, &prints, eta, t0_ps, scale, options),
+        Some((t0_ps, scale)) => {
+            direct_arrival_samples(cube, &prints, eta, t0_ps, scale, &[], options)
+        }
     })
 }
 

@@ -282,6 +282,9 @@ fn report(
         result.time.samples,
         tfit.sigma_ps
     ));
+    for l in result.scanline_report.lines() {
+        line(l);
+    }
     line(format!(
         "detection floor {:.4} ({}; the cube's noise sigma {:.4}); check with the floor at {:.4}: t0 {:.3} ps over {} pixels",
         result.time.floor,

@@ -151,6 +151,14 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         }
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
+    if done.scanlines_moved > 0 {
+        println!(
+            "{} scanlines moved by their time offsets against the geometry (the registration's \
+             {}, measured by femto calibrate)",
+            done.scanlines_moved,
+            femto::store::registration::SCANLINE_OFFSETS
+        );
+    }
     Ok(())
 }
 

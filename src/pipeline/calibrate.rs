@@ -22,6 +22,7 @@
 //! number) and the two fits.
 
 use super::{Progress, StageError, StageOption};
+use crate::calibrate::scanline_time::{fit_scanline_offsets, DirectTime};
 use crate::calibrate::{
     arrival_samples, direct_arrival_samples, fit_camera, fit_direct_time, footprints, register,
     ArrivalOptions, ArrivalSample, CalibrateError, Correspondence, Footprints, Registration,
@@ -31,6 +32,8 @@ use crate::camera::{Calibration, Intrinsics, KnownIntrinsics};
 use crate::container::{CubeReader, GroupUpdate};
 use crate::cube::{row_slabs, Cube, TimeFrame};
 use crate::geometry::bvh::Bvh;
+use crate::ingest::assemble::{JITTER_SHIFTS_NOTE, TRUE_JITTER_NOTE};
+use crate::ingest::row_offsets::{scanline_report, OffsetReport, RowOffset};
 use crate::store::registration::{self, FitSummary};
 use nalgebra::Point3;
 use std::path::{Path, PathBuf};
@@ -160,6 +163,11 @@ pub struct Calibrated {
     pub noise_sigma: f64,
     /// The cube's bin width, ps.
     pub dt_ps: f64,
+    /// Each scanline's time offset against the geometry ([`crate::calibrate::scanline_time`];
+    /// None: too little direct light to estimate), which `femto unwarp` removes.
+    pub scanlines: Vec<Option<RowOffset>>,
+    /// `scanlines` in words (with the truth, for a simulated capture).
+    pub scanline_report: OffsetReport,
     /// Things the user should know (printed by the CLI, kept in the demo's report).
     pub warnings: Vec<String>,
 }
@@ -268,6 +276,7 @@ pub fn calibrate_cube(
                 &laser_m,
                 options.eta,
                 model,
+                &[],
                 &arrival,
                 what,
                 progress,
@@ -317,6 +326,33 @@ pub fn calibrate_cube(
             time.fit.rms_ps
         ));
     }
+    let model = DirectTime {
+        t0_ps: time.fit.t0_ps,
+        time_scale: time.fit.time_scale,
+        eta: options.eta,
+    };
+    let arrival = ArrivalOptions {
+        threshold_fraction: t,
+        min_peak: floor,
+        ..ArrivalOptions::default()
+    };
+    let scanlines = fit_scanline_offsets(&model, meta.ny, |shift_ps| {
+        time_samples(
+            &slabs,
+            &laser_m,
+            options.eta,
+            Some((model.t0_ps, model.time_scale)),
+            shift_ps,
+            &arrival,
+            "scanline times",
+            progress,
+        )
+    })?;
+    let truth = jitter_truth(&meta.notes, meta.ny);
+    let scanline_report = scanline_report(
+        &scanlines,
+        truth.as_ref().map(|(t, i)| (t.as_slice(), i.as_slice())),
+    );
     let calibration = fit.calibration(time.fit.t0_ps, time.fit.time_scale, laser_m, options.eta);
     Ok(Calibrated {
         calibration,
@@ -326,8 +362,24 @@ pub fn calibrate_cube(
         check,
         noise_sigma: noise,
         dt_ps,
+        scanlines,
+        scanline_report,
         warnings,
     })
+}
+
+/// A simulated capture's true scanline delays and the shifts ingest removed (zeros when it
+/// removed none), from the cube's notes; None unless the truth is there, for `ny` rows.
+fn jitter_truth(notes: &[(String, String)], ny: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+    let list = |key: &str| -> Option<Vec<f64>> {
+        let (_, v) = notes.iter().find(|(k, _)| k == key)?;
+        serde_json::from_str::<Vec<f64>>(v)
+            .ok()
+            .filter(|l| l.len() == ny)
+    };
+    let truth = list(TRUE_JITTER_NOTE)?;
+    let removed = list(JITTER_SHIFTS_NOTE).unwrap_or_else(|| vec![0.0; ny]);
+    Some((truth, removed))
 }
 
 /// Refuse a threshold fraction outside (0, 1], an index of refraction below 1 and a
@@ -403,12 +455,15 @@ struct Slabs<'a> {
 }
 
 /// The time samples of one pass of [`fit_direct_time`], streaming the cube by row slabs:
-/// first arrivals (`model` None) or direct-light centroids under `model = (t0_ps, scale)`.
+/// first arrivals (`model` None) or direct-light centroids under `model = (t0_ps, scale)`,
+/// row `y`'s windows moved by `row_shift_ps[y]` (empty: none).
+#[allow(clippy::too_many_arguments)]
 fn time_samples(
     cube: &Slabs<'_>,
     laser_m: &Point3<f64>,
     eta: f64,
     model: Option<(f64, f64)>,
+    row_shift_ps: &[f64],
     options: &ArrivalOptions,
     what: &str,
     progress: &dyn Progress,
@@ -435,9 +490,15 @@ fn time_samples(
         };
         let found = match model {
             None => arrival_samples(&slab, &cube.reg.rows(y0, n), laser_m, options),
-            Some((t0_ps, scale)) => {
-                direct_arrival_samples(&slab, &cube.prints.rows(y0, n), eta, t0_ps, scale, options)
-            }
+            Some((t0_ps, scale)) => direct_arrival_samples(
+                &slab,
+                &cube.prints.rows(y0, n),
+                eta,
+                t0_ps,
+                scale,
+                row_shift_ps.get(y0..y0 + n).unwrap_or(&[]),
+                options,
+            ),
         }?;
         samples.extend(
             found
@@ -475,12 +536,13 @@ pub fn write_calibration(
     };
     let text = format!("{header}{}", result.calibration.to_toml());
     let staged = crate::atomic::AtomicFile::stage(toml_path, text.as_bytes()).map_err(io)?;
-    let group = registration::registration_group(
+    let mut group = registration::registration_group(
         &result.registration,
         &result.calibration,
         mesh_name,
         Some(&result.summary(points)),
     );
+    registration::add_scanline_offsets(&mut group, &result.scanlines);
     let mut update = GroupUpdate::open(cube_path)?;
     update.write_group(registration::GROUP, &group)?;
     let cube = update.finish_staged()?;

@@ -128,6 +128,9 @@ pub struct Unwarped {
     pub valid_pixels: usize,
     /// Smallest and largest distance of the pixels shifted, metres (None: none sees geometry).
     pub dist_range_m: Option<(f64, f64)>,
+    /// Scanlines moved by their time offsets (the registration's
+    /// [`registration::SCANLINE_OFFSETS`]).
+    pub scanlines_moved: usize,
     pub compression: CubeCompression,
 }
 
@@ -182,6 +185,10 @@ pub fn unwarp_file(
         eta,
         direction,
     )?;
+    let axis = match (options.axis, &paths.scanline_offset_ps) {
+        (None, Some(delays)) => widened_by(axis, delays),
+        _ => axis,
+    };
     check_unwarp_memory(input, shape, axis.nt, options.axis.is_some())?;
 
     let provenance = Provenance {
@@ -205,6 +212,7 @@ pub fn unwarp_file(
     let slabs = Slabs {
         meta: &meta,
         dist: &dist,
+        row_delay_ps: paths.scanline_offset_ps.as_deref().unwrap_or(&[]),
         mask: mask.as_deref(),
         eta,
         direction,
@@ -227,6 +235,9 @@ pub fn unwarp_file(
         eta,
         valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
         dist_range_m,
+        scanlines_moved: paths.scanline_offset_ps.as_deref().map_or(0, |o| {
+            o.iter().filter(|d| d.is_finite() && **d != 0.0).count()
+        }),
         compression,
     })
 }
@@ -245,6 +256,9 @@ struct ClockPaths {
     registration_group: Option<GroupData>,
     /// Where the paths came from, for the provenance note `unwarp.distances`.
     described: String,
+    /// Each scanline's time offset against the geometry, from the registration group
+    /// (`femto calibrate`), ps (NaN: not estimated); None when the group has none.
+    scanline_offset_ps: Option<Vec<f64>>,
 }
 
 /// The paths [`unwarp_file`] uses: cast anew through a calibration into a mesh, or read from
@@ -258,6 +272,7 @@ fn load_paths(
 ) -> Result<ClockPaths, StageError> {
     let (nx, ny) = (meta.nx, meta.ny);
     let has = |g: &str| meta.groups.iter().any(|n| n == g);
+    let mut scanline_offset_ps = None;
     let (stored, group, described) = match distances {
         Distances::Cast {
             calibration,
@@ -296,6 +311,7 @@ fn load_paths(
             }
             let group = reader.read_group(registration::GROUP)?;
             let stored = registration::from_group(input, &group)?;
+            scanline_offset_ps = registration::scanline_offsets(input, &group, ny)?;
             (
                 stored,
                 group,
@@ -319,6 +335,7 @@ fn load_paths(
         eta: stored.calibration.eta,
         registration_group: Some(group),
         described,
+        scanline_offset_ps,
     })
 }
 
@@ -376,6 +393,7 @@ fn tal_paths(
         eta: 1.0,
         registration_group: None,
         described,
+        scanline_offset_ps: None,
     })
 }
 
@@ -455,6 +473,21 @@ fn output_axis(
     })
 }
 
+/// `axis` with whole bins added on both sides to hold profiles moved by any of `delays_ps`
+/// as well (its bins stay aligned with the input's).
+fn widened_by(axis: TimeAxis, delays_ps: &[f64]) -> TimeAxis {
+    let most_ps = delays_ps
+        .iter()
+        .filter(|d| d.is_finite())
+        .fold(0.0f64, |m, d| m.max(d.abs()));
+    let k = (most_ps / axis.dt_ps).ceil() as usize;
+    TimeAxis {
+        t0_ps: axis.t0_ps - k as f64 * axis.dt_ps,
+        dt_ps: axis.dt_ps,
+        nt: axis.nt + 2 * k,
+    }
+}
+
 /// The output's provenance notes: the input's, less its own `unwarp.*` notes, and this
 /// unwarp's direction, source and where its distances came from.
 fn unwarp_notes(
@@ -483,6 +516,8 @@ struct Slabs<'a> {
     meta: &'a CubeMeta,
     /// Per-pixel distances, metres (NaN: no shift).
     dist: &'a [f32],
+    /// Per-row delays of the camera clock (scanline offsets), ps; empty: none.
+    row_delay_ps: &'a [f64],
     mask: Option<&'a [u8]>,
     eta: f64,
     direction: Direction,
@@ -515,6 +550,7 @@ fn stream_slabs(
             n,
             &s.meta.axis,
             &s.dist[a..b],
+            s.row_delay_ps.get(rows.clone()).unwrap_or(&[]),
             s.mask.map(|m| &m[a..b]),
             s.eta,
             s.direction,

@@ -149,6 +149,63 @@ pub fn registration_group(
     }
 }
 
+/// Name of the optional dataset of each scanline's time offset against the geometry
+/// ([`crate::calibrate::scanline_time`]), f64 `(ny,)`, ps: the offset `femto unwarp` removes
+/// (0 where not significant, NaN where not estimated).
+pub const SCANLINE_OFFSETS: &str = "scanline_offset_ps";
+
+/// Add `offsets` (one per row) to `group` as [`SCANLINE_OFFSETS`], with the count of rows
+/// estimated and shifted as attributes (`scanlines_estimated`, `scanlines_shifted`).
+pub fn add_scanline_offsets(
+    group: &mut GroupData,
+    offsets: &[Option<crate::ingest::row_offsets::RowOffset>],
+) {
+    let applied = crate::calibrate::scanline_time::applied_ps(offsets);
+    let estimated = offsets.iter().flatten().count();
+    let shifted = applied
+        .iter()
+        .filter(|v| **v != 0.0 && v.is_finite())
+        .count();
+    group.attrs.extend([
+        attr("scanlines_estimated", AttrValue::I64(estimated as i64)),
+        attr("scanlines_shifted", AttrValue::I64(shifted as i64)),
+    ]);
+    group.datasets.push((
+        SCANLINE_OFFSETS.into(),
+        vec![applied.len()],
+        DataBuf::F64(applied),
+    ));
+}
+
+/// The scanline offsets of a registration group of `ny` rows, ps (NaN: not estimated), or None
+/// when it has none (a registration cast by `femto unwarp`, or written before they were).
+/// Refused: a wrong shape or type, or an offset that is infinite or beyond a second.
+pub fn scanline_offsets(
+    path: &Path,
+    data: &GroupData,
+    ny: usize,
+) -> Result<Option<Vec<f64>>, StoreError> {
+    if data.dataset(SCANLINE_OFFSETS).is_none() {
+        return Ok(None);
+    }
+    let v = GroupView {
+        path,
+        group: GROUP,
+        data,
+    };
+    let offsets = v.typed::<f64>(SCANLINE_OFFSETS, &[ny])?.to_vec();
+    if let Some((y, o)) = offsets
+        .iter()
+        .enumerate()
+        .find(|(_, o)| o.is_infinite() || o.abs() > 1e12)
+    {
+        return Err(v.schema(format!(
+            "dataset '{SCANLINE_OFFSETS}': row {y} has {o} ps (finite, under a second, or NaN)"
+        )));
+    }
+    Ok(Some(offsets))
+}
+
 /// The calibration stored in a registration group's `calibration` attribute.
 pub fn stored_calibration(path: &Path, data: &GroupData) -> Result<Calibration, StoreError> {
     let v = GroupView {

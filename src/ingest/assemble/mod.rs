@@ -63,7 +63,7 @@ use super::IngestError;
 use crate::container::{CubeCompression, CubeWriter, Provenance};
 use crate::cube::TimeFrame;
 use provenance::notes;
-pub use provenance::rms;
+pub use provenance::{rms, JITTER_SHIFTS_NOTE, TRUE_JITTER_NOTE};
 use row::{decode_file, file_size, final_row, load_row, prepare, Context, Decoded, Finished};
 use row::{Prepared, SAMPLES};
 use stream::{ordered_pipeline, RowPool, Scratch};

@@ -85,8 +85,11 @@ pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String
             json(serde_json::json!(s.edges_ps)),
         ));
     }
+    if let Some(t) = &plan.truth.jitter_shifts_ps {
+        n.push((TRUE_JITTER_NOTE.into(), json(serde_json::json!(t))));
+    }
     if let Some(s) = &globals.shifts_ps {
-        n.push(("ingest.jitter_shifts_ps".into(), json(serde_json::json!(s))));
+        n.push((JITTER_SHIFTS_NOTE.into(), json(serde_json::json!(s))));
         n.push(("ingest.jitter_rms_ps".into(), rms(s).to_string()));
     }
     if let Some((o, report)) = globals.jitter_report(plan) {
@@ -111,6 +114,13 @@ pub(super) fn notes(plan: &IngestPlan, globals: &Globals) -> Vec<(String, String
     }
     n
 }
+
+/// Cube note of the trigger delay ingest removed from each scanline, ps (a JSON list).
+pub const JITTER_SHIFTS_NOTE: &str = "ingest.jitter_shifts_ps";
+
+/// Cube note of each scanline's true trigger delay, ps (a JSON list), when a simulated
+/// capture's manifest records it.
+pub const TRUE_JITTER_NOTE: &str = "ingest.jitter_true_shifts_ps";
 
 /// Root mean square of a list (0 for an empty one).
 pub fn rms(values: &[f64]) -> f64 {

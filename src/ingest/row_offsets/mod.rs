@@ -65,7 +65,7 @@ mod robust;
 
 use super::corrections::median_f64 as median;
 use crate::cube::TimeAxis;
-pub use report::{jitter_report, power_report, OffsetReport, RowTruth};
+pub use report::{jitter_report, power_report, scanline_report, OffsetReport, RowTruth};
 pub use robust::SIGNIFICANCE;
 use robust::{solve_robust, Equation};
 

@@ -159,10 +159,23 @@ pub fn jitter_report(offsets: &[Option<RowOffset>], truth: Option<&[f64]>) -> Of
             .iter()
             .map(|o| o.map_or(0.0, |o| o.applied))
             .collect();
+        jitter_truth_line("jitter against the manifest's truth", t, &removed)
+    });
+    OffsetReport {
+        summary,
+        truth,
+        not_estimated: not_estimated(offsets),
+    }
+}
+
+/// `prefix: rms .. before; .. after (..)`: the true scanline delays `truth` against what is
+/// left of them once `removed` is taken off, each less its median (a common delay is `t0`'s).
+fn jitter_truth_line(prefix: &str, t: &[f64], removed: &[f64]) -> String {
+    {
         let before = centred(t);
         let after = centred(
             &t.iter()
-                .zip(&removed)
+                .zip(removed)
                 .map(|(t, r)| t - r)
                 .collect::<Vec<_>>(),
         );
@@ -174,7 +187,7 @@ pub fn jitter_report(offsets: &[Option<RowOffset>], truth: Option<&[f64]>) -> Of
             .count();
         let (fb, fa) = (fast_part(&before), fast_part(&after));
         format!(
-            "jitter against the manifest's truth: rms {:.2} ps, max {:.2} ps before; rms {:.2} \
+            "{prefix}: rms {:.2} ps, max {:.2} ps before; rms {:.2} \
              ps, max {:.2} ps after ({over} scanlines more than 2 ps off, {worse} made worse by \
              more than 1 ps); row-to-row part (less a {SLOW_ROWS}-row smoothing): rms {:.2} ps, \
              max {:.2} ps before; rms {:.2} ps, max {:.2} ps after",
@@ -187,11 +200,51 @@ pub fn jitter_report(offsets: &[Option<RowOffset>], truth: Option<&[f64]>) -> Of
             rms(&fa),
             max_abs(&fa)
         )
-    });
+    }
+}
+
+/// The report of the scanline times `femto calibrate` measures against the geometry
+/// ([`crate::calibrate::scanline_time`]; `offsets` in ps). `truth`: a simulated capture's true
+/// delays and the shifts ingest already removed, both per scanline.
+pub fn scanline_report(
+    offsets: &[Option<RowOffset>],
+    truth: Option<(&[f64], &[f64])>,
+) -> OffsetReport {
+    let ny = offsets.len();
+    let (applied, estimated, largest, se) = counts(offsets);
+    let summary = if estimated == 0 {
+        format!(
+            "scanline times: not estimated (no scanline of {ny} has direct light in enough pixels)"
+        )
+    } else {
+        let largest = largest.map_or(String::new(), |o| {
+            format!(" (largest {:.2} +- {:.2} ps)", o.applied, o.std_error)
+        });
+        format!(
+            "scanline times against the geometry: {applied} of {ny} scanlines late or early \
+             beyond {} standard errors{largest}; {estimated} estimated, median standard error \
+             {se:.2} ps; femto unwarp removes them",
+            super::SIGNIFICANCE
+        )
+    };
+    let truth = truth
+        .filter(|(t, i)| t.len() == ny && i.len() == ny)
+        .map(|(t, ingest)| {
+            let removed: Vec<f64> = offsets
+                .iter()
+                .zip(ingest)
+                .map(|(o, i)| i + o.map_or(0.0, |o| o.applied))
+                .collect();
+            jitter_truth_line(
+                "jitter against the manifest's truth, ingest's shifts and these together",
+                t,
+                &removed,
+            )
+        });
     OffsetReport {
         summary,
         truth,
-        not_estimated: not_estimated(offsets),
+        not_estimated: vec![],
     }
 }
 

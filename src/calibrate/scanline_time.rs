@@ -1,0 +1,221 @@
+//! Scanline times against the geometry: the trigger offset of each scanline, measured from
+//! where the calibrated scene puts its direct light.
+//!
+//! A scanning streak capture triggers every scanline on its own, so each scanline's times
+//! carry an offset `o(y)` (trigger jitter). `femto ingest` estimates it from the data alone
+//! ([`crate::ingest::row_offsets`]): it compares each row with its neighbours and cannot tell
+//! the slow part of the offsets (runs of rows late together) from the scene's own shape, so
+//! that part stays, and a row whose own offset is small but whose neighbours' are large is
+//! moved the wrong way.
+//!
+//! Once the camera, the mesh and `t0` are calibrated, the geometry predicts every pixel's
+//! direct light absolutely (seed Eq. 1, [`super::temporal`]):
+//! `t = t0 + time_scale * eta * path / c`. A row's direct-light samples then differ from the
+//! prediction by its offset plus noise and model error, whatever the neighbouring rows do, so
+//! [`scanline_offsets`] takes, per row, the median residual of its pixels and its standard
+//! error (`1.2533 * 1.4826 MAD / sqrt(n)`), and keeps it where it exceeds
+//! [`SIGNIFICANCE`] standard errors (the same gate as ingest's), over at least
+//! [`MIN_PIXELS`] pixels. Each pixel's direct light is measured as the centroid of its profile
+//! in a window the model places ([`super::temporal::direct_arrival_samples`]); a row several ps
+//! late has part of its pulse outside that window, which pulls its centroid back, so
+//! [`fit_scanline_offsets`] moves each row's windows by its current estimate and measures
+//! again until the estimates settle.
+//!
+//! `femto unwarp` removes the offsets with the distances (`t_world = t_camera - o(y) -
+//! eta |p - o| / c`). Measured on simulated `--realistic` captures of the `cube` scene (2 ps
+//! rms jitter), against the manifest's truth, after ingest's correction:
+//! see docs/ingest.md, "Jitter", for the figures.
+//!
+//! Rows without direct light that the geometry predicts (rows of the laser's shadow, or too
+//! dim) get no estimate and keep ingest's.
+
+use super::temporal::ArrivalSample;
+use crate::ingest::row_offsets::{RowOffset, SIGNIFICANCE};
+use crate::units::flight_time_ps;
+
+/// Fewest direct-light pixels for a row to get an estimate.
+pub const MIN_PIXELS: usize = 5;
+
+/// Most measuring passes of [`fit_scanline_offsets`].
+pub const MAX_PASSES: usize = 4;
+
+/// [`fit_scanline_offsets`] stops once no row's estimate moves by more than this, ps.
+pub const CONVERGED_PS: f64 = 0.01;
+
+/// The time model the residuals are taken against: `t = t0_ps + time_scale * eta * path / c`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectTime {
+    pub t0_ps: f64,
+    pub time_scale: f64,
+    pub eta: f64,
+}
+
+impl DirectTime {
+    /// Cube time of the direct light over a path of `path_m` metres, ps.
+    pub fn at_ps(&self, path_m: f64) -> f64 {
+        self.t0_ps + self.time_scale * flight_time_ps(self.eta, path_m)
+    }
+}
+
+/// Each of `ny` rows' offset from `samples` (module doc): the median of its samples' residuals
+/// against `model`, with its standard error, applied where significant; `None` for a row with
+/// fewer than [`MIN_PIXELS`] samples.
+pub fn scanline_offsets(
+    samples: &[ArrivalSample],
+    model: &DirectTime,
+    ny: usize,
+) -> Vec<Option<RowOffset>> {
+    let mut per_row: Vec<Vec<f64>> = vec![Vec::new(); ny];
+    for s in samples.iter().filter(|s| s.y < ny) {
+        let r = s.t_first_ps - model.at_ps(s.path_m);
+        if r.is_finite() {
+            per_row[s.y].push(r);
+        }
+    }
+    per_row
+        .into_iter()
+        .map(|mut r| {
+            if r.len() < MIN_PIXELS {
+                return None;
+            }
+            let estimate = median(&mut r);
+            let mut dev: Vec<f64> = r.iter().map(|v| (v - estimate).abs()).collect();
+            // Standard error of a median of normal samples: 1.2533 sigma / sqrt(n), with sigma
+            // from the MAD.
+            let std_error = 1.2533 * 1.4826 * median(&mut dev) / (r.len() as f64).sqrt();
+            let applied = if estimate.abs() > SIGNIFICANCE * std_error {
+                estimate
+            } else {
+                0.0
+            };
+            Some(RowOffset {
+                estimate,
+                std_error,
+                applied,
+            })
+        })
+        .collect()
+}
+
+/// [`scanline_offsets`] with each row's direct-light windows moved by its current estimate,
+/// measured again until no estimate moves by [`CONVERGED_PS`] (at most [`MAX_PASSES`]).
+/// `samples(shift_ps)` measures the direct light of every pixel with row `y`'s windows moved
+/// by `shift_ps[y]` (ps; the caller reads the cube).
+pub fn fit_scanline_offsets<E, F>(
+    model: &DirectTime,
+    ny: usize,
+    mut samples: F,
+) -> Result<Vec<Option<RowOffset>>, E>
+where
+    F: FnMut(&[f64]) -> Result<Vec<ArrivalSample>, E>,
+{
+    let mut shift_ps = vec![0.0; ny];
+    let mut offsets = scanline_offsets(&samples(&shift_ps)?, model, ny);
+    for _ in 1..MAX_PASSES {
+        let next: Vec<f64> = offsets
+            .iter()
+            .map(|o| o.map_or(0.0, |o| o.estimate))
+            .collect();
+        let moved = next
+            .iter()
+            .zip(&shift_ps)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved < CONVERGED_PS {
+            break;
+        }
+        shift_ps = next;
+        offsets = scanline_offsets(&samples(&shift_ps)?, model, ny);
+    }
+    Ok(offsets)
+}
+
+/// The applied offsets of `offsets` as stored (`NaN`: not estimated).
+pub fn applied_ps(offsets: &[Option<RowOffset>]) -> Vec<f64> {
+    offsets
+        .iter()
+        .map(|o| o.map_or(f64::NAN, |o| o.applied))
+        .collect()
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODEL: DirectTime = DirectTime {
+        t0_ps: 10.0,
+        time_scale: 1.0,
+        eta: 1.0,
+    };
+
+    /// Samples of `ny` rows, `per_row` pixels each, with row `y` late by `offset(y)` and a
+    /// deterministic spread of +-0.5 ps.
+    fn samples(ny: usize, per_row: usize, offset: impl Fn(usize) -> f64) -> Vec<ArrivalSample> {
+        let mut out = Vec::new();
+        for y in 0..ny {
+            for x in 0..per_row {
+                let path_m = 0.5 + 0.01 * x as f64;
+                let spread = ((x * 7 + y * 3) % 11) as f64 / 10.0 - 0.5;
+                out.push(ArrivalSample {
+                    x,
+                    y,
+                    t_first_ps: MODEL.at_ps(path_m) + offset(y) + spread,
+                    path_m,
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn each_row_gets_its_own_offset_whatever_its_neighbours_do() {
+        // A slow drift that a row-to-row estimate cannot see, plus one glitched row.
+        let offset = |y: usize| 0.5 * y as f64 + if y == 3 { -4.0 } else { 0.0 };
+        let found = scanline_offsets(&samples(8, 40, offset), &MODEL, 8);
+        for (y, o) in found.iter().enumerate() {
+            let o = o.expect("estimated");
+            assert!((o.estimate - offset(y)).abs() < 0.1, "row {y}: {o:?}");
+            assert!(o.std_error > 0.0 && o.std_error < 0.1, "row {y}: {o:?}");
+        }
+        // Row 0 is on time: not significant, nothing applied.
+        assert_eq!(found[0].unwrap().applied, 0.0);
+        assert!((found[3].unwrap().applied + 2.5).abs() < 0.1);
+    }
+
+    #[test]
+    fn rows_with_too_few_pixels_are_not_estimated() {
+        let mut s = samples(3, 40, |_| 1.0);
+        s.retain(|a| a.y != 1 || a.x < MIN_PIXELS - 1);
+        let found = scanline_offsets(&s, &MODEL, 4);
+        assert!(found[0].is_some() && found[2].is_some());
+        assert!(found[1].is_none() && found[3].is_none());
+        assert!(applied_ps(&found)[1].is_nan());
+    }
+
+    #[test]
+    fn windows_follow_the_estimates_until_they_settle() {
+        // A measurement that sees only half of a row's true offset unless its window is
+        // moved by it: the passes converge on the truth.
+        let truth = [3.0, -2.0, 0.0];
+        let mut passes = 0;
+        let found = fit_scanline_offsets::<(), _>(&MODEL, 3, |shift| {
+            passes += 1;
+            Ok(samples(3, 40, |y| shift[y] + 0.5 * (truth[y] - shift[y])))
+        })
+        .unwrap();
+        for (y, t) in truth.iter().enumerate() {
+            assert!((found[y].unwrap().estimate - t).abs() < 0.2, "row {y}");
+        }
+        assert!(passes <= MAX_PASSES);
+    }
+}
