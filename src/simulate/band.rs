@@ -410,8 +410,14 @@ pub fn merge_bands(
         // is vectorised by rustc 1.95's LLVM 22 into invalid IR (an `fcmp` of a double and a
         // float vector) that crashes `cargo build --release` (SIGSEGV in x86 isel).
         let peaks = Peaks {
-            clean_max: bands.iter().map(|(_, b)| b.peaks.clean_max).fold(0.0, f64::max) as f32,
-            noiseless: bands.iter().map(|(_, b)| b.peaks.noiseless).fold(0.0, f64::max),
+            clean_max: bands
+                .iter()
+                .map(|(_, b)| b.peaks.clean_max)
+                .fold(0.0, f64::max) as f32,
+            noiseless: bands
+                .iter()
+                .map(|(_, b)| b.peaks.noiseless)
+                .fold(0.0, f64::max),
         };
         let bvh = Bvh::new(scene.mesh.clone());
         let shape = capture_shape(scene, opts)?;
