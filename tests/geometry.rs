@@ -581,6 +581,10 @@ fn load_errors_name_the_file() {
     let missing = dir.path().join("nope.obj");
     let msg = load_mesh(&missing).unwrap_err().to_string();
     assert!(msg.contains("nope.obj"), "{msg}");
+    assert!(matches!(
+        load_mesh(&missing).unwrap_err(),
+        LoadError::Io { ref source, .. } if source.kind() == std::io::ErrorKind::NotFound
+    ));
     let stl = write(dir.path(), "x.stl", "solid");
     let err = load_mesh(&stl).unwrap_err();
     assert!(matches!(err, LoadError::UnsupportedFormat { .. }));

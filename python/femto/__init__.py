@@ -25,6 +25,7 @@ from ._stages import (
     ingest_tal,
     ingest_mitransient,
 )
+from ._simulate import simulate
 
 __all__ = [
     "__version__",
@@ -49,4 +50,5 @@ __all__ = [
     "export_tal",
     "ingest_tal",
     "ingest_mitransient",
+    "simulate",
 ]

@@ -195,3 +195,45 @@ def ingest_mitransient(
     channels: str = ...,
     opl_clock: str = ...,
 ) -> StageResult: ...
+def simulate(
+    out: PathLike,
+    *,
+    scene: Union[str, os.PathLike[str]] = ...,
+    bunny: Optional[PathLike] = ...,
+    format: Union[str, Sequence[str]] = ...,
+    spp: int = ...,
+    seed: int = ...,
+    bounces: int = ...,
+    size: Union[str, Tuple[int, int], None] = ...,
+    nt: Optional[int] = ...,
+    dt_ps: Optional[float] = ...,
+    paper_size: bool = ...,
+    transient_only: bool = ...,
+    time_filter: str = ...,
+    rows: Union[str, range, Tuple[int, int], None] = ...,
+    marker_spacing_m: float = ...,
+    realistic: bool = ...,
+    photon_noise: Optional[float] = ...,
+    dark: Optional[Tuple[float, float]] = ...,
+    vignetting: Optional[float] = ...,
+    jitter_ps: Optional[float] = ...,
+    power_sigma: Optional[float] = ...,
+    sweep: Optional[float] = ...,
+    saturation: Optional[float] = ...,
+    fiducial_photo_px: Optional[float] = ...,
+    force: bool = ...,
+    progress: Progress = ...,
+) -> StageResult:
+    """Simulate a streak-camera capture of a scene into the folder ``out``
+    (``femto simulate``; defaults: the cube scene at its own size, 64 paths per pixel, 4
+    bounces, seed 0, PNG scanlines, no imperfections).
+
+    Units: ``size`` pixels (width, height); ``nt`` bins; ``dt_ps`` bin width, ps;
+    ``marker_spacing_m`` metres; ``photon_noise`` photons at the clean maximum; ``dark``
+    (offset, sigma) and ``saturation`` fractions of the clean maximum; ``vignetting`` and
+    ``sweep`` strengths in [0, 1); ``jitter_ps`` ps (sd); ``power_sigma`` relative sd;
+    ``fiducial_photo_px`` pixels of a 4032-pixel-wide photo (sd). ``rows``: image rows A..B
+    of a band. Returns the figures the command prints (``paths``, ``rays``,
+    ``render_seconds``, ``files``, ``fiducials``, ...); see ``help(femto.simulate)``.
+    """
+    ...

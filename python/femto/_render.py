@@ -62,21 +62,28 @@ def _size(size: Any) -> Optional[Tuple[int, int]]:
     return int(w), int(h)
 
 
-def _frames(frames: Any) -> Optional[Tuple[int, int]]:
-    if frames is None:
+def _range(flag: str, value: Any, example: str) -> Optional[Tuple[int, int]]:
+    """``value`` as (A, B): from ``"A..B"``, ``range(A, B)`` or a pair; a string that is not
+    ``A..B`` is refused in the words of ``--flag`` (``example``: e.g. ``"frame B excluded,
+    e.g. 0..50"``)."""
+    if value is None:
         return None
-    if isinstance(frames, range):
-        return frames.start, frames.stop
-    if isinstance(frames, str):
-        a, sep, b = frames.partition("..")
+    if isinstance(value, range):
+        return value.start, value.stop
+    if isinstance(value, str):
+        a, sep, b = value.partition("..")
         try:
             return int(a), int(b)
         except ValueError:
             raise FemtoError(
-                f"--frames {frames}: expected A..B with A < B, frame B excluded, e.g. 0..50"
+                f"--{flag} {value}: expected A..B with A < B, {example}"
             ) from None
-    a, b = frames
+    a, b = value
     return int(a), int(b)
+
+
+def _frames(frames: Any) -> Optional[Tuple[int, int]]:
+    return _range("frames", frames, "frame B excluded, e.g. 0..50")
 
 
 def _warn(figures: Dict[str, Any]) -> None:

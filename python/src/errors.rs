@@ -63,10 +63,12 @@ pub fn value_error(message: impl Into<String>) -> PyErr {
 /// A library error as the Python exception that fits it, with the CLI's message.
 pub fn to_py(e: &(dyn Error + 'static)) -> PyErr {
     let message = error_line(e);
+    let not_found = io_cause(e).map(|io| io.kind() == std::io::ErrorKind::NotFound);
+    // A `NotFound` error made by the library (no OS error number) is ENOENT all the same.
     let errno = io_cause(e)
         .and_then(|io| io.raw_os_error())
-        .or_else(|| errno_in_text(&message));
-    let not_found = io_cause(e).map(|io| io.kind() == std::io::ErrorKind::NotFound);
+        .or_else(|| errno_in_text(&message))
+        .or_else(|| (not_found == Some(true)).then(libc_enoent));
     let is_os = io_cause(e).is_some() || errno.is_some();
     Python::attach(|py| {
         let raised = if is_os {

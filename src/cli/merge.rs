@@ -74,8 +74,9 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             command.join(" ")
         );
     };
-    let super::simulate::Plan { scene, mut opts } = super::simulate::plan(&simulate)
-        .with_context(|| format!("{}: its command line", band_file.display()))?;
+    let femto::pipeline::simulate::SimulatePlan { scene, mut opts } =
+        femto::pipeline::simulate::plan(&super::simulate::request(&simulate))
+            .with_context(|| format!("{}: its command line", band_file.display()))?;
     opts.force = args.force;
     opts.created_by = command.join(" ");
     femto::simulate::capture::check_destination(&args.out, opts.force)

@@ -1,26 +1,16 @@
-//! `femto simulate`: write a simulated streak capture of a scene (library:
-//! [`femto::simulate`]). Flags are checked here and named in errors; the scene, the render,
-//! the imperfections and the files are the library's.
+//! `femto simulate`: write a simulated streak capture of a scene. The flags map onto a
+//! [`SimulateRequest`], which the library checks, plans and runs
+//! ([`femto::pipeline::simulate`], also `femto.simulate` in Python); this module parses the
+//! flags, draws the progress bars and prints the summary.
 
 use super::values::{
     offset_sigma, positive_finite, row_range, EnumArg, Size, StreakFormatArg, TimeFilterArg,
 };
-use anyhow::{bail, Context};
 use clap::Args;
-use femto::scene::{Scene, BUILTIN_NAMES};
-use femto::simulate::{
-    simulate_capture, Flaw, Flaws, SimulateError, SimulateOption, SimulateOptions, SimulateSummary,
-    Stage,
-};
-use std::path::{Path, PathBuf};
+use femto::pipeline::simulate::{self, SimulateRequest, MAX_BOUNCES, MAX_NT};
+use femto::simulate::{Flaws, SimulateSummary, Stage};
+use std::path::PathBuf;
 use std::sync::Mutex;
-
-/// The seed's capture size: 672 x 600 pixels, 512 bins of 1.71 ps.
-const SEED_SIZE: (usize, usize, usize, f64) = (672, 600, 512, 1.71);
-/// The most bounces `--bounces` may ask for.
-const MAX_BOUNCES: i64 = 1000;
-/// The most time bins `--nt` may ask for.
-const MAX_NT: u64 = 1 << 20;
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -71,7 +61,7 @@ pub struct SimulateArgs {
         default_value_t = 4,
         allow_negative_numbers = true,
         value_name = "N",
-        value_parser = clap::value_parser!(u32).range(1..=MAX_BOUNCES)
+        value_parser = clap::value_parser!(u32).range(1..=MAX_BOUNCES as i64)
     )]
     pub bounces: u32,
     /// Image size in pixels, e.g. 64x48 (default: the scene's; at most 32768 a side, and
@@ -83,7 +73,7 @@ pub struct SimulateArgs {
         long,
         allow_negative_numbers = true,
         value_name = "N",
-        value_parser = clap::value_parser!(u64).range(1..=MAX_NT)
+        value_parser = clap::value_parser!(u64).range(1..=MAX_NT as u64)
     )]
     pub nt: Option<u64>,
     /// Width of a time bin, ps (default: the scene's).
@@ -190,202 +180,51 @@ pub struct SimulateArgs {
     pub fiducial_photo_px: Option<f64>,
 }
 
-/// The flag that sets each imperfection.
-fn flaw_flag(flaw: Flaw) -> &'static str {
-    match flaw {
-        Flaw::PhotonNoise => "--photon-noise",
-        Flaw::Dark => "--dark",
-        Flaw::Vignetting => "--vignetting",
-        Flaw::JitterPs => "--jitter-ps",
-        Flaw::PowerSigma => "--power-sigma",
-        Flaw::Sweep => "--sweep",
-        Flaw::Saturation => "--saturation",
-        Flaw::FiducialPhotoPx => "--fiducial-photo-px",
-    }
-}
-
-/// The flag that sets each option [`SimulateOptions::validate`] checks.
-fn option_flag(option: SimulateOption) -> &'static str {
-    match option {
-        SimulateOption::Spp => "--spp",
-        SimulateOption::MaxBounces => "--bounces",
-        SimulateOption::Seed => "--seed",
-        SimulateOption::Formats => "--format",
-        SimulateOption::MarkerSpacingM => "--marker-spacing-m",
-        SimulateOption::TimeFilter => "--time-filter",
-    }
-}
-
-fn load_scene(args: &SimulateArgs) -> anyhow::Result<Scene> {
-    let name = args.scene.as_str();
-    if BUILTIN_NAMES.contains(&name) {
-        if name == "bunny" && args.bunny.is_none() {
-            bail!("--scene bunny needs --bunny PATH (a mesh file, e.g. the Stanford bunny OBJ)");
-        }
-        if name != "bunny" && args.bunny.is_some() {
-            bail!("--bunny applies only to --scene bunny");
-        }
-        return Scene::builtin(name, args.bunny.as_deref()).context("--scene");
-    }
-    if args.bunny.is_some() {
-        bail!("--bunny applies only to --scene bunny");
-    }
-    let path = Path::new(name);
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-        || path.exists()
-    {
-        return Scene::load(path).context("--scene");
-    }
-    bail!(
-        "--scene: '{name}' is neither a built-in scene ({}) nor a scene file (.toml)",
-        BUILTIN_NAMES.join(", ")
-    )
-}
-
-/// Everything the flags ask for, checked.
-pub(super) struct Plan {
-    pub scene: Scene,
-    pub opts: SimulateOptions,
-}
-
-pub(super) fn plan(args: &SimulateArgs) -> anyhow::Result<Plan> {
-    let formats = args.format.iter().map(|&f| f.into()).collect();
-    let mut flaws = if args.realistic {
-        Flaws::realistic()
-    } else {
-        Flaws::default()
-    };
-    let dark = args.dark;
-    let set = |slot: &mut Option<f64>, v: Option<f64>| {
-        if v.is_some() {
-            *slot = v;
-        }
-    };
-    set(&mut flaws.photon_noise, args.photon_noise);
-    set(&mut flaws.vignetting, args.vignetting);
-    set(&mut flaws.jitter_ps, args.jitter_ps);
-    set(&mut flaws.power_sigma, args.power_sigma);
-    set(&mut flaws.sweep, args.sweep);
-    set(&mut flaws.saturation, args.saturation);
-    set(&mut flaws.fiducial_photo_px, args.fiducial_photo_px);
-    if dark.is_some() {
-        flaws.dark = dark;
-    }
-    if let Err(e) = flaws.validate() {
-        bail!("{}: {}", flaw_flag(e.flaw), e.message);
-    }
-
-    let mut scene = load_scene(args)?;
-    let cam = &scene.camera;
-    let (mut nx, mut ny, mut nt, mut dt_ps) = (
-        cam.intrinsics.width,
-        cam.intrinsics.height,
-        cam.axis.nt,
-        cam.axis.dt_ps,
-    );
-    if args.seed_size {
-        (nx, ny, nt, dt_ps) = SEED_SIZE;
-    }
-    if let Some(size) = args.size {
-        (nx, ny) = size.pair();
-    }
-    if let Some(n) = args.nt {
-        nt = n as usize;
-    }
-    if let Some(d) = args.dt_ps {
-        dt_ps = d;
-    }
-    if (nx, ny, nt, dt_ps)
-        != (
-            cam.intrinsics.width,
-            cam.intrinsics.height,
-            cam.axis.nt,
-            cam.axis.dt_ps,
-        )
-    {
-        scene = scene.with_resolution(nx, ny, nt, dt_ps);
-    }
-
-    let opts = SimulateOptions {
+/// The library's request for these flags ([`femto::pipeline::simulate`]), recording this
+/// process's command line.
+pub(super) fn request(args: &SimulateArgs) -> SimulateRequest {
+    SimulateRequest {
+        scene: args.scene.clone(),
+        bunny: args.bunny.clone(),
+        out: args.out.clone(),
+        force: args.force,
+        formats: args.format.iter().map(|&f| f.into()).collect(),
         spp: args.spp,
         seed: args.seed as u64,
-        max_bounces: args.bounces,
-        formats,
-        flaws,
-        marker_spacing_m: args.marker_spacing_m,
-        force: args.force,
-        created_by: super::command_line(),
+        bounces: args.bounces,
+        size: args.size.map(Size::pair),
+        nt: args.nt.map(|n| n as usize),
+        dt_ps: args.dt_ps,
+        paper_size: args.seed_size,
         transient_only: args.transient_only,
         time_filter: args.time_filter.into(),
-    };
-    if let Err(e) = opts.validate(&scene) {
-        match e {
-            SimulateError::InvalidOption { option, message } => {
-                bail!("{}: {message}", option_flag(option))
-            }
-            SimulateError::Flaw(f) => bail!("{}: {}", flaw_flag(f.flaw), f.message),
-            other => return Err(other.into()),
-        }
+        rows: args.rows.clone(),
+        marker_spacing_m: args.marker_spacing_m,
+        realistic: args.realistic,
+        flaws: Flaws {
+            photon_noise: args.photon_noise,
+            dark: args.dark,
+            vignetting: args.vignetting,
+            jitter_ps: args.jitter_ps,
+            power_sigma: args.power_sigma,
+            sweep: args.sweep,
+            saturation: args.saturation,
+            fiducial_photo_px: args.fiducial_photo_px,
+        },
+        created_by: super::command_line(),
+        command: std::env::args().collect(),
     }
-    Ok(Plan { scene, opts })
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     args.threads.init()?;
-    // The capture folder replaces --out whole: it may not be or hold an input.
-    let scene_file = Path::new(&args.scene);
-    let inputs: Vec<&Path> = [
-        Some(scene_file).filter(|p| p.is_file()),
-        args.bunny.as_deref(),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    femto::pipeline::refuse_same_file(&args.out, &inputs, "out")?;
-    let Plan { scene, opts } = plan(&args)?;
-    femto::simulate::capture::check_destination(&args.out, opts.force)
-        .map_err(|e| anyhow::anyhow!("--out {e} (--force replaces it)"))?;
-    let (nx, ny) = (
-        scene.camera.intrinsics.width,
-        scene.camera.intrinsics.height,
-    );
-    if let Some(rows) = &args.rows {
-        if rows.end > ny {
-            bail!(
-                "--rows {}..{}: beyond the image's {ny} rows (0 <= A < B <= {ny})",
-                rows.start,
-                rows.end
-            );
-        }
-    }
-    // Rows rendered: the band's, or all.
-    let rows_len = args.rows.as_ref().map_or(ny, |r| r.len());
-    let axis = scene.camera.axis;
+    let req = request(&args);
+    let plan = simulate::prepare(&req)?;
     // On stdout, with the summary: a failure later (a full disk) is then the only line on
     // stderr.
-    println!(
-        "femto simulate: scene {}, {nx} x {ny} pixels, {} bins of {} ps from {} ps, spp {}, \
-         bounces {}, seed {}, {} threads{}",
-        scene.name,
-        axis.nt,
-        axis.dt_ps,
-        axis.t0_ps,
-        opts.spp,
-        opts.max_bounces,
-        opts.seed,
-        rayon::current_num_threads(),
-        if opts.transient_only {
-            format!(
-                ", transient only, time filter {}",
-                femto::simulate::transient::time_filter_name(opts.time_filter)
-            )
-        } else {
-            String::new()
-        }
-    );
-    let render_bar = super::progress(rows_len as u64, "rendering");
+    println!("{}", plan.describe(rayon::current_num_threads()));
+    let ny = plan.scene.camera.intrinsics.height;
+    let render_bar = super::progress(plan.rows_rendered(req.rows.as_ref()) as u64, "rendering");
     let write_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
     let on_progress = |stage: Stage, n: usize| match stage {
         Stage::Render => render_bar.inc(n as u64),
@@ -398,28 +237,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             .inc(n as u64);
         }
     };
-    let command: Vec<String> = std::env::args().collect();
-    let summary = match &args.rows {
-        Some(rows) => femto::simulate::band::simulate_band(
-            &scene,
-            &opts,
-            rows.clone(),
-            &command,
-            &args.out,
-            &on_progress,
-        ),
-        None => simulate_capture(&scene, &opts, &args.out, &on_progress),
-    };
+    let summary = simulate::run(&req, &plan, &on_progress);
     render_bar.finish_and_clear();
     if let Some(bar) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
         bar.finish_and_clear();
     }
-    let summary = summary.map_err(|e| match e {
-        SimulateError::OutputExists { .. } => {
-            anyhow::anyhow!("--out {e} (--force replaces it)")
-        }
-        other => other.into(),
-    })?;
+    let summary = summary?;
     if let Some(rows) = &args.rows {
         println!(
             "band of rows {}..{} written to {} (femto merge assembles the bands)",
@@ -430,7 +253,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         print_render_line(&summary);
         return Ok(());
     }
-    if opts.transient_only {
+    if plan.opts.transient_only {
         println!(
             "transient cube written to {}",
             summary
@@ -494,6 +317,65 @@ pub(super) fn print_capture_lines(summary: &SimulateSummary) {
         println!(
             "  note: {} streak-image values at the top count (65535)",
             summary.values_at_top_count
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use femto::manifest::StreakFormat;
+
+    /// `req` through its command line and this command's flags, back to a request.
+    fn round_trip(req: &SimulateRequest) -> SimulateRequest {
+        let parsed = super::super::Cli::try_parse_from(req.command_line()).unwrap();
+        let super::super::Command::Simulate(args) = parsed.command else {
+            panic!("not simulate: {:?}", req.command_line());
+        };
+        SimulateRequest {
+            created_by: req.created_by.clone(),
+            command: req.command.clone(),
+            ..request(&args)
+        }
+    }
+
+    #[test]
+    fn a_requests_command_line_parses_back_to_the_request() {
+        let band = SimulateRequest {
+            scene: "cornell".into(),
+            out: "cap".into(),
+            force: true,
+            formats: vec![StreakFormat::ExrF32, StreakFormat::Img32],
+            spp: 3,
+            seed: 9,
+            bounces: 2,
+            size: Some((16, 12)),
+            nt: Some(32),
+            dt_ps: Some(2.5),
+            rows: Some(2..5),
+            marker_spacing_m: 0.01,
+            realistic: true,
+            flaws: Flaws {
+                dark: Some((-0.01, 0.002)),
+                sweep: Some(0.1),
+                photon_noise: Some(250.0),
+                ..Flaws::default()
+            },
+            ..SimulateRequest::default()
+        };
+        assert_eq!(round_trip(&band), band);
+        let transient = SimulateRequest {
+            out: "t".into(),
+            paper_size: true,
+            transient_only: true,
+            time_filter: femto::tracer::TimeFilter::Box,
+            ..SimulateRequest::default()
+        };
+        assert_eq!(round_trip(&transient), transient);
+        assert_eq!(
+            SimulateRequest::default().command_line().join(" "),
+            "femto simulate --scene cube --out "
         );
     }
 }

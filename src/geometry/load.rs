@@ -22,6 +22,13 @@ use std::path::{Path, PathBuf};
 /// Failure to read a mesh file. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
+    /// The file could not be opened (missing, unreadable); checked before the extension.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// The extension is not one of `.obj`, `.gltf`, `.glb`.
     #[error("{path}: unsupported mesh format (expected .obj, .gltf or .glb)")]
     UnsupportedFormat { path: PathBuf },
@@ -115,6 +122,11 @@ pub enum LoadError {
 /// Read a triangle mesh from `path`, choosing the reader by extension (case-insensitive):
 /// `.obj`, `.gltf` or `.glb`.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, LoadError> {
+    // A missing file is an I/O error (with its OS error), not a reader's failure.
+    std::fs::File::open(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());

@@ -14,15 +14,17 @@
 //! - [`pyramid`]: the temporal prefix sums and mip levels of a cube (seed Sec. 5).
 //! - [`render`]: a world-time cube, its calibration and mesh opened into a render scene, and
 //!   a camera path rendered into frames or a video (seed Sec. 4).
+//! - [`simulate`]: `femto simulate`'s flags as a request, planned into a scene and
+//!   [`crate::simulate::SimulateOptions`] and run into a capture or band folder.
 //!
-//! Simulate and ingest are [`crate::simulate::simulate_capture`] and
-//! [`crate::ingest::plan::IngestPlan`] with [`crate::ingest::assemble::ingest`].
+//! Ingest is [`crate::ingest::plan::IngestPlan`] with [`crate::ingest::assemble::ingest`].
 
 pub mod calibrate;
 pub mod describe;
 pub mod overwrite;
 pub mod pyramid;
 pub mod render;
+pub mod simulate;
 pub mod unwarp;
 
 use crate::container::CubeCompression;

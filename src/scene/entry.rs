@@ -130,15 +130,17 @@ impl Resolver<'_> {
         key: &str,
     ) -> Result<TriangleMesh, SceneError> {
         let path = self.base_dir.join(file.get_ref());
-        let mesh_file_error = |message: String| SceneError::MeshFile {
-            origin: self.origin.to_string(),
-            location: format!("{}: {key}.file", self.at(&file.span())),
-            path: path.display().to_string(),
-            message,
-        };
+        let mesh_file_error =
+            |(message, source): (String, Option<std::io::Error>)| SceneError::MeshFile {
+                origin: self.origin.to_string(),
+                location: format!("{}: {key}.file", self.at(&file.span())),
+                path: path.display().to_string(),
+                message,
+                source,
+            };
         let mut m = load_mesh_file(&path).map_err(mesh_file_error)?;
         if m.triangles.is_empty() {
-            return Err(mesh_file_error("has no triangles".into()));
+            return Err(mesh_file_error(("has no triangles".into(), None)));
         }
         if let Some(fit) = fit_size_m {
             let size = self.positive(fit, &format!("{key}.fit_size_m"))?;
@@ -205,9 +207,16 @@ impl Resolver<'_> {
 }
 
 /// Read a mesh file into triangles (metres, the file's own frame).
-fn load_mesh_file(path: &Path) -> Result<TriangleMesh, String> {
+/// A mesh file's triangles, or what is wrong with it: a message and, for a file that does not
+/// exist, an I/O error of kind `NotFound` whose text is the message (so that a caller can
+/// tell a missing file apart while the line stays "not found").
+fn load_mesh_file(path: &Path) -> Result<TriangleMesh, (String, Option<std::io::Error>)> {
+    const NOT_FOUND: &str = "not found";
     if !path.is_file() {
-        return Err("not found".into());
+        let kind = std::io::ErrorKind::NotFound;
+        let missing = std::fs::metadata(path).is_err_and(|e| e.kind() == kind);
+        let source = missing.then(|| std::io::Error::new(kind, NOT_FOUND));
+        return Err((NOT_FOUND.into(), source));
     }
-    crate::geometry::load::load_mesh(path).map_err(|e| e.to_string())
+    crate::geometry::load::load_mesh(path).map_err(|e| (e.to_string(), None))
 }

@@ -112,13 +112,16 @@ pub enum SceneError {
     /// A value is out of range or the geometry is impossible (names the key and its line).
     #[error("{origin}: {message}")]
     Invalid { origin: String, message: String },
-    /// A mesh file named by the scene is missing or unreadable (names the file).
+    /// A mesh file named by the scene is missing or unreadable (names the file); `source` is
+    /// a `NotFound` I/O error, worded as `message`, when the file does not exist.
     #[error("{origin}: {location}: mesh file {path}: {message}")]
     MeshFile {
         origin: String,
         location: String,
         path: String,
         message: String,
+        #[source]
+        source: Option<std::io::Error>,
     },
     /// No built-in scene has this name.
     #[error("unknown built-in scene '{name}' (known: {})", BUILTIN_NAMES.join(", "))]
