@@ -112,7 +112,7 @@ fn check_chain(dir: &Path, cap: &Path, cube: &Path, expect_laser: Option<f64>) {
             .parse()
             .unwrap()
     };
-    assert!(figure("ps before; rms ") < 1.0, "{line}");
+    assert!(figure("ps before; rms ") < 0.6, "{line}");
     assert!(line.contains(", 0 made worse by more than 1 ps"), "{line}");
     assert!(t0_bins.abs() <= 0.1, "t0 off by {t0_bins} bins");
     assert!(pos_mm_per_m <= 1.0, "camera off by {pos_mm_per_m} mm/m");

@@ -124,7 +124,10 @@ def calibrate(
     Returns ``t0_ps`` and ``t0_std_error_ps``, ``time_scale``, ``time_residual_rms_ps``,
     ``time_residual_sigma_ps``, ``time_samples``, ``time_inliers``, ``check_t0_ps`` (with the
     floor doubled), ``noise_sigma``, ``reprojection_rms_px``, ``reprojection_median_px``,
-    ``per_point_px``, ``outliers``, ``calibration`` (the TOML's path), ``warnings``.
+    ``per_point_px``, ``outliers``, ``calibration`` (the TOML's path), ``scanline_offset_ps``
+    (each scanline's time offset against the geometry, ps, that ``unwarp`` removes: 0 where
+    not significant, NaN where not estimated), ``scanline_report`` (the lines the command
+    prints about them), ``warnings``.
     ``force``: replace the TOML if it exists (``--force``; without it, refused). The cube's
     registration group follows the calibration written last.
     """

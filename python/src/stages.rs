@@ -265,6 +265,11 @@ pub fn calibrate<'py>(
     d.set_item("per_point_px", result.spatial.per_point_px.clone())?;
     d.set_item("outliers", result.spatial.outliers.clone())?;
     d.set_item("points", correspondences.len())?;
+    d.set_item(
+        "scanline_offset_ps",
+        femto::calibrate::scanline_time::applied_ps(&result.scanlines),
+    )?;
+    d.set_item("scanline_report", result.scanline_report.lines())?;
     d.set_item("warnings", result.warnings.clone())?;
     Ok(d)
 }

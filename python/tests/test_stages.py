@@ -36,6 +36,9 @@ def test_chain_equals_the_cli_chain(demo, femto_bin, tmp_path):
     assert f"time: t0 {c.t0_ps:.3f} +- {c.t0_std_error_ps:.3f} ps" in out, out
     assert f"reprojection: rms {c.reprojection_rms_px:.3f} px" in out
     assert abs(c.t0_ps) < 50 and c.t0_std_error_ps > 0
+    assert len(c.scanline_offset_ps) == cube_values(py / "cube.h5").shape[0]
+    for line in c.scanline_report:
+        assert line in out, (line, out)
 
     u = femto.unwarp(py / "cube.h5", py / "world.h5")
     run_cli(femto_bin, "unwarp", cli / "cube.h5", "--out", cli / "world.h5")

@@ -22,7 +22,9 @@
 //! number) and the two fits.
 
 use super::{Progress, StageError, StageOption};
-use crate::calibrate::scanline_time::{fit_scanline_offsets, DirectTime};
+use crate::calibrate::scanline_time::{
+    fill_missing, fit_scanline_offsets, DirectTime, DIM_ROW_FLOOR,
+};
 use crate::calibrate::{
     arrival_samples, direct_arrival_samples, fit_camera, fit_direct_time, footprints, register,
     ArrivalOptions, ArrivalSample, CalibrateError, Correspondence, Footprints, Registration,
@@ -331,23 +333,30 @@ pub fn calibrate_cube(
         time_scale: time.fit.time_scale,
         eta: options.eta,
     };
-    let arrival = ArrivalOptions {
-        threshold_fraction: t,
-        min_peak: floor,
-        ..ArrivalOptions::default()
+    let measure = |min_peak: f32, what: &str| {
+        let arrival = ArrivalOptions {
+            threshold_fraction: t,
+            min_peak,
+            ..ArrivalOptions::default()
+        };
+        fit_scanline_offsets(&model, meta.ny, |shift_ps| {
+            time_samples(
+                &slabs,
+                &laser_m,
+                options.eta,
+                Some((model.t0_ps, model.time_scale)),
+                shift_ps,
+                &arrival,
+                what,
+                progress,
+            )
+        })
     };
-    let scanlines = fit_scanline_offsets(&model, meta.ny, |shift_ps| {
-        time_samples(
-            &slabs,
-            &laser_m,
-            options.eta,
-            Some((model.t0_ps, model.time_scale)),
-            shift_ps,
-            &arrival,
-            "scanline times",
-            progress,
-        )
-    })?;
+    let mut scanlines = measure(floor, "scanline times")?;
+    if scanlines.iter().any(Option::is_none) {
+        let dim = measure(floor * DIM_ROW_FLOOR, "scanline times, dim rows")?;
+        fill_missing(&mut scanlines, &dim);
+    }
     let truth = jitter_truth(&meta.notes, meta.ny);
     let scanline_report = scanline_report(
         &scanlines,
