@@ -327,5 +327,27 @@ mod tests {
             e.contains("c.h5") && e.contains("/registration") && e.contains("dist_m"),
             "{e}"
         );
+
+        // Scanline offsets: absent, round trip (NaN kept), and refused when infinite or of
+        // the wrong length, naming the dataset and the row.
+        let path = Path::new("c.h5");
+        assert_eq!(scanline_offsets(path, &g, ny).unwrap(), None);
+        let row = |e: f64, applied: f64| {
+            Some(crate::ingest::row_offsets::RowOffset {
+                estimate: e,
+                std_error: 0.1,
+                applied,
+            })
+        };
+        let mut with = g.clone();
+        add_scanline_offsets(&mut with, &[row(2.0, 2.0), None]);
+        let back = scanline_offsets(path, &with, ny).unwrap().unwrap();
+        assert_eq!(back[0], 2.0);
+        assert!(back[1].is_nan());
+        assert!(scanline_offsets(path, &with, 3).is_err());
+        let mut inf = g.clone();
+        add_scanline_offsets(&mut inf, &[row(1.0, f64::INFINITY), row(0.0, 0.0)]);
+        let e = scanline_offsets(path, &inf, ny).unwrap_err().to_string();
+        assert!(e.contains(SCANLINE_OFFSETS) && e.contains("row 0"), "{e}");
     }
 }
