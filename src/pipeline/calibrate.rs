@@ -166,7 +166,8 @@ pub struct Calibrated {
     /// The cube's bin width, ps.
     pub dt_ps: f64,
     /// Each scanline's time offset against the geometry ([`crate::calibrate::scanline_time`];
-    /// None: too little direct light to estimate), which `femto unwarp` removes.
+    /// None: too little direct light to estimate), which `femto unwarp` removes; empty for a
+    /// cube whose scanlines ingest did not take as separately triggered (no jitter note).
     pub scanlines: Vec<Option<RowOffset>>,
     /// `scanlines` in words (with the truth, for a simulated capture).
     pub scanline_report: OffsetReport,
@@ -352,16 +353,33 @@ pub fn calibrate_cube(
             )
         })
     };
-    let mut scanlines = measure(floor, "scanline times")?;
-    if scanlines.iter().any(Option::is_none) {
-        let dim = measure(floor * DIM_ROW_FLOOR, "scanline times, dim rows")?;
-        fill_missing(&mut scanlines, &dim);
-    }
-    let truth = jitter_truth(&meta.notes, meta.ny);
-    let scanline_report = scanline_report(
-        &scanlines,
-        truth.as_ref().map(|(t, i)| (t.as_slice(), i.as_slice())),
-    );
+    // Only a capture whose scanlines were triggered one by one has scanline offsets to find:
+    // ingest records that by removing their jitter. Elsewhere (a cube from an array file, a
+    // tracer, another tool) a row's median residual is the time model's error along the row,
+    // which on an analytic cube of 40 ps bins reached 7 ps "beyond 4 standard errors".
+    let triggered = meta.notes.iter().any(|(k, _)| k == JITTER_SHIFTS_NOTE);
+    let (scanlines, scanline_report) = if triggered {
+        let mut scanlines = measure(floor, "scanline times")?;
+        if scanlines.iter().any(Option::is_none) {
+            let dim = measure(floor * DIM_ROW_FLOOR, "scanline times, dim rows")?;
+            fill_missing(&mut scanlines, &dim);
+        }
+        let truth = jitter_truth(&meta.notes, meta.ny);
+        let report = scanline_report(
+            &scanlines,
+            truth.as_ref().map(|(t, i)| (t.as_slice(), i.as_slice())),
+        );
+        (scanlines, report)
+    } else {
+        let report = OffsetReport {
+            summary: format!(
+                "scanline times: not measured (the cube has no {JITTER_SHIFTS_NOTE} note: its \
+                 scanlines were not ingested as separately triggered sweeps)"
+            ),
+            ..OffsetReport::default()
+        };
+        (Vec::new(), report)
+    };
     let calibration = fit.calibration(time.fit.t0_ps, time.fit.time_scale, laser_m, options.eta);
     Ok(Calibrated {
         calibration,
@@ -551,7 +569,9 @@ pub fn write_calibration(
         mesh_name,
         Some(&result.summary(points)),
     );
-    registration::add_scanline_offsets(&mut group, &result.scanlines);
+    if !result.scanlines.is_empty() {
+        registration::add_scanline_offsets(&mut group, &result.scanlines);
+    }
     let mut update = GroupUpdate::open(cube_path)?;
     update.write_group(registration::GROUP, &group)?;
     let cube = update.finish_staged()?;
