@@ -32,6 +32,7 @@
 //! laser's shadow) get no estimate and keep ingest's.
 
 use super::temporal::ArrivalSample;
+use crate::ingest::corrections::median_f64 as median;
 use crate::ingest::row_offsets::{RowOffset, SIGNIFICANCE};
 use crate::units::flight_time_ps;
 
@@ -155,16 +156,6 @@ pub fn applied_ps(offsets: &[Option<RowOffset>]) -> Vec<f64> {
         .iter()
         .map(|o| o.map_or(f64::NAN, |o| o.applied))
         .collect()
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 #[cfg(test)]
