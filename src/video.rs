@@ -724,7 +724,9 @@ pub fn encode_png(
     PngEncoder::new(out).write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
 }
 
-fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
+/// Write one 8-bit sRGB frame as the PNG file `dest` (atomically: a temporary file beside it,
+/// renamed).
+pub fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
     write_file_atomically(dest, |tmp| {
         let image_err = |source| VideoError::Image {
             path: dest.to_path_buf(),
@@ -743,7 +745,26 @@ fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(
     })
 }
 
-fn write_exr(
+/// Read an OpenEXR frame's RGB channels (what [`write_exr`] and EXR sequences write):
+/// width, height and the scene-linear RGB, row-major from the top row.
+pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError> {
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |size, _| (size.0, vec![[0.0f32; 3]; size.0 * size.1]),
+        |(w, buf): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            buf[pos.1 * *w + pos.0] = [r, g, b];
+        },
+    )
+    .map_err(|source| VideoError::Exr {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let size = image.layer_data.size;
+    Ok((size.0, size.1, image.layer_data.channel_data.pixels.1))
+}
+
+/// Write one frame of scene-linear RGB as the OpenEXR file `dest` (atomically).
+pub fn write_exr(
     dest: &Path,
     linear_rgb: &[f32],
     width: usize,

@@ -89,6 +89,7 @@ pub fn simulate<'py>(
         },
         created_by: CREATED_BY.into(),
         command: Vec::new(),
+        truth: None,
     };
     // A band records the command line `femto merge` re-plans the capture from.
     req.command = req.command_line();

@@ -5,6 +5,7 @@
 //! a bad flag, a malformed capture), 1 internal failure (errors wrapped in [`Internal`]).
 
 pub mod calibrate;
+pub mod compare;
 pub mod demo;
 pub mod encode;
 pub mod export;
@@ -70,6 +71,9 @@ pub enum Command {
     /// Explore a world-time cube interactively in the browser: fly a relativistic camera
     /// through the scene, scrub time, record keyframes and export them as a camera path.
     View(view::ViewArgs),
+    /// Measure rendered frames against the traced truth of the same camera path (`simulate
+    /// --truth-path`): relative L1, holes, ghosts and PSNR per frame, and error images.
+    Compare(compare::CompareArgs),
 }
 
 /// Run one parsed command line.
@@ -87,6 +91,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ingest(args) => ingest::run(args),
         Command::View(args) => view::run(args),
         Command::Export(args) => export::run(args),
+        Command::Compare(args) => compare::run(args),
     }
 }
 

@@ -4,10 +4,14 @@
 //! flags, draws the progress bars and prints the summary.
 
 use super::values::{
-    offset_sigma, positive_finite, row_range, EnumArg, Size, StreakFormatArg, TimeFilterArg,
+    offset_sigma, positive_finite, row_range, EffectsArg, EnumArg, FrameRange, RadiometryArg, Size,
+    StreakFormatArg, TimeFilterArg,
 };
 use clap::Args;
+use femto::pipeline::render::RenderOptions;
 use femto::pipeline::simulate::{self, SimulateRequest, MAX_BOUNCES, MAX_NT};
+use femto::pipeline::truth::TruthRequest;
+use femto::render::Effects;
 use femto::simulate::{Flaws, SimulateSummary, Stage};
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -178,6 +182,59 @@ pub struct SimulateArgs {
         help_heading = "Imperfections"
     )]
     pub fiducial_photo_px: Option<f64>,
+
+    /// Also render the direct truth of a moving camera on this camera path (the TOML file
+    /// `femto render --path` reads): each pixel's rays, spread over the pixel and aberrated,
+    /// traced through the scene from the moving camera with the transient path tracer, into
+    /// DIR/truth/frame_NNNNN.exr (linear) and .png (display). `femto render --cube
+    /// DIR/truth_world.h5 --calibration DIR/calibration.toml --mesh DIR/scene.glb --path
+    /// PATH` renders the same frames from the capture; the difference is the image-based
+    /// renderer's error (docs/truth.md, `femto ibr-error`).
+    #[arg(long, value_name = "PATH.toml", conflicts_with_all = ["transient_only", "rows"],
+          help_heading = "Truth of a moving camera")]
+    pub truth_path: Option<PathBuf>,
+    /// Paths per pixel of the truth frames [default: --spp].
+    #[arg(long, value_name = "N", requires = "truth_path",
+          value_parser = clap::value_parser!(u32).range(1..),
+          help_heading = "Truth of a moving camera")]
+    pub truth_spp: Option<u32>,
+    /// Render only truth frames A..B (B excluded) of the path; identical to the same frames
+    /// of a whole run.
+    #[arg(
+        long,
+        value_name = "A..B",
+        requires = "truth_path",
+        help_heading = "Truth of a moving camera"
+    )]
+    pub frames: Option<FrameRange>,
+    /// Effects of the truth frames, as `femto render --effects`: a comma-separated list of
+    /// unwarp, aberration, doppler, searchlight, dilation, rotation; or all; or none.
+    #[arg(long, value_name = "LIST", default_value = "all", value_parser = EffectsArg,
+          requires = "truth_path", help_heading = "Truth of a moving camera")]
+    pub effects: Effects,
+    /// Radiometry of the truth frames, as `femto render --radiometry`.
+    #[arg(long, value_name = "MODE", value_enum, default_value_t = RadiometryArg::Consistent,
+          requires = "truth_path", help_heading = "Truth of a moving camera")]
+    pub radiometry: RadiometryArg,
+    /// Exposure multiplier of the truth's PNG frames, relative to the automatic exposure
+    /// `femto render` gives the capture's truth_world.h5.
+    #[arg(
+        long,
+        value_name = "X",
+        default_value_t = 1.0,
+        requires = "truth_path",
+        help_heading = "Truth of a moving camera"
+    )]
+    pub exposure: f64,
+    /// World time of the path's time 0, ps after the pulse leaves the laser spot [default: 0].
+    #[arg(
+        long,
+        value_name = "PS",
+        allow_negative_numbers = true,
+        requires = "truth_path",
+        help_heading = "Truth of a moving camera"
+    )]
+    pub time_offset_ps: Option<f64>,
 }
 
 /// The library's request for these flags ([`femto::pipeline::simulate`]), recording this
@@ -213,6 +270,18 @@ pub(super) fn request(args: &SimulateArgs) -> SimulateRequest {
         },
         created_by: super::command_line(),
         command: std::env::args().collect(),
+        truth: args.truth_path.as_ref().map(|path| TruthRequest {
+            path: path.clone(),
+            spp: args.truth_spp,
+            options: RenderOptions {
+                frames: args.frames.clone().map(|f| f.0),
+                time_offset_ps: args.time_offset_ps,
+                effects: args.effects,
+                radiometry: args.radiometry.into(),
+                exposure: args.exposure,
+                ..RenderOptions::default()
+            },
+        }),
     }
 }
 
@@ -220,13 +289,28 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     args.threads.init()?;
     let req = request(&args);
     let plan = simulate::prepare(&req)?;
+    let truth_frames = req.truth.as_ref().map(|t| match &t.options.frames {
+        Some(f) => f.len(),
+        None => femto::camera_path::CameraPath::load(&t.path).map_or(0, |p| p.spec().frames),
+    });
     // On stdout, with the summary: a failure later (a full disk) is then the only line on
     // stderr.
     println!("{}", plan.describe(rayon::current_num_threads()));
     let ny = plan.scene.camera.intrinsics.height;
     let render_bar = super::progress(plan.rows_rendered(req.rows.as_ref()) as u64, "rendering");
     let write_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
+    let truth_bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
     let on_progress = |stage: Stage, n: usize| match stage {
+        Stage::Truth => {
+            let mut bar = truth_bar.lock().unwrap_or_else(|e| e.into_inner());
+            bar.get_or_insert_with(|| {
+                if let Some(w) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+                    w.finish_and_clear();
+                }
+                super::progress(truth_frames.unwrap_or(0) as u64, "truth frames")
+            })
+            .inc(n as u64);
+        }
         Stage::Render => render_bar.inc(n as u64),
         Stage::Write => {
             let mut bar = write_bar.lock().unwrap_or_else(|e| e.into_inner());
@@ -239,8 +323,10 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     };
     let summary = simulate::run(&req, &plan, &on_progress);
     render_bar.finish_and_clear();
-    if let Some(bar) = write_bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
-        bar.finish_and_clear();
+    for bar in [&write_bar, &truth_bar] {
+        if let Some(bar) = bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            bar.finish_and_clear();
+        }
     }
     let summary = summary?;
     if let Some(rows) = &args.rows {
@@ -280,6 +366,25 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     }
     println!("capture written to {}", summary.out_dir.display());
     print_capture_lines(&summary);
+    if let Some(t) = &summary.truth {
+        println!(
+            "  truth: frames {}..{} of {}x{} at {} spp in {}/ ({} paths, {} rays) in {:.1} s; \
+             PNG exposure {:.4e}",
+            t.frames.start,
+            t.frames.end,
+            t.width,
+            t.height,
+            t.spp,
+            summary
+                .out_dir
+                .join(femto::pipeline::truth::TRUTH_DIR)
+                .display(),
+            t.stats.paths,
+            t.stats.rays,
+            t.seconds,
+            t.exposure
+        );
+    }
     Ok(())
 }
 

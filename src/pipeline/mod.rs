@@ -25,6 +25,7 @@ pub mod overwrite;
 pub mod pyramid;
 pub mod render;
 pub mod simulate;
+pub mod truth;
 pub mod unwarp;
 
 use crate::container::CubeCompression;

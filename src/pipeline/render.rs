@@ -536,7 +536,7 @@ pub fn check_options(options: &RenderOptions) -> Result<(), StageError> {
 /// the sensor at or above `c / eta` in one of `frames`: light in the medium could not reach
 /// it from behind ([`crate::relativity::medium`]). The speed of a rotating sensor is taken at
 /// its corners, edge midpoints and centre, where the spin's speed is largest or the path's.
-fn check_medium_speed(
+pub(crate) fn check_medium_speed(
     path: &crate::camera_path::CameraPath,
     frames: std::ops::Range<usize>,
     eta: f64,
@@ -673,7 +673,7 @@ fn camera_path(
 
 /// A path as loaded, with the frame size, count and spacing that `options` give instead of
 /// its own (`name` names it in messages).
-fn with_frame_spec(
+pub(crate) fn with_frame_spec(
     loaded: CameraPath,
     options: &RenderOptions,
     name: &str,

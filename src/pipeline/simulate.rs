@@ -5,11 +5,15 @@
 //! is the same whichever front end asked for it, and so are the messages that refuse one:
 //! each names the flag at fault as the command spells it (`--sweep: ...`).
 
+use super::truth::{check_truth, stage_truth, TruthRequest};
 use super::StageError;
+use crate::geometry::bvh::Bvh;
 use crate::manifest::StreakFormat;
+use crate::render::truth::TruthOptions;
 use crate::scene::{Scene, SceneError, BUILTIN_NAMES};
 use crate::simulate::band::simulate_band;
 use crate::simulate::capture::check_destination;
+use crate::simulate::capture::simulate_capture_and;
 use crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M;
 use crate::simulate::transient::time_filter_name;
 use crate::simulate::{
@@ -75,6 +79,9 @@ pub struct SimulateRequest {
     /// The command line recorded in a band's `band.toml`, which `femto merge` re-plans the
     /// capture from.
     pub command: Vec<String>,
+    /// `--truth-path` and the render flags beside it: the direct truth of a moving camera,
+    /// written into the capture as `truth/` frames ([`super::truth`]).
+    pub truth: Option<TruthRequest>,
 }
 
 impl Default for SimulateRequest {
@@ -101,6 +108,7 @@ impl Default for SimulateRequest {
             flaws: Flaws::default(),
             created_by: opts.created_by,
             command: Vec::new(),
+            truth: None,
         }
     }
 }
@@ -516,6 +524,21 @@ pub fn prepare(req: &SimulateRequest) -> Result<SimulatePlan, SimulateRunError> 
     check_destination(&req.out, plan.opts.force)
         .map_err(|e| SimulateRunError::OutputExists(Box::new(e)))?;
     let ny = plan.scene.camera.intrinsics.height;
+    if let Some(truth) = &req.truth {
+        if req.transient_only || req.rows.is_some() {
+            return Err(SimulateRunError::Flags(format!(
+                "--truth-path: not with {} (the truth is rendered against a whole capture's \
+                 truth_world.h5)",
+                if req.transient_only {
+                    "--transient-only"
+                } else {
+                    "--rows"
+                }
+            )));
+        }
+        let bvh = Bvh::new(plan.scene.mesh.clone());
+        check_truth(truth, &plan.scene, &bvh)?;
+    }
     if let Some(rows) = &req.rows {
         if rows.end > ny {
             return Err(SimulateRunError::Flags(format!(
@@ -535,9 +558,24 @@ pub fn run(
     progress: &(dyn Fn(Stage, usize) + Sync),
 ) -> Result<SimulateSummary, SimulateRunError> {
     let (scene, opts) = (&plan.scene, &plan.opts);
-    let summary = match &req.rows {
-        Some(rows) => simulate_band(scene, opts, rows.clone(), &req.command, &req.out, progress),
-        None => simulate_capture(scene, opts, &req.out, progress),
+    let summary = match (&req.rows, &req.truth) {
+        (Some(rows), _) => {
+            simulate_band(scene, opts, rows.clone(), &req.command, &req.out, progress)
+        }
+        (None, None) => simulate_capture(scene, opts, &req.out, progress),
+        (None, Some(truth)) => simulate_capture_and(scene, opts, &req.out, progress, |tmp| {
+            let bvh = Bvh::new(scene.mesh.clone());
+            let opts = TruthOptions {
+                spp: truth.spp.unwrap_or(opts.spp),
+                max_bounces: opts.max_bounces,
+                seed: opts.seed,
+            };
+            stage_truth(scene, &bvh, truth, opts, tmp, &|| progress(Stage::Truth, 1))
+                .map(Some)
+                .map_err(|e| SimulateError::Staged {
+                    message: e.to_string(),
+                })
+        }),
     };
     Ok(summary?)
 }

@@ -100,21 +100,21 @@ impl PixelBoost {
     }
 }
 
-/// Per-frame constants of the pipeline.
-struct FrameCtx<'s> {
+/// Per-frame constants of the pipeline (shared with the traced truth, [`super::truth`]).
+pub(super) struct FrameCtx<'s> {
     state: &'s FrameState,
     world_from_camera: Matrix3<f64>,
     origin: Point3<f64>,
-    origin_f32: Point3<f32>,
+    pub(super) origin_f32: Point3<f32>,
     inv_focal_px: f64,
     half: Vector2<f64>,
     /// One boost for the whole frame; None when it varies per pixel (rotating sensor).
     boost: Option<PixelBoost>,
-    t_receive_ps: f64,
+    pub(super) t_receive_ps: f64,
     eta: f64,
     /// `eta / c`: flight time per metre, ps.
     eta_over_c_ps_per_m: f64,
-    inv_dtau_per_ps: f64,
+    pub(super) inv_dtau_per_ps: f64,
     /// The colour of every pixel when the Doppler shift is off (the laser's own).
     fixed_colour: Option<[f64; 3]>,
 }
@@ -138,7 +138,7 @@ fn boost_of(beta: &Vector3<f64>) -> Boost {
 
 /// Colour of light received at `lambda_nm` in the output's colour space, luminance 1.
 #[inline]
-fn colour_of(colour: ColourOutput, lambda_nm: f64) -> [f64; 3] {
+pub(super) fn colour_of(colour: ColourOutput, lambda_nm: f64) -> [f64; 3] {
     match colour {
         ColourOutput::LinearSrgb => color::laser_colour(lambda_nm),
         ColourOutput::Xyz => match color::monochromatic_linear_srgb(lambda_nm) {
@@ -153,6 +153,17 @@ fn colour_of(colour: ColourOutput, lambda_nm: f64) -> [f64; 3] {
 
 impl<'s> FrameCtx<'s> {
     fn new(scene: &RenderScene, settings: &RenderSettings, state: &'s FrameState) -> Self {
+        Self::in_medium(settings, state, scene.capture.eta, scene.laser_nm)
+    }
+
+    /// The constants of frame `state` in a medium of index `eta`, for a laser of
+    /// `laser_nm` (what [`FrameCtx::new`] takes from a [`RenderScene`]).
+    pub(super) fn in_medium(
+        settings: &RenderSettings,
+        state: &'s FrameState,
+        eta: f64,
+        laser_nm: f64,
+    ) -> Self {
         let e = settings.effects;
         let (w, h) = (settings.width as f64, settings.height as f64);
         let focal_px = 0.5 * h / (0.5 * state.vfov_deg.to_radians()).tan();
@@ -179,11 +190,11 @@ impl<'s> FrameCtx<'s> {
             half: Vector2::new(0.5 * w, 0.5 * h),
             boost,
             t_receive_ps: t_path_ps + settings.time_offset_ps,
-            eta: scene.capture.eta,
-            eta_over_c_ps_per_m: flight_time_ps(scene.capture.eta, 1.0),
+            eta,
+            eta_over_c_ps_per_m: flight_time_ps(eta, 1.0),
             inv_dtau_per_ps: 1.0 / settings.dtau_ps,
             fixed_colour: (!e.doppler)
-                .then(|| colour_of(settings.colour, color::nearest_visible_nm(scene.laser_nm))),
+                .then(|| colour_of(settings.colour, color::nearest_visible_nm(laser_nm))),
         }
     }
 
@@ -191,7 +202,13 @@ impl<'s> FrameCtx<'s> {
     /// world ray and the Doppler factor of the light arriving along it, and the velocity used.
     #[inline(always)]
     fn ray(&self, settings: &RenderSettings, i: usize, j: usize) -> PixelRay {
-        let (u, v) = (i as f64 + 0.5, j as f64 + 0.5);
+        self.ray_at(settings, i as f64 + 0.5, j as f64 + 0.5)
+    }
+
+    /// [`FrameCtx::ray`] through the continuous pixel coordinates `(u, v)` (pixel `(i, j)`
+    /// spans `[i, i + 1) x [j, j + 1)`).
+    #[inline(always)]
+    pub(super) fn ray_at(&self, settings: &RenderSettings, u: f64, v: f64) -> PixelRay {
         let offset = Vector2::new(u - self.half.x, v - self.half.y);
         let local = Vector3::new(
             offset.x * self.inv_focal_px,
@@ -303,6 +320,21 @@ impl<'s> FrameCtx<'s> {
         out
     }
 
+    /// The colour, luminance 1, of light received with Doppler factor `doppler` (the laser's
+    /// own with the Doppler shift off): step 7 without the value.
+    #[inline(always)]
+    pub(super) fn colour(
+        &self,
+        settings: &RenderSettings,
+        laser_nm: f64,
+        doppler: f64,
+    ) -> [f64; 3] {
+        match self.fixed_colour {
+            Some(c) => c,
+            None => colour_of(settings.colour, doppler * laser_nm),
+        }
+    }
+
     /// Step 7, the pixel's colour: `value` times the colour of the received wavelength
     /// `lambda_nm`, black, or the display colour of an isochrone.
     #[inline(always)]
@@ -382,11 +414,11 @@ impl<'s> FrameCtx<'s> {
 }
 
 /// Steps 1-2 of one pixel.
-struct PixelRay {
-    d_camera: Vector3<f64>,
-    d_world: Vector3<f64>,
-    beta: Vector3<f64>,
-    doppler: f64,
+pub(super) struct PixelRay {
+    pub(super) d_camera: Vector3<f64>,
+    pub(super) d_world: Vector3<f64>,
+    pub(super) beta: Vector3<f64>,
+    pub(super) doppler: f64,
 }
 
 /// Steps 4-7 of one pixel.

@@ -122,7 +122,9 @@
 pub mod coverage;
 pub mod exposure;
 pub mod frame;
+pub mod ibr_error;
 pub mod paths;
+pub mod truth;
 pub mod views;
 
 pub use exposure::{auto_exposure, exposure_for, lit_exposure, LitExposure};

@@ -293,6 +293,7 @@ fn summary(
         files: files.iter().map(|f| out_dir.join(f)).collect(),
         fiducials,
         values_at_top_count,
+        truth: None,
     }
 }
 

@@ -19,6 +19,7 @@ use crate::formats::{FormatError, StreakImage};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::glb::{write_glb, GlbError};
 use crate::manifest::{CaptureFiles, CaptureInfo, Manifest, ManifestError, Scanline, StreakFormat};
+use crate::render::truth::TruthSummary;
 use crate::scene::Scene;
 use crate::tracer::{TimeFilter, TraceOptions, TraceStats, Tracer};
 use rayon::prelude::*;
@@ -239,6 +240,8 @@ pub enum Stage {
     Render,
     /// Writing the streak images: one call per finished scanline (`ny` in all).
     Write,
+    /// Rendering the truth frames of a moving camera (`--truth-path`): one call per frame.
+    Truth,
 }
 
 /// What a finished capture cost and produced.
@@ -264,6 +267,8 @@ pub struct SimulateSummary {
     pub fiducials: usize,
     /// Streak-image values at the top count (65535): clipped by saturation or overflow.
     pub values_at_top_count: usize,
+    /// The truth frames of a moving camera written into the capture (`--truth-path`).
+    pub truth: Option<TruthSummary>,
 }
 
 /// File names inside the capture folder.
@@ -286,12 +291,27 @@ pub fn simulate_capture(
     out_dir: &Path,
     progress: &(dyn Fn(Stage, usize) + Sync),
 ) -> Result<SimulateSummary, SimulateError> {
+    simulate_capture_and(scene, opts, out_dir, progress, |_| Ok(None))
+}
+
+/// [`simulate_capture`], with `extra` writing more into the capture's temporary folder (its
+/// argument) once the capture is there and before the folder is put in place: the truth
+/// frames of a moving camera (`crate::pipeline::truth`). An error of `extra` leaves nothing
+/// written, like any other.
+pub fn simulate_capture_and(
+    scene: &Scene,
+    opts: &SimulateOptions,
+    out_dir: &Path,
+    progress: &(dyn Fn(Stage, usize) + Sync),
+    extra: impl FnOnce(&Path) -> Result<Option<TruthSummary>, SimulateError>,
+) -> Result<SimulateSummary, SimulateError> {
     let started = Instant::now();
     opts.validate(scene)?;
     let staged = stage_and_install(out_dir, opts.force, |tmp| {
-        stage_capture(scene, opts, tmp, progress)
+        let capture = stage_capture(scene, opts, tmp, progress)?;
+        Ok((capture, extra(tmp)?))
     })?;
-    let (stats, written, fiducials, values_at_top_count) = staged;
+    let ((stats, written, fiducials, values_at_top_count), truth) = staged;
 
     Ok(SimulateSummary {
         out_dir: out_dir.to_path_buf(),
@@ -304,6 +324,7 @@ pub fn simulate_capture(
         files: written.iter().map(|f| out_dir.join(f)).collect(),
         fiducials,
         values_at_top_count,
+        truth,
     })
 }
 
@@ -388,6 +409,9 @@ pub(crate) fn provenance(scene: &Scene, opts: &SimulateOptions) -> Provenance {
         .with_note("seed", opts.seed.to_string())
         .with_note("spp", opts.spp.to_string())
         .with_note("max_bounces", opts.max_bounces.to_string())
+        // The wavelength `femto render` colours a truth cube with (pipeline::render's
+        // LASER_NM_NOTES), as it does an ingested capture's.
+        .with_note("laser_nm", scene.laser.wavelength_nm.to_string())
         .with_note(
             "values",
             "radiance integrated over each time bin (tracer units, proportional to the pulse energy)",

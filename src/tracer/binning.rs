@@ -401,6 +401,29 @@ pub fn add_weighted(profile: &mut [f64], first: isize, weights: &[f64], value: f
     lost
 }
 
+/// The cumulative sensor response of one sample: the fraction of a sample arriving at time 0
+/// that the sensor records before time `x_ps`, for a pulse of standard deviation `sigma_ps`
+/// and the one-bin box `dt_ps` wide. Its density, the Gaussian convolved with the box, is the
+/// one whose integral over each bin is [`TimeResponse`]'s weight (module doc), so that
+/// integrating it over any window gives what a cube binned with that response holds there:
+/// `(sigma / dt) [F((x + dt/2) / sigma) - F((x - dt/2) / sigma)]`, the box's ramp
+/// `clamp((x + dt/2) / dt, 0, 1)` for a delta pulse.
+pub fn response_cdf(x_ps: f64, dt_ps: f64, sigma_ps: f64) -> f64 {
+    let half = 0.5 * dt_ps;
+    if sigma_ps <= 1e-9 * dt_ps {
+        return ((x_ps + half) / dt_ps).clamp(0.0, 1.0);
+    }
+    let lo = (x_ps - half) / sigma_ps;
+    if lo > TRUNCATE_SIGMAS {
+        return 1.0;
+    }
+    let hi = (x_ps + half) / sigma_ps;
+    if hi < -TRUNCATE_SIGMAS {
+        return 0.0;
+    }
+    (sigma_ps / dt_ps * (ramp_gauss(hi) - ramp_gauss(lo))).clamp(0.0, 1.0)
+}
+
 /// `F(z) = E[(z - g)_+]` for a standard normal `g`: `z Phi(z) + phi(z)`.
 #[inline]
 fn ramp_gauss(z: f64) -> f64 {

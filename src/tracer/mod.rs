@@ -66,6 +66,7 @@
 
 pub mod binning;
 mod path;
+pub mod ray_paths;
 pub mod sampling;
 
 use crate::cpu_time::process_cpu_seconds;

@@ -80,11 +80,7 @@ pub(super) struct PathKernel<'a> {
 impl PathKernel<'_> {
     /// Trace path `index` of a pixel through continuous pixel coordinates `(u, v)`; calls
     /// `sink` for each contribution that can land in `window`; returns the rays cast and what
-    /// the window let it skip.
-    ///
-    /// Long (about 150 lines) on purpose: the hot loop of every render, one vertex per
-    /// iteration with its throughput and roulette state local; its output is pinned
-    /// bit-for-bit (the demo's hashes, the wide-ISA test), which a split would put at risk.
+    /// the window let it skip ([`PathKernel::trace_from`] from the scene's camera).
     #[inline(always)]
     pub(super) fn trace_path(
         &self,
@@ -95,7 +91,7 @@ impl PathKernel<'_> {
         window: &PathWindow,
         sink: &mut impl FnMut(Contribution),
     ) -> PathTally {
-        let mut dir: Vector3<f32> = match &self.world_from_pixel {
+        let dir: Vector3<f32> = match &self.world_from_pixel {
             Some(m) => (m * Vector3::new(u as f32, v as f32, 1.0)).normalize(),
             None => {
                 let cam = &self.scene.camera;
@@ -103,7 +99,30 @@ impl PathKernel<'_> {
                     .cast::<f32>()
             }
         };
-        let mut origin = self.camera_m;
+        self.trace_from(rng, ld, index, self.camera_m, dir, window, sink)
+    }
+
+    /// Trace path `index` of a pixel from the camera centre `camera_m` along the unit world
+    /// direction `dir` (what [`PathKernel::trace_path`] does for the scene's own camera; a
+    /// moving camera's truth, `crate::render::truth`, starts from wherever that camera is).
+    /// Contributions' path lengths end at `camera_m`.
+    ///
+    /// Long (about 150 lines) on purpose: the hot loop of every render, one vertex per
+    /// iteration with its throughput and roulette state local; its output is pinned
+    /// bit-for-bit (the demo's hashes, the wide-ISA test), which a split would put at risk.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn trace_from(
+        &self,
+        rng: &mut Pcg64Mcg,
+        ld: &PixelSampler,
+        index: u32,
+        camera_m: Point3<f32>,
+        mut dir: Vector3<f32>,
+        window: &PathWindow,
+        sink: &mut impl FnMut(Contribution),
+    ) -> PathTally {
+        let mut origin = camera_m;
         let mut path_m = 0.0f64;
         let mut first_m = 0.0f64;
         let mut beta = 1.0f32;

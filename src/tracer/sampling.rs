@@ -19,6 +19,8 @@ pub enum Stream {
     Transient = 1,
     /// The steady-state render (an estimate independent of the transient one).
     Steady = 2,
+    /// The direct truth of a moving camera (`crate::render::truth`).
+    Truth = 3,
 }
 
 /// SplitMix64 finaliser: a bijective 64-bit mixer.
