@@ -108,12 +108,14 @@ pub struct FrameError {
 }
 
 /// Frames pooled: the relative L1, hole and ghost shares of all their pixels together, and
-/// the mean PSNR over the frames where it is finite.
+/// the mean PSNR over the frames with a lit pixel where it is finite.
 pub fn pooled(frames: &[FrameError]) -> (f64, f64, f64, f64) {
     let sum = |f: fn(&FrameError) -> f64| frames.iter().map(f).sum::<f64>();
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+    // Frames dark in both would only inflate the mean with the PSNR of two black images.
     let psnr: Vec<f64> = frames
         .iter()
+        .filter(|f| f.lit_either > 0)
         .map(|f| f.psnr_db)
         .filter(|p| p.is_finite())
         .collect();
