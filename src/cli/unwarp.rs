@@ -151,6 +151,14 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         }
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
+    if done.mixed_pixels > 0 {
+        println!(
+            "{} mixed pixels masked: their footprint straddles a depth edge by more than one \
+             bin of path, so no single distance moves their light (the registration's {})",
+            done.mixed_pixels,
+            femto::store::registration::OFF_SURFACE
+        );
+    }
     if done.scanlines_moved > 0 {
         println!(
             "{} scanlines moved by their time offsets against the geometry (the registration's \

@@ -22,6 +22,7 @@
 //! number) and the two fits.
 
 use super::{Progress, StageError, StageOption};
+use crate::calibrate::mixed::off_surface_m;
 use crate::calibrate::scanline_time::{
     fill_missing, fit_scanline_offsets, DirectTime, DIM_ROW_FLOOR,
 };
@@ -170,6 +171,9 @@ pub struct Calibrated {
     pub scanlines: Vec<Option<RowOffset>>,
     /// `scanlines` in words (with the truth, for a simulated capture).
     pub scanline_report: OffsetReport,
+    /// Each pixel's footprint off the surface its centre sees, metres
+    /// ([`crate::calibrate::mixed`]): `femto unwarp` masks the mixed pixels.
+    pub off_surface_m: Vec<f32>,
     /// Things the user should know (printed by the CLI, kept in the demo's report).
     pub warnings: Vec<String>,
 }
@@ -251,6 +255,7 @@ pub fn calibrate_cube(
     if reg.hit_count() == 0 {
         return Err(StageError::NothingSeen);
     }
+    let off_surface_m = off_surface_m(&camera, mesh, &reg);
 
     let noise = cube_noise_sigma(&reader)?;
     let auto_floor = (NOISE_SIGMAS * noise) as f32;
@@ -373,6 +378,7 @@ pub fn calibrate_cube(
         dt_ps,
         scanlines,
         scanline_report,
+        off_surface_m,
         warnings,
     })
 }
@@ -552,6 +558,12 @@ pub fn write_calibration(
         Some(&result.summary(points)),
     );
     registration::add_scanline_offsets(&mut group, &result.scanlines);
+    registration::add_off_surface(
+        &mut group,
+        result.registration.nx,
+        result.registration.ny,
+        result.off_surface_m.clone(),
+    );
     let mut update = GroupUpdate::open(cube_path)?;
     update.write_group(registration::GROUP, &group)?;
     let cube = update.finish_staged()?;

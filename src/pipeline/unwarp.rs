@@ -128,6 +128,9 @@ pub struct Unwarped {
     pub valid_pixels: usize,
     /// Smallest and largest distance of the pixels shifted, metres (None: none sees geometry).
     pub dist_range_m: Option<(f64, f64)>,
+    /// Pixels masked as mixed: their footprint straddles more than one bin of path
+    /// ([`crate::calibrate::mixed`]).
+    pub mixed_pixels: usize,
     /// Scanlines moved by their time offsets (the registration's
     /// [`registration::SCANLINE_OFFSETS`]).
     pub scanlines_moved: usize,
@@ -173,8 +176,9 @@ pub fn unwarp_file(
     }
 
     let mask = reader.read_mask()?;
-    let paths = load_paths(&reader, input, &meta, distances)?;
+    let mut paths = load_paths(&reader, input, &meta, distances)?;
     let eta = paths.eta;
+    let mixed_pixels = mask_mixed(&mut paths, meta.axis.dt_ps);
     let dist = masked_distances(nx * ny, &paths.valid, &paths.dist_m, mask.as_deref());
     let dist_range_m = finite_range_m(&dist);
     let axis = output_axis(
@@ -235,6 +239,7 @@ pub fn unwarp_file(
         eta,
         valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
         dist_range_m,
+        mixed_pixels,
         scanlines_moved: paths.scanline_offset_ps.as_deref().map_or(0, |o| {
             o.iter().filter(|d| d.is_finite() && **d != 0.0).count()
         }),
@@ -259,6 +264,9 @@ struct ClockPaths {
     /// Each scanline's time offset against the geometry, from the registration group
     /// (`femto calibrate`), ps (NaN: not estimated); None when the group has none.
     scanline_offset_ps: Option<Vec<f64>>,
+    /// Each pixel's footprint off the surface its centre sees, metres
+    /// ([`crate::calibrate::mixed`]); None without that dataset.
+    off_surface_m: Option<Vec<f32>>,
 }
 
 /// The paths [`unwarp_file`] uses: cast anew through a calibration into a mesh, or read from
@@ -273,6 +281,7 @@ fn load_paths(
     let (nx, ny) = (meta.nx, meta.ny);
     let has = |g: &str| meta.groups.iter().any(|n| n == g);
     let mut scanline_offset_ps = None;
+    let off_surface_m;
     let (stored, group, described) = match distances {
         Distances::Cast {
             calibration,
@@ -285,7 +294,10 @@ fn load_paths(
                     path: calibration_name.to_string(),
                     source,
                 })?;
-            let group = registration::registration_group(&reg, calibration, mesh_name, None);
+            let mut group = registration::registration_group(&reg, calibration, mesh_name, None);
+            let off = crate::calibrate::mixed::off_surface_m(calibration, mesh, &reg);
+            registration::add_off_surface(&mut group, nx, ny, off.clone());
+            off_surface_m = Some(off);
             let stored = StoredRegistration {
                 registration: reg,
                 calibration: *calibration,
@@ -312,6 +324,7 @@ fn load_paths(
             let group = reader.read_group(registration::GROUP)?;
             let stored = registration::from_group(input, &group)?;
             scanline_offset_ps = registration::scanline_offsets(input, &group, ny)?;
+            off_surface_m = registration::off_surface(input, &group, nx, ny)?;
             (
                 stored,
                 group,
@@ -336,6 +349,7 @@ fn load_paths(
         registration_group: Some(group),
         described,
         scanline_offset_ps,
+        off_surface_m,
     })
 }
 
@@ -394,6 +408,7 @@ fn tal_paths(
         registration_group: None,
         described,
         scanline_offset_ps: None,
+        off_surface_m: None,
     })
 }
 
@@ -471,6 +486,23 @@ fn output_axis(
             None => *input_axis,
         },
     })
+}
+
+/// Mark the pixels of `paths` whose footprint straddles more than one bin of `dt_ps`
+/// ([`crate::calibrate::mixed::is_mixed`]) as without a path, so that they are masked; returns
+/// how many there were among those with one.
+fn mask_mixed(paths: &mut ClockPaths, dt_ps: f64) -> usize {
+    let Some(off) = &paths.off_surface_m else {
+        return 0;
+    };
+    let mut count = 0;
+    for (valid, &o) in paths.valid.iter_mut().zip(off) {
+        if *valid != 0 && crate::calibrate::mixed::is_mixed(o, dt_ps, paths.eta) {
+            *valid = 0;
+            count += 1;
+        }
+    }
+    count
 }
 
 /// `axis` with whole bins added on both sides to hold profiles moved by any of `delays_ps`

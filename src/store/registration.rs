@@ -206,6 +206,46 @@ pub fn scanline_offsets(
     Ok(Some(offsets))
 }
 
+/// Name of the optional dataset of each pixel's footprint off its surface
+/// ([`crate::calibrate::mixed`]), f32 `(ny, nx)`, metres: how far, along a sub-pixel ray,
+/// the mesh lies from the tangent plane of the point the pixel's centre sees (0: one flat
+/// surface; inf: a sub-pixel ray misses the mesh; NaN: the pixel sees nothing).
+pub const OFF_SURFACE: &str = "footprint_off_surface_m";
+
+/// Add `off_m` (one per pixel, `[y][x]`) to `group` as [`OFF_SURFACE`].
+pub fn add_off_surface(group: &mut GroupData, nx: usize, ny: usize, off_m: Vec<f32>) {
+    group
+        .datasets
+        .push((OFF_SURFACE.into(), vec![ny, nx], DataBuf::F32(off_m)));
+}
+
+/// The footprints off their surface of a registration group of `nx` x `ny` pixels, metres, or
+/// None when it has none. Refused: a wrong shape or type, or a negative value.
+pub fn off_surface(
+    path: &Path,
+    data: &GroupData,
+    nx: usize,
+    ny: usize,
+) -> Result<Option<Vec<f32>>, StoreError> {
+    if data.dataset(OFF_SURFACE).is_none() {
+        return Ok(None);
+    }
+    let v = GroupView {
+        path,
+        group: GROUP,
+        data,
+    };
+    let off = v.typed::<f32>(OFF_SURFACE, &[ny, nx])?.to_vec();
+    if let Some((i, o)) = off.iter().enumerate().find(|(_, o)| **o < 0.0) {
+        return Err(v.schema(format!(
+            "dataset '{OFF_SURFACE}': pixel ({}, {}) has {o} m (0 or more, inf, or NaN)",
+            i % nx.max(1),
+            i / nx.max(1)
+        )));
+    }
+    Ok(Some(off))
+}
+
 /// The calibration stored in a registration group's `calibration` attribute.
 pub fn stored_calibration(path: &Path, data: &GroupData) -> Result<Calibration, StoreError> {
     let v = GroupView {
