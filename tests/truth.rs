@@ -53,6 +53,7 @@ fn group_test(
     a: &Frames,
     b: &Frames,
     allowance: &[Vec<f64>],
+    keep: &[bool],
     w: usize,
     h: usize,
 ) -> (usize, usize, f64) {
@@ -66,7 +67,9 @@ fn group_test(
                     let mut s = 0.0;
                     for y in gy * 4..gy * 4 + 4 {
                         for x in gx * 4..gx * 4 + 4 {
-                            s += f[y * w + x];
+                            if keep[y * w + x] {
+                                s += f[y * w + x];
+                            }
                         }
                     }
                     s
@@ -106,8 +109,10 @@ fn group_test(
 ///
 /// - The truth against the camera-time capture's own window sums (frames on its bin edges):
 ///   equal within the noise of both.
-/// - The render of `femto unwarp`'s world-time cube against the truth: equal within the noise
-///   of both plus the bound of the renderer's time interpolation. The cube goes to world time
+/// - The render of `femto unwarp`'s world-time cube against the truth, on the pixels the
+///   unwarp shifts (those it masks as mixed, spanning more than 4 bins of path, are black in
+///   the render): equal within the noise of both plus the bound of the renderer's time
+///   interpolation. The cube goes to world time
 ///   and back through two linear interpolations of each pixel's prefix sum between bin
 ///   edges (the unwarp's fractional shift, `crate::unwarp`'s "Resampling error", and the
 ///   renderer's read at `t_e`); both reproduce straight lines, so at each end of the window
@@ -124,6 +129,7 @@ fn truth_and_render_agree_at_the_capture_position_within_noise() {
     const SEEDS: u64 = 8;
     let (mut truth, mut ibr, mut capture): (Frames, Frames, Frames) = Default::default();
     let mut allowance = vec![vec![0.0f64; w * h]; frames];
+    let mut shifted = Vec::new();
     for seed in 1..=SEEDS {
         let cap = dir.path().join(format!("cap{seed}"));
         let seed_text = seed.to_string();
@@ -155,6 +161,10 @@ fn truth_and_render_agree_at_the_capture_position_within_noise() {
         let mut unwarp = vec!["unwarp", arg(&camera), "--out", arg(&world)];
         unwarp.extend_from_slice(&geometry);
         femto_ok(&unwarp);
+        if seed == 1 {
+            let cube = read_cube(&world).unwrap();
+            shifted = (0..w * h).map(|p| cube.is_valid(p % w, p / w)).collect();
+        }
         let out = dir.path().join(format!("ibr{seed}"));
         let mut render = vec!["render", "--cube", arg(&world), "--path", arg(&path_file)];
         render.extend_from_slice(&geometry);
@@ -191,7 +201,8 @@ fn truth_and_render_agree_at_the_capture_position_within_noise() {
         capture.push(sums);
     }
     let none = vec![vec![0.0; w * h]; frames];
-    let (groups, over, pooled) = group_test(&capture, &truth, &none, w, h);
+    let all = vec![true; w * h];
+    let (groups, over, pooled) = group_test(&capture, &truth, &none, &all, w, h);
     assert!(groups >= 150, "{groups} lit groups");
     // Student's t with 7 degrees of freedom per side exceeds 3.5 in about 1 % of groups.
     assert!(
@@ -202,7 +213,11 @@ fn truth_and_render_agree_at_the_capture_position_within_noise() {
         pooled.abs() < 4.0,
         "truth against the capture: pooled z {pooled:.2}"
     );
-    let (groups, over, pooled) = group_test(&truth, &ibr, &allowance, w, h);
+    // The pixels the unwarp masked as mixed (footprints spanning more than 4 bins of path)
+    // are black in the render: they are the holes docs/truth.md counts, not compared here.
+    let kept = shifted.iter().filter(|k| **k).count();
+    assert!(kept * 2 > w * h, "{kept} of {} pixels shifted", w * h);
+    let (groups, over, pooled) = group_test(&truth, &ibr, &allowance, &shifted, w, h);
     assert!(
         over * 20 <= groups,
         "render against the truth: {over} of {groups} groups"

@@ -20,6 +20,7 @@
 //! [`Calibration::first_arrival_ps`]: crate::camera::Calibration::first_arrival_ps
 
 pub mod dlt;
+pub mod mixed;
 pub mod points;
 pub mod refine;
 pub mod register;

@@ -151,6 +151,17 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         }
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
+    if done.straddling_pixels > 0 {
+        println!(
+            "{} pixels have footprints spanning more than one bin of path (the registration's \
+             {}); {} spanning more than {} bins are masked as mixed: no single distance moves \
+             their light",
+            done.straddling_pixels,
+            femto::store::registration::FOOTPRINT_SPREAD,
+            done.mixed_pixels,
+            femto::calibrate::mixed::MASK_SPREAD_BINS
+        );
+    }
     if done.scanlines_moved > 0 {
         println!(
             "{} scanlines moved by their time offsets against the geometry (the registration's \

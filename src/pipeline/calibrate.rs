@@ -22,6 +22,7 @@
 //! number) and the two fits.
 
 use super::{Progress, StageError, StageOption};
+use crate::calibrate::mixed::footprint_spread_m;
 use crate::calibrate::scanline_time::{
     fill_missing, fit_scanline_offsets, DirectTime, DIM_ROW_FLOOR,
 };
@@ -171,6 +172,9 @@ pub struct Calibrated {
     pub scanlines: Vec<Option<RowOffset>>,
     /// `scanlines` in words (with the truth, for a simulated capture).
     pub scanline_report: OffsetReport,
+    /// Each pixel's spread of distances over its footprint, metres
+    /// ([`crate::calibrate::mixed`]): `femto unwarp` masks the mixed pixels.
+    pub footprint_spread_m: Vec<f32>,
     /// Things the user should know (printed by the CLI, kept in the demo's report).
     pub warnings: Vec<String>,
 }
@@ -252,6 +256,7 @@ pub fn calibrate_cube(
     if reg.hit_count() == 0 {
         return Err(StageError::NothingSeen);
     }
+    let footprint_spread_m = footprint_spread_m(&camera, mesh, &reg);
 
     let noise = cube_noise_sigma(&reader)?;
     let auto_floor = (NOISE_SIGMAS * noise) as f32;
@@ -391,6 +396,7 @@ pub fn calibrate_cube(
         dt_ps,
         scanlines,
         scanline_report,
+        footprint_spread_m,
         warnings,
     })
 }
@@ -572,6 +578,12 @@ pub fn write_calibration(
     if !result.scanlines.is_empty() {
         registration::add_scanline_offsets(&mut group, &result.scanlines);
     }
+    registration::add_footprint_spread(
+        &mut group,
+        result.registration.nx,
+        result.registration.ny,
+        result.footprint_spread_m.clone(),
+    );
     let mut update = GroupUpdate::open(cube_path)?;
     update.write_group(registration::GROUP, &group)?;
     let cube = update.finish_staged()?;

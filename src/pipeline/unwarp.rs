@@ -128,6 +128,12 @@ pub struct Unwarped {
     pub valid_pixels: usize,
     /// Smallest and largest distance of the pixels shifted, metres (None: none sees geometry).
     pub dist_range_m: Option<(f64, f64)>,
+    /// Pixels whose footprint spans more than one bin of path: their light is smeared over
+    /// that many bins by the one distance they are shifted by ([`crate::calibrate::mixed`]).
+    pub straddling_pixels: usize,
+    /// Of those, the pixels masked as mixed: their footprint spans more than
+    /// [`crate::calibrate::mixed::MASK_SPREAD_BINS`] bins.
+    pub mixed_pixels: usize,
     /// Scanlines moved by their time offsets (the registration's
     /// [`registration::SCANLINE_OFFSETS`]).
     pub scanlines_moved: usize,
@@ -173,8 +179,9 @@ pub fn unwarp_file(
     }
 
     let mask = reader.read_mask()?;
-    let paths = load_paths(&reader, input, &meta, distances)?;
+    let mut paths = load_paths(&reader, input, &meta, distances)?;
     let eta = paths.eta;
+    let (straddling_pixels, mixed_pixels) = mask_mixed(&mut paths, meta.axis.dt_ps);
     let dist = masked_distances(nx * ny, &paths.valid, &paths.dist_m, mask.as_deref());
     let dist_range_m = finite_range_m(&dist);
     let axis = output_axis(
@@ -235,6 +242,8 @@ pub fn unwarp_file(
         eta,
         valid_pixels: out_mask.iter().filter(|&&m| m != 0).count(),
         dist_range_m,
+        straddling_pixels,
+        mixed_pixels,
         scanlines_moved: paths.scanline_offset_ps.as_deref().map_or(0, |o| {
             o.iter().filter(|d| d.is_finite() && **d != 0.0).count()
         }),
@@ -259,6 +268,9 @@ struct ClockPaths {
     /// Each scanline's time offset against the geometry, from the registration group
     /// (`femto calibrate`), ps (NaN: not estimated); None when the group has none.
     scanline_offset_ps: Option<Vec<f64>>,
+    /// Each pixel's spread of distances over its footprint, metres
+    /// ([`crate::calibrate::mixed`]); None without that dataset.
+    footprint_spread_m: Option<Vec<f32>>,
 }
 
 /// The paths [`unwarp_file`] uses: cast anew through a calibration into a mesh, or read from
@@ -273,6 +285,7 @@ fn load_paths(
     let (nx, ny) = (meta.nx, meta.ny);
     let has = |g: &str| meta.groups.iter().any(|n| n == g);
     let mut scanline_offset_ps = None;
+    let footprint_spread_m;
     let (stored, group, described) = match distances {
         Distances::Cast {
             calibration,
@@ -285,7 +298,10 @@ fn load_paths(
                     path: calibration_name.to_string(),
                     source,
                 })?;
-            let group = registration::registration_group(&reg, calibration, mesh_name, None);
+            let mut group = registration::registration_group(&reg, calibration, mesh_name, None);
+            let spread = crate::calibrate::mixed::footprint_spread_m(calibration, mesh, &reg);
+            registration::add_footprint_spread(&mut group, nx, ny, spread.clone());
+            footprint_spread_m = Some(spread);
             let stored = StoredRegistration {
                 registration: reg,
                 calibration: *calibration,
@@ -312,6 +328,7 @@ fn load_paths(
             let group = reader.read_group(registration::GROUP)?;
             let stored = registration::from_group(input, &group)?;
             scanline_offset_ps = registration::scanline_offsets(input, &group, ny)?;
+            footprint_spread_m = registration::footprint_spread(input, &group, nx, ny)?;
             (
                 stored,
                 group,
@@ -336,6 +353,7 @@ fn load_paths(
         registration_group: Some(group),
         described,
         scanline_offset_ps,
+        footprint_spread_m,
     })
 }
 
@@ -394,6 +412,7 @@ fn tal_paths(
         registration_group: None,
         described,
         scanline_offset_ps: None,
+        footprint_spread_m: None,
     })
 }
 
@@ -471,6 +490,29 @@ fn output_axis(
             None => *input_axis,
         },
     })
+}
+
+/// Count the pixels of `paths` whose footprint spans more than one bin of `dt_ps`, and mark
+/// those spanning more than [`crate::calibrate::mixed::MASK_SPREAD_BINS`] as without a path,
+/// so that they are masked; returns both counts (among the pixels with a path).
+fn mask_mixed(paths: &mut ClockPaths, dt_ps: f64) -> (usize, usize) {
+    use crate::calibrate::mixed::{spread_bins, MASK_SPREAD_BINS};
+    let Some(spread) = &paths.footprint_spread_m else {
+        return (0, 0);
+    };
+    let (mut straddling, mut masked) = (0, 0);
+    for (valid, &s) in paths.valid.iter_mut().zip(spread) {
+        if *valid == 0 || s.is_nan() {
+            continue;
+        }
+        let bins = spread_bins(s, dt_ps, paths.eta);
+        straddling += (bins > 1.0) as usize;
+        if bins > MASK_SPREAD_BINS {
+            *valid = 0;
+            masked += 1;
+        }
+    }
+    (straddling, masked)
 }
 
 /// `axis` with whole bins added on both sides to hold profiles moved by any of `delays_ps`

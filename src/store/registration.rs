@@ -206,6 +206,49 @@ pub fn scanline_offsets(
     Ok(Some(offsets))
 }
 
+/// Name of the dataset of each pixel's footprint spread of distances
+/// ([`crate::calibrate::mixed::footprint_spread_m`]), f32 `(ny, nx)`, metres: the largest less
+/// the smallest distance from the camera centre over rays spanning the pixel (infinite where
+/// one misses the mesh, NaN where the pixel sees nothing). `femto unwarp` masks the pixels
+/// that span more than [`crate::calibrate::mixed::MASK_SPREAD_BINS`] bins of path.
+pub const FOOTPRINT_SPREAD: &str = "footprint_spread_m";
+
+/// Add `spread_m` (one per pixel, `[y][x]`) to `group` as [`FOOTPRINT_SPREAD`].
+pub fn add_footprint_spread(group: &mut GroupData, nx: usize, ny: usize, spread_m: Vec<f32>) {
+    group.datasets.push((
+        FOOTPRINT_SPREAD.into(),
+        vec![ny, nx],
+        DataBuf::F32(spread_m),
+    ));
+}
+
+/// The footprint spreads of a registration group of `nx` x `ny` pixels, metres, or None when
+/// it has none. Refused: a wrong shape or type, or a negative value.
+pub fn footprint_spread(
+    path: &Path,
+    data: &GroupData,
+    nx: usize,
+    ny: usize,
+) -> Result<Option<Vec<f32>>, StoreError> {
+    if data.dataset(FOOTPRINT_SPREAD).is_none() {
+        return Ok(None);
+    }
+    let v = GroupView {
+        path,
+        group: GROUP,
+        data,
+    };
+    let spread = v.typed::<f32>(FOOTPRINT_SPREAD, &[ny, nx])?.to_vec();
+    if let Some((i, o)) = spread.iter().enumerate().find(|(_, o)| **o < 0.0) {
+        return Err(v.schema(format!(
+            "dataset '{FOOTPRINT_SPREAD}': pixel ({}, {}) has {o} m (0 or more, inf, or NaN)",
+            i % nx.max(1),
+            i / nx.max(1)
+        )));
+    }
+    Ok(Some(spread))
+}
+
 /// The calibration stored in a registration group's `calibration` attribute.
 pub fn stored_calibration(path: &Path, data: &GroupData) -> Result<Calibration, StoreError> {
     let v = GroupView {
