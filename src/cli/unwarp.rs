@@ -58,6 +58,22 @@ pub struct UnwarpArgs {
     /// --out is refused.
     #[arg(long)]
     pub force: bool,
+    /// Mask the pixels whose footprint spans more than this many bins of path (the
+    /// registration's footprint_spread_m): one distance cannot move their light, whose centre
+    /// in time can sit half the spread off. `inf` keeps every pixel, smeared.
+    #[arg(long, value_name = "BINS", default_value_t = femto::calibrate::mixed::MASK_SPREAD_BINS,
+          value_parser = spread_bins)]
+    pub mask_spread_bins: f64,
+}
+
+/// A positive number of bins, or `inf`.
+fn spread_bins(text: &str) -> Result<f64, String> {
+    let v: f64 = text.trim().parse().map_err(|e| format!("{e}"))?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err("must be > 0 (or inf)".into())
+    }
 }
 
 pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
@@ -85,6 +101,7 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         axis,
         compression: args.compression,
         command_line: super::command_line(),
+        mask_spread_bins: args.mask_spread_bins,
     };
     let cast = match (&args.calibration, &args.mesh) {
         (Some(cal_path), Some(mesh_path)) => Some((

@@ -101,6 +101,9 @@ pub struct UnwarpOptions {
     pub compression: Option<CubeCompression>,
     /// The command line recorded in the output.
     pub command_line: String,
+    /// Pixels whose footprint spans more bins of path than this are masked as mixed
+    /// ([`crate::calibrate::mixed`]; infinity keeps every pixel).
+    pub mask_spread_bins: f64,
 }
 
 impl Default for UnwarpOptions {
@@ -110,6 +113,7 @@ impl Default for UnwarpOptions {
             axis: None,
             compression: None,
             command_line: String::new(),
+            mask_spread_bins: crate::calibrate::mixed::MASK_SPREAD_BINS,
         }
     }
 }
@@ -181,7 +185,8 @@ pub fn unwarp_file(
     let mask = reader.read_mask()?;
     let mut paths = load_paths(&reader, input, &meta, distances)?;
     let eta = paths.eta;
-    let (straddling_pixels, mixed_pixels) = mask_mixed(&mut paths, meta.axis.dt_ps);
+    let (straddling_pixels, mixed_pixels) =
+        mask_mixed(&mut paths, meta.axis.dt_ps, options.mask_spread_bins);
     let dist = masked_distances(nx * ny, &paths.valid, &paths.dist_m, mask.as_deref());
     let dist_range_m = finite_range_m(&dist);
     let axis = output_axis(
@@ -493,10 +498,10 @@ fn output_axis(
 }
 
 /// Count the pixels of `paths` whose footprint spans more than one bin of `dt_ps`, and mark
-/// those spanning more than [`crate::calibrate::mixed::MASK_SPREAD_BINS`] as without a path,
-/// so that they are masked; returns both counts (among the pixels with a path).
-fn mask_mixed(paths: &mut ClockPaths, dt_ps: f64) -> (usize, usize) {
-    use crate::calibrate::mixed::{spread_bins, MASK_SPREAD_BINS};
+/// those spanning more than `mask_bins` as without a path, so that they are masked; returns
+/// both counts (among the pixels with a path).
+fn mask_mixed(paths: &mut ClockPaths, dt_ps: f64, mask_bins: f64) -> (usize, usize) {
+    use crate::calibrate::mixed::spread_bins;
     let Some(spread) = &paths.footprint_spread_m else {
         return (0, 0);
     };
@@ -507,7 +512,7 @@ fn mask_mixed(paths: &mut ClockPaths, dt_ps: f64) -> (usize, usize) {
         }
         let bins = spread_bins(s, dt_ps, paths.eta);
         straddling += (bins > 1.0) as usize;
-        if bins > MASK_SPREAD_BINS {
+        if bins > mask_bins {
             *valid = 0;
             masked += 1;
         }
