@@ -23,7 +23,7 @@ What is the same on both sides:
   the sum over the same window on both sides.
 * Russian roulette: the same start on both sides (`--roulette matched`, the default). femto
   counts bounces from 1, the first surface the camera ray hits, and after shading the vertex
-  of bounce b (its connection to the light emitted) plays roulette when b >=
+  of bounce b (its connections to the light made) plays roulette when b >=
   `--rr-start-bounce` (TraceOptions::rr_start_bounce, default 3), surviving with probability
   min(throughput, 0.95), the throughput including this vertex's albedo. mitransient's
   `transient_path` (mitransient/integrators/transientpath.py, the `rr_depth` of Mitsuba's
@@ -33,8 +33,9 @@ What is the same on both sides:
   times the diffuse BSDF's sampling weight, the albedo) the same. So femto's bounce b is
   Mitsuba's depth b - 1, and `--rr-start-bounce B` is `rr_depth = B - 1`: femto's default 3 is
   rr_depth 2, Mitsuba's default 5 is femto's bounce 6. `--roulette defaults` runs each at its
-  own default instead (femto 3, Mitsuba 5; which favours femto: Mitsuba traces more long
-  paths for its noise). Unless `--no-other-roulette`, the script also renders Mitsuba at the
+  own default instead (femto 3, Mitsuba 5), which favours femto: Mitsuba then traces longer
+  paths, whose cost per sample grows faster than its noise falls (on peer_cornell femto's
+  ratio is about a fifth higher so; benches/tracer_results.md). Unless `--no-other-roulette`, the script also renders Mitsuba at the
   other setting and prints both, each labelled with its setting.
 * Truth: a common converged reference, the mean of a femto and a Mitsuba render at
   `--ref-spp` (neither renderer's own). The reference's own noise is removed from every MSE:
@@ -50,7 +51,7 @@ What is the same on both sides:
   wall seconds of `mi.render` and the read-back, CPU seconds of this process (Dr.Jit's
   threads), the kernel compiled before by a warm-up render at each sample count. (femto's own
   timer's slope is printed too.) `--timing-runs` rounds (default 4), each timing every
-  renderer at both counts; the first renderer alternates between rounds (A B, B A, A B, ...),
+  renderer at both counts; the renderers' order reverses between rounds (A B, B A, A B, ...),
   so that a drift of the machine's load reaches all alike. The median slope over the rounds
   gives the figure; each round's slopes give a ratio too, and their min-max is printed as the
   spread.
