@@ -778,8 +778,17 @@ fn existing_folder_is_refused_unless_forced() {
 #[test]
 fn bad_flags_exit_2_naming_the_flag() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: [(&[&str], &str); 18] = [
+    let cases: [(&[&str], &str); 21] = [
         (&["--time-filter", "box"], "--transient-only"),
+        (&["--rr-start-bounce", "4"], "--transient-only"),
+        (
+            &["--transient-only", "--rr-start-bounce", "0"],
+            "--rr-start-bounce",
+        ),
+        (
+            &["--transient-only", "--rr-start-bounce", "-1"],
+            "--rr-start-bounce",
+        ),
         (
             &["--transient-only", "--time-filter", "tent"],
             "--time-filter",
@@ -969,4 +978,61 @@ fn transient_only_writes_the_tracers_cube_and_its_counters() {
         );
         assert!((sa - sb).abs() <= 1e-5 * sa.max(1e-30), "{sa} vs {sb}");
     }
+}
+
+#[test]
+fn transient_only_takes_russian_roulettes_first_bounce() {
+    // --rr-start-bounce 6 renders what the library renders with the same setting (bit for
+    // bit), differs from the default's render (3) and is recorded in render.json.
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--out",
+            name,
+            "--size",
+            "16x12",
+            "--nt",
+            "128",
+            "--dt-ps",
+            "16",
+            "--spp",
+            "4",
+            "--bounces",
+            "7",
+            "--transient-only",
+        ];
+        args.extend(extra);
+        let out = femto(tmp.path(), &args, Some(2));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let dir = tmp.path().join(name);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("render.json")).unwrap())
+                .unwrap();
+        (read_cube(&dir.join("truth_camera.h5")).unwrap(), json)
+    };
+    let (default, default_json) = run("default", &[]);
+    let (late, late_json) = run("late", &["--rr-start-bounce", "6"]);
+    assert_eq!(default_json["rr_start_bounce"], 3);
+    assert_eq!(late_json["rr_start_bounce"], 6);
+    let scene = femto::scene::Scene::builtin("cube", None)
+        .unwrap()
+        .with_resolution(16, 12, 128, 16.0);
+    let bvh = Bvh::new(scene.mesh.clone());
+    let opts = femto::tracer::TraceOptions {
+        spp: 4,
+        max_bounces: 7,
+        seed: 0,
+        split_bounces: false,
+        world_time: false,
+        rr_start_bounce: 6,
+        ..Default::default()
+    };
+    let expected = femto::tracer::trace(&scene, &bvh, &opts, &|_| {});
+    assert_eq!(late.data, expected.camera_time.data);
+    assert_ne!(late.data, default.data);
 }

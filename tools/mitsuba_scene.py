@@ -41,9 +41,11 @@ def load(path):
     return scene
 
 
-def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4):
+def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4, rr_depth=None):
     """The Mitsuba scene dict of `scene` (from `load`), for paths of at most `max_bounces`
-    surface interactions."""
+    surface interactions; `rr_depth`: the integrator's Russian roulette depth (None: Mitsuba's
+    default, 5; femto's `--rr-start-bounce B` is `rr_depth = B - 1`, see
+    tools/compare_mitsuba.py)."""
     cam = scene["camera"]
     t = mi.ScalarTransform4f
     start, width, bins = cam["t0_ps"] * C_M_PER_PS, cam["dt_ps"] * C_M_PER_PS, cam["nt"]
@@ -73,6 +75,8 @@ def mitsuba_dict(scene, mi, max_bounces, sampler="independent", spp=4):
             "intensity": {"type": "uniform", "value": scene["laser"]["energy"] / (4.0 * math.pi)},
         },
     }
+    if rr_depth is not None:
+        d["integrator"]["rr_depth"] = rr_depth
     for k, m in enumerate(scene["mesh"]):
         d[f"mesh_{k}"] = {
             "type": "obj",

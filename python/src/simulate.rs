@@ -74,6 +74,7 @@ pub fn simulate<'py>(
         paper_size,
         transient_only,
         time_filter: parse_time_filter(time_filter).py_err()?,
+        rr_start_bounce: None,
         rows: rows.map(|(a, b)| a..b),
         marker_spacing_m,
         realistic,

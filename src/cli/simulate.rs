@@ -100,6 +100,11 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILTER", default_value = "sensor", requires = "transient_only",
           ignore_case = true, value_parser = EnumArg::<TimeFilterArg>::new())]
     pub time_filter: TimeFilterArg,
+    /// First bounce at which Russian roulette may end a path (1 = the surface the camera ray
+    /// hits; default 3); only with --transient-only, to match another renderer's setting.
+    #[arg(long, value_name = "N", requires = "transient_only", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub rr_start_bounce: Option<u32>,
     /// Render only image rows A..B (B excluded) into a band folder: the true cubes of those
     /// rows and band.toml, bit-identical to the same rows of a whole run; `femto merge`
     /// assembles the bands into the capture folder (docs/cluster.md).
@@ -255,6 +260,7 @@ pub(super) fn request(args: &SimulateArgs) -> SimulateRequest {
         paper_size: args.seed_size,
         transient_only: args.transient_only,
         time_filter: args.time_filter.into(),
+        rr_start_bounce: args.rr_start_bounce,
         rows: args.rows.clone(),
         marker_spacing_m: args.marker_spacing_m,
         realistic: args.realistic,
@@ -475,6 +481,7 @@ mod tests {
             paper_size: true,
             transient_only: true,
             time_filter: femto::tracer::TimeFilter::Box,
+            rr_start_bounce: Some(6),
             ..SimulateRequest::default()
         };
         assert_eq!(round_trip(&transient), transient);

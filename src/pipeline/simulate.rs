@@ -66,6 +66,8 @@ pub struct SimulateRequest {
     /// `--time-filter`: how arrival times are binned ([`TimeFilter::Box`] only with
     /// `transient_only`).
     pub time_filter: TimeFilter,
+    /// `--rr-start-bounce`: first bounce of Russian roulette (only with `transient_only`).
+    pub rr_start_bounce: Option<u32>,
     /// `--rows A..B`: render only these image rows into a band folder.
     pub rows: Option<Range<usize>>,
     /// `--marker-spacing-m`: spacing of the fiducial marker grid, metres.
@@ -102,6 +104,7 @@ impl Default for SimulateRequest {
             paper_size: false,
             transient_only: false,
             time_filter: opts.time_filter,
+            rr_start_bounce: None,
             rows: None,
             marker_spacing_m: DEFAULT_MARKER_SPACING_M,
             realistic: false,
@@ -158,6 +161,10 @@ impl SimulateRequest {
             ("size", self.size.map(|(w, h)| format!("{w}x{h}"))),
             ("nt", self.nt.map(|n| n.to_string())),
             ("dt-ps", self.dt_ps.map(|v| v.to_string())),
+            (
+                "rr-start-bounce",
+                self.rr_start_bounce.map(|b| b.to_string()),
+            ),
             (
                 "rows",
                 self.rows
@@ -282,6 +289,7 @@ pub fn option_flag(option: SimulateOption) -> &'static str {
         SimulateOption::Formats => "--format",
         SimulateOption::MarkerSpacingM => "--marker-spacing-m",
         SimulateOption::TimeFilter => "--time-filter",
+        SimulateOption::RrStartBounce => "--rr-start-bounce",
     }
 }
 
@@ -501,6 +509,7 @@ pub fn plan(req: &SimulateRequest) -> Result<SimulatePlan, SimulateRunError> {
         created_by: req.created_by.clone(),
         transient_only: req.transient_only,
         time_filter: req.time_filter,
+        rr_start_bounce: req.rr_start_bounce,
     };
     opts.validate(&scene)?;
     Ok(SimulatePlan { scene, opts })

@@ -100,6 +100,8 @@ pub enum SimulateOption {
     MarkerSpacingM,
     /// [`SimulateOptions::time_filter`].
     TimeFilter,
+    /// [`SimulateOptions::rr_start_bounce`].
+    RrStartBounce,
 }
 
 impl SimulateOption {
@@ -112,6 +114,7 @@ impl SimulateOption {
             SimulateOption::Formats => "formats",
             SimulateOption::MarkerSpacingM => "marker_spacing_m",
             SimulateOption::TimeFilter => "time_filter",
+            SimulateOption::RrStartBounce => "rr_start_bounce",
         }
     }
 }
@@ -148,6 +151,10 @@ pub struct SimulateOptions {
     /// How the tracer bins arrival times; [`TimeFilter::Box`] only with `transient_only`
     /// (a streak capture is the sensor's response).
     pub time_filter: TimeFilter,
+    /// First bounce at which Russian roulette may end a path
+    /// ([`TraceOptions::rr_start_bounce`], >= 1); `None`: the tracer's default. Only with
+    /// `transient_only`, to render with another renderer's setting in a comparison.
+    pub rr_start_bounce: Option<u32>,
 }
 
 impl Default for SimulateOptions {
@@ -163,6 +170,7 @@ impl Default for SimulateOptions {
             created_by: "femto::simulate".into(),
             transient_only: false,
             time_filter: TimeFilter::Sensor,
+            rr_start_bounce: None,
         }
     }
 }
@@ -226,6 +234,17 @@ impl SimulateOptions {
                  is the sensor's response)"
                     .into(),
             );
+        }
+        if let Some(b) = self.rr_start_bounce {
+            if b == 0 {
+                return bad(SimulateOption::RrStartBounce, "must be at least 1".into());
+            }
+            if !self.transient_only {
+                return bad(
+                    SimulateOption::RrStartBounce,
+                    "applies only to a transient-only render".into(),
+                );
+            }
         }
         self.flaws.validate()?;
         super::budget::check(scene, self)?;

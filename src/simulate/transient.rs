@@ -38,6 +38,8 @@ pub struct RenderCounters {
     pub max_bounces: u32,
     /// `"sensor"` or `"box"`.
     pub time_filter: &'static str,
+    /// First bounce at which Russian roulette may end a path.
+    pub rr_start_bounce: u32,
     /// Rayon worker threads of the render.
     pub threads: usize,
     pub paths: u64,
@@ -69,7 +71,7 @@ pub(super) fn stage(
     progress: &(dyn Fn(Stage, usize) + Sync),
 ) -> Result<(TraceStats, Vec<PathBuf>), SimulateError> {
     let bvh = Bvh::new(scene.mesh.clone());
-    let trace_opts = TraceOptions {
+    let mut trace_opts = TraceOptions {
         spp: opts.spp,
         max_bounces: opts.max_bounces,
         seed: opts.seed,
@@ -78,6 +80,9 @@ pub(super) fn stage(
         time_filter: opts.time_filter,
         ..TraceOptions::default()
     };
+    if let Some(b) = opts.rr_start_bounce {
+        trace_opts.rr_start_bounce = b;
+    }
     let filter = time_filter_name(opts.time_filter);
     let provenance = Provenance::new(opts.created_by.clone())
         .with_note("scene", scene.name.clone())
@@ -136,6 +141,7 @@ pub(super) fn stage(
         seed: opts.seed,
         max_bounces: opts.max_bounces,
         time_filter: filter,
+        rr_start_bounce: trace_opts.rr_start_bounce,
         threads: rayon::current_num_threads(),
         paths: stats.paths,
         rays: stats.rays,
