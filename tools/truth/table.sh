@@ -12,6 +12,8 @@
 # TRUTH_SPP to 256. Error images land in OUT_DIR/NAME/errors. To tell the capture's noise
 # from the renderer's bias, each path is also rendered from a second, independent capture
 # at 4 x CAPTURE_SPP (seed 2) and compared with the same truth: the columns "@4x".
+# MASK_SPREAD_BINS (environment) is passed to femto unwarp's --mask-spread-bins (default: its
+# default, 4; inf keeps the mixed pixels).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 out="${1:?usage: table.sh OUT_DIR [FEMTO] [CAPTURE_SPP] [TRUTH_SPP] [PATHS...]}"
@@ -24,7 +26,7 @@ if [ ${#paths[@]} -eq 0 ]; then
     paths=(still orbit10 orbit30 dolly pass rotating)
 fi
 mkdir -p "$out"
-echo "capture 160x120 x 768 bins of 4 ps at $capture_spp spp, truth 160x120 at $truth_spp spp, seed 1; $(nproc) cores"
+echo "unwarp --mask-spread-bins ${MASK_SPREAD_BINS:-default}; capture 160x120 x 768 bins of 4 ps at $capture_spp spp, truth 160x120 at $truth_spp spp, seed 1; $(nproc) cores"
 printf '%-9s %8s %8s %7s %7s %7s %7s %8s %9s %8s\n' path lit_tru lit_ibr rel_L1 holes ghosts PSNR truth_s rel_L1@4x PSNR@4x
 for name in "${paths[@]}"; do
     d="$out/$name"
@@ -33,7 +35,8 @@ for name in "${paths[@]}"; do
     "$femto" simulate --scene cube --size 160x120 --nt 768 --spp "$capture_spp" --seed 1 \
         --truth-path "$here/$name.toml" --truth-spp "$truth_spp" --out "$d/cap" > "$d/simulate.txt" 2>&1
     "$femto" unwarp "$d/cap/truth_camera.h5" --calibration "$d/cap/calibration.toml" \
-        --mesh "$d/cap/scene.glb" --out "$d/world.h5" > "$d/unwarp.txt" 2>&1
+        --mesh "$d/cap/scene.glb" ${MASK_SPREAD_BINS:+--mask-spread-bins "$MASK_SPREAD_BINS"} \
+        --out "$d/world.h5" > "$d/unwarp.txt" 2>&1
     "$femto" render --cube "$d/world.h5" --calibration "$d/cap/calibration.toml" \
         --mesh "$d/cap/scene.glb" --path "$here/$name.toml" --format exr --out "$d/ibr" \
         > "$d/render.txt" 2>&1
@@ -42,7 +45,8 @@ for name in "${paths[@]}"; do
     "$femto" simulate --scene cube --size 160x120 --nt 768 --spp $((4 * capture_spp)) --seed 2 \
         --out "$d/cap4" > "$d/simulate4.txt" 2>&1
     "$femto" unwarp "$d/cap4/truth_camera.h5" --calibration "$d/cap4/calibration.toml" \
-        --mesh "$d/cap4/scene.glb" --out "$d/world4.h5" > "$d/unwarp4.txt" 2>&1
+        --mesh "$d/cap4/scene.glb" ${MASK_SPREAD_BINS:+--mask-spread-bins "$MASK_SPREAD_BINS"} \
+        --out "$d/world4.h5" > "$d/unwarp4.txt" 2>&1
     "$femto" render --cube "$d/world4.h5" --calibration "$d/cap4/calibration.toml" \
         --mesh "$d/cap4/scene.glb" --path "$here/$name.toml" --format exr --out "$d/ibr4" \
         > "$d/render4.txt" 2>&1
