@@ -538,6 +538,18 @@ fn calibrate_unwarp_pyramid_info_chain() {
     let wc = container::read_cube(&world).unwrap();
     assert_eq!(wc.frame, TimeFrame::World);
     let wmask = wc.mask.clone().unwrap();
+    // Pixels whose footprint spans more than 4 bins of path are masked as mixed (their
+    // spread, from the registration the world cube carries).
+    let reg = container::read_group(&world, femto::store::registration::GROUP).unwrap();
+    let spread = femto::store::registration::footprint_spread(&world, &reg, W, H)
+        .unwrap()
+        .expect("calibrate records the footprint spreads");
+    let eta = cal.eta;
+    let mixed = |idx: usize| {
+        femto::calibrate::mixed::spread_bins(spread[idx], DT_PS, eta)
+            > femto::calibrate::mixed::MASK_SPREAD_BINS
+    };
+    let mut mixed_masked = 0;
     let mut errs = Vec::new();
     let mut mask_disagree = 0;
     for (idx, p) in fx.points.iter().enumerate() {
@@ -559,7 +571,9 @@ fn calibrate_unwarp_pyramid_info_chain() {
                 );
             }
             _ => {
-                if (p.is_some()) != (wmask[idx] == 1) {
+                if p.is_some() && wmask[idx] == 0 && mixed(idx) {
+                    mixed_masked += 1;
+                } else if (p.is_some()) != (wmask[idx] == 1) {
                     mask_disagree += 1;
                 }
                 if wmask[idx] == 0 {
@@ -571,7 +585,7 @@ fn calibrate_unwarp_pyramid_info_chain() {
     errs.sort_by(f64::total_cmp);
     let pct = |q: f64| errs[((errs.len() - 1) as f64 * q) as usize];
     println!(
-        "world pulse centre vs closed form (fitted registration): median {:.4}, 99 % {:.4}, max {:.4} bins; {mask_disagree} pixels masked differently",
+        "world pulse centre vs closed form (fitted registration): median {:.4}, 99 % {:.4}, max {:.4} bins; {mask_disagree} pixels masked differently, {mixed_masked} masked as mixed",
         pct(0.5),
         pct(0.99),
         pct(1.0)
@@ -586,6 +600,8 @@ fn calibrate_unwarp_pyramid_info_chain() {
     let true_toml = fx.path("true.toml");
     std::fs::write(&true_toml, cal.to_toml()).unwrap();
     let world_true = fx.path("world_true.h5");
+    // Every pixel kept: this cube's pulses are those of each pixel's centre point alone (no
+    // footprint), so its mixed pixels are exact too.
     cli::femto_ok(&[
         "unwarp",
         s(&cam),
@@ -595,6 +611,8 @@ fn calibrate_unwarp_pyramid_info_chain() {
         s(&true_toml),
         "--mesh",
         s(&glb),
+        "--mask-spread-bins",
+        "inf",
     ]);
     let wt = container::read_cube(&world_true).unwrap();
     let expected = pulse_cube(&fx.points, wt.axis, TimeFrame::World, |p| {
@@ -632,6 +650,8 @@ fn calibrate_unwarp_pyramid_info_chain() {
         "camera",
         "--out",
         s(&back),
+        "--mask-spread-bins",
+        "inf",
     ]);
     let bc = container::read_cube(&back).unwrap();
     assert_eq!(bc.frame, TimeFrame::Camera);
