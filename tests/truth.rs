@@ -326,46 +326,24 @@ fn compare_measures_frames_and_writes_error_images() {
     let fields: Vec<&str> = all.split_whitespace().collect();
     assert_eq!(&fields[3..6], &["0.0000", "0.0000", "0.0000"], "{all}");
     let errors = dir.path().join("errors");
-    let run = femto_ok(&[
-        "compare",
-        "--truth",
-        arg(&truth),
-        "--render",
-        arg(&truth),
-        "--out",
-        arg(&errors),
-    ]);
+    let with_out = |out: &Path| {
+        let truth = arg(&truth);
+        vec!["compare", "--truth", truth, "--render", truth, "--out"]
+            .into_iter()
+            .map(String::from)
+            .chain([arg(out).to_string()])
+            .collect::<Vec<String>>()
+    };
+    let args = with_out(&errors);
+    let run = femto_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(run.stdout.lines().count(), 2 + 3 + 1, "{}", run.stdout);
     for k in 0..3 {
         assert!(errors.join(format!("frame_{k:05}.png")).is_file());
     }
     // The output may not be an input, nor replace frames without --force.
-    refused_unchanged(
-        dir.path(),
-        &[
-            "compare",
-            "--truth",
-            arg(&truth),
-            "--render",
-            arg(&truth),
-            "--out",
-            arg(&truth),
-        ],
-        &[],
-        &["--out"],
-    );
-    refused_unchanged(
-        dir.path(),
-        &[
-            "compare",
-            "--truth",
-            arg(&truth),
-            "--render",
-            arg(&truth),
-            "--out",
-            arg(&errors),
-        ],
-        &[],
-        &["--out"],
-    );
+    for out in [&truth, &errors] {
+        let args = with_out(out);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused_unchanged(dir.path(), &args, &[], &["--out"]);
+    }
 }

@@ -26,6 +26,18 @@ if [ ${#paths[@]} -eq 0 ]; then
     paths=(still orbit10 orbit30 dolly pass rotating)
 fi
 mkdir -p "$out"
+
+# The capture DIR/capSUFFIX taken to world time with its true calibration and rendered along
+# PATH_NAME into DIR/ibrSUFFIX.
+render_capture() {
+    local d="$1" suffix="$2" name="$3"
+    "$femto" unwarp "$d/cap$suffix/truth_camera.h5" --calibration "$d/cap$suffix/calibration.toml" \
+        --mesh "$d/cap$suffix/scene.glb" ${MASK_SPREAD_BINS:+--mask-spread-bins "$MASK_SPREAD_BINS"} \
+        --out "$d/world$suffix.h5" > "$d/unwarp$suffix.txt" 2>&1
+    "$femto" render --cube "$d/world$suffix.h5" --calibration "$d/cap$suffix/calibration.toml" \
+        --mesh "$d/cap$suffix/scene.glb" --path "$here/$name.toml" --format exr \
+        --out "$d/ibr$suffix" > "$d/render$suffix.txt" 2>&1
+}
 echo "unwarp --mask-spread-bins ${MASK_SPREAD_BINS:-default}; capture 160x120 x 768 bins of 4 ps at $capture_spp spp, truth 160x120 at $truth_spp spp, seed 1; $(nproc) cores"
 printf '%-9s %8s %8s %7s %7s %7s %7s %8s %9s %8s\n' path lit_tru lit_ibr rel_L1 holes ghosts PSNR truth_s rel_L1@4x PSNR@4x
 for name in "${paths[@]}"; do
@@ -34,22 +46,12 @@ for name in "${paths[@]}"; do
     mkdir -p "$d"
     "$femto" simulate --scene cube --size 160x120 --nt 768 --spp "$capture_spp" --seed 1 \
         --truth-path "$here/$name.toml" --truth-spp "$truth_spp" --out "$d/cap" > "$d/simulate.txt" 2>&1
-    "$femto" unwarp "$d/cap/truth_camera.h5" --calibration "$d/cap/calibration.toml" \
-        --mesh "$d/cap/scene.glb" ${MASK_SPREAD_BINS:+--mask-spread-bins "$MASK_SPREAD_BINS"} \
-        --out "$d/world.h5" > "$d/unwarp.txt" 2>&1
-    "$femto" render --cube "$d/world.h5" --calibration "$d/cap/calibration.toml" \
-        --mesh "$d/cap/scene.glb" --path "$here/$name.toml" --format exr --out "$d/ibr" \
-        > "$d/render.txt" 2>&1
+    render_capture "$d" "" "$name"
     "$femto" compare --truth "$d/cap/truth" --render "$d/ibr" --out "$d/errors" > "$d/compare.txt"
     # The second capture, 4 x the paths, its own seed, no truth of its own.
     "$femto" simulate --scene cube --size 160x120 --nt 768 --spp $((4 * capture_spp)) --seed 2 \
         --out "$d/cap4" > "$d/simulate4.txt" 2>&1
-    "$femto" unwarp "$d/cap4/truth_camera.h5" --calibration "$d/cap4/calibration.toml" \
-        --mesh "$d/cap4/scene.glb" ${MASK_SPREAD_BINS:+--mask-spread-bins "$MASK_SPREAD_BINS"} \
-        --out "$d/world4.h5" > "$d/unwarp4.txt" 2>&1
-    "$femto" render --cube "$d/world4.h5" --calibration "$d/cap4/calibration.toml" \
-        --mesh "$d/cap4/scene.glb" --path "$here/$name.toml" --format exr --out "$d/ibr4" \
-        > "$d/render4.txt" 2>&1
+    render_capture "$d" 4 "$name"
     "$femto" compare --truth "$d/cap/truth" --render "$d/ibr4" > "$d/compare4.txt"
     seconds=$(sed -n 's/.*truth: .* in \([0-9.]*\) s;.*/\1/p' "$d/simulate.txt")
     read -r _ lit_t lit_r l1 holes ghosts psnr < <(tail -n 1 "$d/compare.txt")
