@@ -20,7 +20,7 @@ SCRIPT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))
 def check(femto, work):
     out = os.path.join(work, "compare.json")
     cmd = [sys.executable, SCRIPT, "--femto", femto, "--scenes", "peer_cornell", "--sampler", "independent,multijitter",
-           "--spp", "4", "--seeds", "1", "--ref-spp", "64", "--timing-spp", "16", "--timing-runs", "1", "--json", out]
+           "--spp", "4", "--seeds", "1", "--ref-spp", "64", "--timing-spp", "16,256", "--timing-runs", "1", "--no-other-roulette", "--json", out]
     r = subprocess.run(cmd, capture_output=True, text=True)
     print("\n".join(ln for ln in r.stdout.splitlines() if "equal transient" in ln or "reference:" in ln))
     if r.returncode != 0:
