@@ -112,13 +112,15 @@ pub fn stage_truth(
     let (w, h) = (plan.settings.width, plan.settings.height);
     let mut pixels = vec![[0.0f32; 3]; w * h];
     let mut srgb8 = vec![0u8; 3 * w * h];
+    let mut linear = Vec::with_capacity(3 * w * h);
     let mut stats = TruthStats::default();
     let started = Instant::now();
     for k in plan.frames.clone() {
         let s = render_truth_frame(&truth, &plan.settings, &plan.path.frame(k), &mut pixels);
         stats.paths += s.paths;
         stats.rays += s.rays;
-        let linear: Vec<f32> = pixels.iter().flatten().copied().collect();
+        linear.clear();
+        linear.extend(pixels.iter().flatten());
         write_exr(
             &out.join(sequence_file_name(k, VideoFormat::ExrSequence)),
             &linear,

@@ -320,18 +320,13 @@ impl<'s> FrameCtx<'s> {
         out
     }
 
-    /// The colour, luminance 1, of light received with Doppler factor `doppler` (the laser's
-    /// own with the Doppler shift off): step 7 without the value.
+    /// The colour, luminance 1, of light received at `lambda_nm` (the laser's own with the
+    /// Doppler shift off): step 7 without the value.
     #[inline(always)]
-    pub(super) fn colour(
-        &self,
-        settings: &RenderSettings,
-        laser_nm: f64,
-        doppler: f64,
-    ) -> [f64; 3] {
+    pub(super) fn colour(&self, settings: &RenderSettings, lambda_nm: f64) -> [f64; 3] {
         match self.fixed_colour {
             Some(c) => c,
-            None => colour_of(settings.colour, doppler * laser_nm),
+            None => colour_of(settings.colour, lambda_nm),
         }
     }
 
@@ -343,10 +338,7 @@ impl<'s> FrameCtx<'s> {
             Colour::Black => [0.0; 3],
             Colour::Display(rgb) => rgb,
             Colour::Radiance(value) => {
-                let c = match self.fixed_colour {
-                    Some(c) => c,
-                    None => colour_of(settings.colour, lambda_nm),
-                };
+                let c = self.colour(settings, lambda_nm);
                 [value * c[0], value * c[1], value * c[2]]
             }
         }

@@ -49,7 +49,7 @@ use super::{RenderSettings, View};
 use crate::camera_path::FrameState;
 use crate::geometry::bvh::Bvh;
 use crate::scene::Scene;
-use crate::tracer::binning::response_cdf;
+use crate::tracer::binning::{response_cdf, TRUNCATE_SIGMAS};
 use crate::tracer::ray_paths::{RayPaths, WindowOn};
 use crate::tracer::sampling::{pixel_rng, PixelSampler, Stream};
 use crate::tracer::TraceOptions;
@@ -139,7 +139,7 @@ impl<'a> TruthScene<'a> {
 
     /// How far the response reaches either side of an arrival, ps.
     fn reach_ps(&self) -> f64 {
-        0.5 * self.dt_ps + 6.0 * self.sigma_ps
+        0.5 * self.dt_ps + TRUNCATE_SIGMAS * self.sigma_ps
     }
 }
 
@@ -231,7 +231,7 @@ fn truth_pixel(
             continue;
         }
         let value = settings.radiometry.window_factor(d_light) * energy * ctx.inv_dtau_per_ps;
-        let colour = ctx.colour(settings, truth.laser_nm(), ray.doppler);
+        let colour = ctx.colour(settings, ray.doppler * truth.laser_nm());
         for (o, c) in rgb.iter_mut().zip(colour) {
             *o += value * c;
         }

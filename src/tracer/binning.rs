@@ -24,7 +24,7 @@
 use crate::cube::TimeAxis;
 
 /// Where the Gaussian pulse is cut, in standard deviations.
-const TRUNCATE_SIGMAS: f64 = 6.0;
+pub const TRUNCATE_SIGMAS: f64 = 6.0;
 
 /// The time response of one sample on a given axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
