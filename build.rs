@@ -36,8 +36,7 @@ fn main() {
             && has!("bmi1")
             && has!("bmi2")
             && has!("lzcnt")
-            && has!("popcnt")
-            && has!("gfni");
+            && has!("popcnt");
         if avx2 {
             println!("cargo::rustc-cfg=femto_host_avx2");
             if has!("avx512f") && has!("avx512vl") {

@@ -118,13 +118,16 @@ def cpu_info():
         pass
     model = model or platform.processor() or "unknown CPU"
     # As src/geometry/simd_level.rs's `auto`: the AVX2 row build needs avx avx2 bmi1 bmi2
-    # lzcnt (cpuinfo's abm) popcnt gfni; AVX-512 adds avx512f avx512vl.
-    avx2 = {"avx", "avx2", "bmi1", "bmi2", "abm", "popcnt", "gfni"} <= flags
+    # lzcnt (cpuinfo's abm) popcnt, and takes its GFNI copy where cpuinfo has gfni; AVX-512
+    # adds avx512f avx512vl.
+    avx2 = {"avx", "avx2", "bmi1", "bmi2", "abm", "popcnt"} <= flags
     avx512 = avx2 and {"avx512f", "avx512vl"} <= flags
     forced = os.environ.get("FEMTO_SIMD", "auto") or "auto"
     if forced != "auto":
         return model, forced, "forced by FEMTO_SIMD"
     level = "avx512" if avx512 else "avx2" if avx2 else ("avx (BVH), baseline rows" if "avx" in flags else "sse")
+    if avx2:
+        level += " (rows with GFNI)" if "gfni" in flags else " (rows without GFNI)"
     has = [f for f in ("avx2", "avx512f", "avx512vl", "gfni") if f in flags]
     return model, level, f"auto; cpuinfo has {' '.join(has) or 'none of avx2 avx512f avx512vl gfni'}"
 

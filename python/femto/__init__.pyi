@@ -210,6 +210,7 @@ def simulate(
     paper_size: bool = ...,
     transient_only: bool = ...,
     time_filter: str = ...,
+    rr_start_bounce: Optional[int] = ...,
     rows: Union[str, range, Tuple[int, int], None] = ...,
     marker_spacing_m: float = ...,
     realistic: bool = ...,

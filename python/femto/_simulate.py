@@ -37,6 +37,7 @@ def simulate(
     paper_size: bool = False,
     transient_only: bool = False,
     time_filter: str = "sensor",
+    rr_start_bounce: Optional[int] = None,
     rows: Union[str, range, Tuple[int, int], None] = None,
     marker_spacing_m: float = 0.008,
     realistic: bool = False,
@@ -72,7 +73,10 @@ def simulate(
 
     ``transient_only=True``: only truth_camera.h5 and render.json (the path tracer alone);
     ``time_filter``: ``"sensor"`` (the laser pulse and the sensor's one-bin response) or
-    ``"box"`` (a histogram of arrival times; only with transient_only). ``rows``: render only
+    ``"box"`` (a histogram of arrival times; only with transient_only); ``rr_start_bounce``:
+    first bounce at which Russian roulette may end a path (1 = the surface the camera ray hits;
+    ``None``: the tracer's 3), only with transient_only, to match another renderer's setting.
+    ``rows``: render only
     image rows A..B (B excluded) into a band folder, ``"A..B"``, ``range(A, B)`` or
     ``(A, B)``; ``femto merge`` assembles the bands (docs/cluster.md).
     ``marker_spacing_m``: spacing of the fiducial marker grid, metres.
@@ -87,7 +91,7 @@ def simulate(
 
     Returns the figures the command prints: ``path``, ``scene``, ``shape`` (ny, nx, nt),
     ``t0_ps``, ``dt_ps``, ``spp``, ``bounces``, ``seed``, ``threads``, ``transient_only``,
-    ``time_filter``, ``rows``, ``paths``, ``rays``, ``render_seconds`` (wall),
+    ``time_filter``, ``rr_start_bounce`` (``None`` unless given), ``rows``, ``paths``, ``rays``, ``render_seconds`` (wall),
     ``render_cpu_seconds``, ``paths_per_second``, ``seconds`` (all of it), ``files`` (every
     file written), ``streak_images``, ``fiducials``, ``values_at_top_count`` (streak-image
     values clipped at 65535), and ``command`` (the equivalent ``femto simulate`` command line,
@@ -99,7 +103,7 @@ def simulate(
         _femto.simulate(
             _path(out), os.fspath(scene), _path(bunny), _formats(format), int(spp), int(seed),
             int(bounces), _size(size), nt, dt_ps, bool(paper_size), bool(transient_only),
-            str(time_filter), _rows(rows), float(marker_spacing_m), bool(realistic),
+            str(time_filter), None if rr_start_bounce is None else int(rr_start_bounce), _rows(rows), float(marker_spacing_m), bool(realistic),
             photon_noise, None if dark is None else (float(dark[0]), float(dark[1])),
             vignetting, jitter_ps, power_sigma, sweep, saturation, fiducial_photo_px,
             bool(force), progress_callback(progress),

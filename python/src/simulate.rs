@@ -22,7 +22,7 @@ const CREATED_BY: &str = "python: femto.simulate";
 #[pyfunction]
 #[pyo3(signature = (
     out, scene, bunny, format, spp, seed, bounces, size, nt, dt_ps, paper_size, transient_only,
-    time_filter, rows, marker_spacing_m, realistic, photon_noise, dark, vignetting, jitter_ps,
+    time_filter, rr_start_bounce, rows, marker_spacing_m, realistic, photon_noise, dark, vignetting, jitter_ps,
     power_sigma, sweep, saturation, fiducial_photo_px, force, progress
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -41,6 +41,7 @@ pub fn simulate<'py>(
     paper_size: bool,
     transient_only: bool,
     time_filter: &str,
+    rr_start_bounce: Option<i64>,
     rows: Option<(usize, usize)>,
     marker_spacing_m: f64,
     realistic: bool,
@@ -74,7 +75,9 @@ pub fn simulate<'py>(
         paper_size,
         transient_only,
         time_filter: parse_time_filter(time_filter).py_err()?,
-        rr_start_bounce: None,
+        rr_start_bounce: rr_start_bounce
+            .map(|b| count("rr-start-bounce", b, 1, u32::MAX as i64).map(|b| b as u32))
+            .transpose()?,
         rows: rows.map(|(a, b)| a..b),
         marker_spacing_m,
         realistic,
@@ -124,6 +127,7 @@ pub fn simulate<'py>(
         "time_filter",
         femto::simulate::transient::time_filter_name(opts.time_filter),
     )?;
+    d.set_item("rr_start_bounce", opts.rr_start_bounce)?;
     d.set_item("rows", req.rows.as_ref().map(|r| (r.start, r.end)))?;
     d.set_item("command", req.command.clone())?;
     summary_figures(&d, &summary)?;

@@ -1,6 +1,7 @@
 """femto.simulate against `femto simulate`: same flags, same files (but for the provenance,
 which records who asked: the command line, or "python: femto.simulate"), same messages."""
 
+import json
 import os
 import signal
 import threading
@@ -88,6 +89,19 @@ def test_transient_only_and_bands_equal_the_clis(femto_bin, tmp_path):
     assert h5_contents(tmp_path / "py/truth_camera.h5") == h5_contents(
         tmp_path / "cli/truth_camera.h5")
 
+    # Russian roulette from another bounce (to match another renderer): the same cube as the
+    # command's, and render.json records it.
+    r = femto.simulate(tmp_path / "py_rr", transient_only=True, time_filter="box",
+                       rr_start_bounce=1, bounces=3, progress=False, **SMALL)
+    run_cli(femto_bin, "simulate", "--out", tmp_path / "cli_rr", "--transient-only",
+            "--time-filter", "box", "--rr-start-bounce", "1", "--bounces", "3", *SMALL_FLAGS)
+    assert r.rr_start_bounce == 1
+    assert json.loads((tmp_path / "py_rr/render.json").read_text())["rr_start_bounce"] == 1
+    assert h5_contents(tmp_path / "py_rr/truth_camera.h5") == h5_contents(
+        tmp_path / "cli_rr/truth_camera.h5")
+    assert h5_contents(tmp_path / "py_rr/truth_camera.h5") != h5_contents(
+        tmp_path / "py/truth_camera.h5")
+
     # Two bands made in Python, merged by the command, equal its one-process capture.
     bands = [tmp_path / "b0", tmp_path / "b1"]
     femto.simulate(bands[0], rows="0..5", progress=False, **SMALL)
@@ -116,6 +130,7 @@ def test_transient_only_and_bands_equal_the_clis(femto_bin, tmp_path):
         (dict(rows="0..99"), ["--rows", "0..99"]),
         (dict(spp=0), ["--spp", "0"]),
         (dict(size="0x10"), ["--size", "0x10"]),
+        (dict(rr_start_bounce=0, transient_only=True), ["--rr-start-bounce", "0", "--transient-only"]),
     ],
 )
 def test_bad_arguments_raise_the_cli_message(femto_bin, tmp_path, kwargs, flags):

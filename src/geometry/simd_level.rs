@@ -4,19 +4,20 @@
 //! femto has two SIMD dispatches: the ray casting of [`crate::geometry::bvh`] (a four-wide
 //! tree with plain arrays or SSE2 lanes, an eight-wide tree with AVX lanes, the same compiled
 //! a second time for AVX-512) and the transient tracer's row loop ([`crate::tracer`]: a copy
-//! compiled for AVX2, BMI1/2, LZCNT, POPCNT and GFNI). A [`SimdLevel`] fixes both:
+//! compiled for AVX2, BMI1/2, LZCNT and POPCNT, and one with GFNI as well, which the rows
+//! take where the CPU has it). A [`SimdLevel`] fixes both:
 //!
 //! | level    | BVH                                 | tracer rows                 | CPU features |
 //! |----------|-------------------------------------|-----------------------------|--------------|
 //! | `scalar` | four-wide, plain arrays             | baseline x86-64             | none |
 //! | `sse`    | four-wide, SSE2                     | baseline                    | sse2 |
-//! | `avx2`   | eight-wide, AVX                     | AVX2 + BMI + GFNI build     | avx avx2 bmi1 bmi2 lzcnt popcnt gfni |
-//! | `avx512` | eight-wide, AVX compiled for AVX-512 | AVX2 + BMI + GFNI build    | those and avx512f avx512vl |
+//! | `avx2`   | eight-wide, AVX                     | AVX2 + BMI build (+ GFNI)   | avx avx2 bmi1 bmi2 lzcnt popcnt |
+//! | `avx512` | eight-wide, AVX compiled for AVX-512 | AVX2 + BMI build (+ GFNI)  | those and avx512f avx512vl |
 //!
 //! `scalar` is the code every other architecture runs. `auto` (or no `FEMTO_SIMD`) is what
 //! femto does without being asked: each dispatch takes the widest path this CPU runs on its
-//! own (on a CPU with AVX but no GFNI: the eight-wide AVX tree with the baseline rows, a pair
-//! no named level selects). Asking for a level this CPU lacks is an error
+//! own (on a CPU with AVX but not AVX2: the eight-wide AVX tree with the baseline rows, a
+//! pair no named level selects). Asking for a level this CPU lacks is an error
 //! ([`SimdError::Unsupported`]) rather than a fallback: a test or a benchmark that forces a
 //! path must not silently run another. The `femto` binary checks `FEMTO_SIMD` before it does
 //! anything else and exits with code 2 on a bad value; the library's constructors
@@ -44,7 +45,8 @@ pub enum SimdLevel {
     Scalar,
     /// SSE2 lanes, four-wide BVH; baseline tracer rows.
     Sse,
-    /// AVX lanes, eight-wide BVH; tracer rows built for AVX2, BMI and GFNI.
+    /// AVX lanes, eight-wide BVH; tracer rows built for AVX2 and BMI (and GFNI where the CPU
+    /// has it).
     Avx2,
     /// The eight-wide BVH compiled for AVX-512 F and VL; tracer rows as for `Avx2`.
     Avx512,
@@ -103,9 +105,9 @@ impl SimdLevel {
 
     /// The CPU features the level needs (names as `is_x86_feature_detected!` spells them).
     pub fn features(self) -> &'static [&'static str] {
-        const AVX2: &[&str] = &["avx", "avx2", "bmi1", "bmi2", "lzcnt", "popcnt", "gfni"];
+        const AVX2: &[&str] = &["avx", "avx2", "bmi1", "bmi2", "lzcnt", "popcnt"];
         const AVX512: &[&str] = &[
-            "avx", "avx2", "bmi1", "bmi2", "lzcnt", "popcnt", "gfni", "avx512f", "avx512vl",
+            "avx", "avx2", "bmi1", "bmi2", "lzcnt", "popcnt", "avx512f", "avx512vl",
         ];
         match self {
             SimdLevel::Scalar => &[],
@@ -228,8 +230,7 @@ mod tests {
             && has!("bmi1")
             && has!("bmi2")
             && has!("lzcnt")
-            && has!("popcnt")
-            && has!("gfni");
+            && has!("popcnt");
         assert_eq!(SimdLevel::Avx2.is_supported(), avx2);
         let avx512 = avx2 && has!("avx512f") && has!("avx512vl");
         assert_eq!(SimdLevel::Avx512.is_supported(), avx512);

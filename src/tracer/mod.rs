@@ -54,8 +54,8 @@
 //! [`crate::geometry::bvh`]; the sensor response is read from a table ([`binning::ResponseTable`]) rather than
 //! evaluated per sample (a sample whose pulse fits between two bin centres adds its two tent
 //! weights directly), and each pixel stores and clears only the bins it touched; where the CPU
-//! has AVX2, BMI and GFNI the row loop runs a copy compiled for them (bit-identical: no fused
-//! multiply-adds; it follows the BVH's SIMD level, so `FEMTO_SIMD=scalar` or `sse` forces the
+//! has AVX2 and BMI the row loop runs a copy compiled for them, and another with GFNI where it
+//! has that too (bit-identical: no fused multiply-adds; it follows the BVH's SIMD level, so `FEMTO_SIMD=scalar` or `sse` forces the
 //! baseline rows, see [`crate::geometry::simd_level`]); the
 //! rest of the time is ray casting (figures in `benches/tracer_results.md`). Light that lands
 //! in no bin is not traced: a connection to the spot that would arrive before every window
@@ -295,11 +295,44 @@ pub struct Tracer<'a> {
     cam_resp: ResponseTable,
     /// `None` unless [`TraceOptions::world_time`].
     world_resp: Option<ResponseTable>,
-    /// Whether the CPU runs [`Tracer::render_row_wide`] and the BVH's SIMD level
+    /// Which build of the row loop runs: the widest the CPU has, where the BVH's SIMD level
     /// ([`Bvh::simd`]: `FEMTO_SIMD` or [`Bvh::with_simd`]) allows it (`avx2` and wider, or
     /// `auto`).
     #[cfg(target_arch = "x86_64")]
-    wide_isa: bool,
+    row_isa: RowIsa,
+}
+
+/// The builds of the row loop (bit-identical: the same operations in the same order, no
+/// fused multiply-adds).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RowIsa {
+    /// Baseline x86-64 (SSE2).
+    Baseline,
+    /// AVX2, BMI1/2, LZCNT, POPCNT: [`Tracer::render_row_v3`].
+    V3,
+    /// Those and GFNI, whose affine byte transform makes the samplers' bit reversals single
+    /// instructions: [`Tracer::render_row_v3_gfni`].
+    V3Gfni,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl RowIsa {
+    /// The widest build this CPU runs, if `allowed`.
+    fn detect(allowed: bool) -> RowIsa {
+        let v3 = allowed
+            && is_x86_feature_detected!("avx")
+            && is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("bmi1")
+            && is_x86_feature_detected!("bmi2")
+            && is_x86_feature_detected!("lzcnt")
+            && is_x86_feature_detected!("popcnt");
+        match (v3, is_x86_feature_detected!("gfni")) {
+            (false, _) => RowIsa::Baseline,
+            (true, false) => RowIsa::V3,
+            (true, true) => RowIsa::V3Gfni,
+        }
+    }
 }
 
 impl<'a> Tracer<'a> {
@@ -317,14 +350,7 @@ impl<'a> Tracer<'a> {
             cam_resp: table(scene.camera.axis),
             world_resp: opts.world_time.then(|| table(world_axis(scene, bvh))),
             #[cfg(target_arch = "x86_64")]
-            wide_isa: bvh.simd().is_none_or(|l| l >= SimdLevel::Avx2)
-                && is_x86_feature_detected!("avx")
-                && is_x86_feature_detected!("avx2")
-                && is_x86_feature_detected!("bmi1")
-                && is_x86_feature_detected!("bmi2")
-                && is_x86_feature_detected!("lzcnt")
-                && is_x86_feature_detected!("popcnt")
-                && is_x86_feature_detected!("gfni"),
+            row_isa: RowIsa::detect(bvh.simd().is_none_or(|l| l >= SimdLevel::Avx2)),
         }
     }
 
@@ -407,9 +433,10 @@ impl<'a> Tracer<'a> {
     }
 
     /// Render image row `y` into `out`: [`Tracer::render_row`] compiled for the x86-64-v3
-    /// instruction set (AVX2, BMI, and GFNI for the samplers' bit reversals) where the CPU
-    /// has it. No fused multiply-adds are enabled and Rust never contracts arithmetic, so
-    /// both versions compute the same operations in the same order: bit-identical output.
+    /// instruction set (AVX2, BMI), with GFNI for the samplers' bit reversals where the CPU
+    /// has it ([`RowIsa`]). No fused multiply-adds are enabled and Rust never contracts
+    /// arithmetic, so every version computes the same operations in the same order:
+    /// bit-identical output.
     fn render_row_dispatch(
         &self,
         y: usize,
@@ -418,30 +445,44 @@ impl<'a> Tracer<'a> {
         ps_per_m: f64,
     ) -> TraceStats {
         #[cfg(target_arch = "x86_64")]
-        if self.wide_isa {
-            // SAFETY: `wide_isa` says the CPU has every feature `render_row_wide` enables.
-            return unsafe { self.render_row_wide(y, out, window, ps_per_m) };
+        match self.row_isa {
+            // SAFETY: `RowIsa::detect` found every feature each build enables on this CPU.
+            RowIsa::V3 => return unsafe { self.render_row_v3(y, out, window, ps_per_m) },
+            RowIsa::V3Gfni => return unsafe { self.render_row_v3_gfni(y, out, window, ps_per_m) },
+            RowIsa::Baseline => {}
         }
-        self.render_row::<false>(y, out, window, ps_per_m)
+        self.render_row::<0>(y, out, window, ps_per_m)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,bmi1,bmi2,lzcnt,popcnt,gfni")]
-    fn render_row_wide(
+    #[target_feature(enable = "avx,avx2,bmi1,bmi2,lzcnt,popcnt")]
+    fn render_row_v3(
         &self,
         y: usize,
         out: RowOut,
         window: &PathWindow,
         ps_per_m: f64,
     ) -> TraceStats {
-        self.render_row::<true>(y, out, window, ps_per_m)
+        self.render_row::<1>(y, out, window, ps_per_m)
     }
 
-    /// Render image row `y` (of the full image) into its output slices. `_WIDE` only tells
-    /// the two compiled versions apart, so that each has its own copy of the per-sample
-    /// closure (one caller each, which the compiler then inlines).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2,bmi1,bmi2,lzcnt,popcnt,gfni")]
+    fn render_row_v3_gfni(
+        &self,
+        y: usize,
+        out: RowOut,
+        window: &PathWindow,
+        ps_per_m: f64,
+    ) -> TraceStats {
+        self.render_row::<2>(y, out, window, ps_per_m)
+    }
+
+    /// Render image row `y` (of the full image) into its output slices. `_BUILD` only tells
+    /// the compiled versions apart, so that each has its own copy of the per-sample closure
+    /// (one caller each, which the compiler then inlines).
     #[inline(always)]
-    fn render_row<const _WIDE: bool>(
+    fn render_row<const _BUILD: u8>(
         &self,
         y: usize,
         mut out: RowOut,
