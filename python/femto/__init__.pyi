@@ -170,6 +170,7 @@ def unwarp(
     calibration: Optional[PathLike] = ...,
     mesh: Optional[PathLike] = ...,
     compression: Union[int, str, None] = ...,
+    mask_spread_bins: Optional[float] = ...,
     force: bool = ...,
     progress: Progress = ...,
 ) -> StageResult: ...

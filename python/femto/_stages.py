@@ -152,6 +152,7 @@ def unwarp(
     calibration: Optional[PathLike] = None,
     mesh: Optional[PathLike] = None,
     compression: Union[int, str, None] = None,
+    mask_spread_bins: Optional[float] = None,
     force: bool = False,
     progress: Any = None,
 ) -> StageResult:
@@ -159,17 +160,23 @@ def unwarp(
     ``t_world = t_camera - eta |p - o| / c``) with its registration's distances (or rays cast
     through ``calibration`` into ``mesh``). ``to``: ``"world"`` or ``"camera"``; ``t0_ps``,
     ``nt``, ``dt_ps``: the output axis (default: covering every shifted sample, the input's
-    bins); ``compression``: default the input's.
+    bins); ``compression``: default the input's. ``mask_spread_bins``: mask the pixels whose
+    footprint spans more than this many bins of path (the registration's footprint_spread_m;
+    default 4, ``float("inf")`` keeps every pixel, smeared).
 
     Returns ``path``, ``from_clock``, ``to_clock``, ``shape``, ``t0_ps``, ``dt_ps``,
-    ``input_t0_ps``, ``input_nt``, ``eta``, ``valid_pixels``, ``dist_range_m``.
+    ``input_t0_ps``, ``input_nt``, ``eta``, ``valid_pixels``, ``dist_range_m``,
+    ``straddling_pixels`` (footprints spanning more than one bin), ``mixed_pixels`` (of
+    those, the ones masked), ``mask_spread_bins`` (the threshold used) and
+    ``scanlines_moved`` (by the registration's time offsets).
     ``force``: replace ``out`` whole if it exists (``--force``; without it, refused); groups
     the old file held (a pyramid) go with it.
     """
     return StageResult(
         _femto.unwarp(
             _path(cube), _path(out), to, t0_ps, nt, dt_ps, _path(calibration), _path(mesh),
-            _compression(compression), bool(force), progress_callback(progress),
+            _compression(compression), None if mask_spread_bins is None else float(mask_spread_bins),
+            bool(force), progress_callback(progress),
         )
     )
 

@@ -76,7 +76,8 @@ pub fn pyramid<'py>(
 /// `femto unwarp CUBE --out OUT`: camera time to world time (or back with `to="camera"`).
 #[pyfunction]
 #[pyo3(signature = (
-    cube, out, to, t0_ps, nt, dt_ps, calibration, mesh, compression, force, progress
+    cube, out, to, t0_ps, nt, dt_ps, calibration, mesh, compression, mask_spread_bins, force,
+    progress
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn unwarp<'py>(
@@ -90,6 +91,7 @@ pub fn unwarp<'py>(
     calibration: Option<PathBuf>,
     mesh: Option<PathBuf>,
     compression: Option<String>,
+    mask_spread_bins: Option<f64>,
     force: bool,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -122,6 +124,15 @@ pub fn unwarp<'py>(
         }
     };
     options.compression = self::compression("compression", compression.as_deref())?;
+    if let Some(bins) = mask_spread_bins {
+        // As the command's parser: a positive number of bins, or infinity (keep every pixel).
+        if bins.is_nan() || bins <= 0.0 {
+            return Err(value_error(format!(
+                "--mask-spread-bins {bins}: must be > 0 (or inf)"
+            )));
+        }
+        options.mask_spread_bins = bins;
+    }
     let cast = match (&calibration, &mesh) {
         (Some(c), Some(m)) => Some((
             femto::camera::Calibration::load(c).py_err()?,
@@ -156,6 +167,10 @@ pub fn unwarp<'py>(
     d.set_item("eta", done.eta)?;
     d.set_item("valid_pixels", done.valid_pixels)?;
     d.set_item("dist_range_m", done.dist_range_m)?;
+    d.set_item("straddling_pixels", done.straddling_pixels)?;
+    d.set_item("mixed_pixels", done.mixed_pixels)?;
+    d.set_item("mask_spread_bins", options.mask_spread_bins)?;
+    d.set_item("scanlines_moved", done.scanlines_moved)?;
     Ok(d)
 }
 

@@ -41,9 +41,25 @@ def test_chain_equals_the_cli_chain(demo, femto_bin, tmp_path):
         assert line in out, (line, out)
 
     u = femto.unwarp(py / "cube.h5", py / "world.h5")
-    run_cli(femto_bin, "unwarp", cli / "cube.h5", "--out", cli / "world.h5")
+    out = run_cli(femto_bin, "unwarp", cli / "cube.h5", "--out", cli / "world.h5").stdout
     assert np.array_equal(cube_values(py / "world.h5"), cube_values(cli / "world.h5"))
     assert u.to_clock == "world" and u.valid_pixels > 0
+    # Mixed pixels: the capture's slanted floor and the box's edges straddle bins of path.
+    assert 0 < u.mixed_pixels <= u.straddling_pixels and u.mask_spread_bins == 4.0
+    assert (f"{u.straddling_pixels} pixels have footprints spanning more than one bin of path"
+            in out and f"{u.mixed_pixels} spanning more than 4 bins are masked" in out), out
+    # inf keeps every pixel: the same as the command's, and none masked.
+    k = femto.unwarp(py / "cube.h5", py / "kept.h5", mask_spread_bins=float("inf"))
+    out = run_cli(femto_bin, "unwarp", cli / "cube.h5", "--out", cli / "kept.h5",
+                  "--mask-spread-bins", "inf").stdout
+    assert np.array_equal(cube_values(py / "kept.h5"), cube_values(cli / "kept.h5"))
+    assert k.mixed_pixels == 0 and k.straddling_pixels == u.straddling_pixels
+    assert k.valid_pixels == u.valid_pixels + u.mixed_pixels
+    assert "none is masked (--mask-spread-bins inf)" in out, out
+    for bad in (float("nan"), 0.0, -1.0):
+        with pytest.raises(femto.FemtoError, match="--mask-spread-bins"):
+            femto.unwarp(py / "cube.h5", py / "bad.h5", mask_spread_bins=bad)
+    assert not (py / "bad.h5").exists()
 
     p = femto.pyramid(py / "world.h5")
     run_cli(femto_bin, "pyramid", cli / "world.h5")

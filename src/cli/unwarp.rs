@@ -169,14 +169,23 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
         None => println!("no pixel sees geometry: every pixel is masked"),
     }
     if done.straddling_pixels > 0 {
+        let bins = args.mask_spread_bins;
+        let masked = if bins.is_finite() {
+            format!(
+                "{} spanning more than {bins} bins are masked as mixed: no single distance moves \
+                 their light",
+                done.mixed_pixels
+            )
+        } else {
+            "none is masked (--mask-spread-bins inf): their light is shifted by one distance, \
+             smeared"
+                .to_string()
+        };
         println!(
             "{} pixels have footprints spanning more than one bin of path (the registration's \
-             {}); {} spanning more than {} bins are masked as mixed: no single distance moves \
-             their light",
+             {}); {masked}",
             done.straddling_pixels,
             femto::store::registration::FOOTPRINT_SPREAD,
-            done.mixed_pixels,
-            femto::calibrate::mixed::MASK_SPREAD_BINS
         );
     }
     if done.scanlines_moved > 0 {
