@@ -5,7 +5,8 @@ Usage: python3 tools/interop_check.py path/to/femto [workdir]
 
 Runs `check(femto, workdir)` of every module in tools/interop/ (hpdta: rosettasciio and
 HPD-TA `.img`; h5: h5py annotations; ytal: y-tal captures; mitransient_render: transient
-renders; mitsuba_compare: tools/compare_mitsuba.py in small; no module is named like a package it
+renders; mitsuba_compare: tools/compare_mitsuba.py in small; noise_parts: tools/noise_split.py
+--by-bounce in small; no module is named like a package it
 imports),
 each in its own subfolder of workdir (a temporary folder by default). A check returns a list
 of failure messages (empty: it passed) and prints one line per comparison with its figures.
