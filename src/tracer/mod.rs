@@ -55,9 +55,9 @@
 //! evaluated per sample (a sample whose pulse fits between two bin centres adds its two tent
 //! weights directly), and each pixel stores and clears only the bins it touched; where the CPU
 //! has AVX2 and BMI the row loop runs a copy compiled for them, and another with GFNI where it
-//! has that too (bit-identical: no fused multiply-adds; it follows the BVH's SIMD level, so `FEMTO_SIMD=scalar` or `sse` forces the
-//! baseline rows, see [`crate::geometry::simd_level`]); the
-//! rest of the time is ray casting (figures in `benches/tracer_results.md`). Light that lands
+//! has that too (bit-identical: no fused multiply-adds; it follows the BVH's SIMD level, so
+//! `FEMTO_SIMD=scalar` or `sse` forces the baseline rows, see
+//! [`crate::geometry::simd_level`]); the rest of the time is ray casting (figures in `benches/tracer_results.md`). Light that lands
 //! in no bin is not traced: a connection to the spot that would arrive before every window
 //! is not made, and a path ends as soon as its length so far plus the straight line to the
 //! spot puts everything it could still deliver after every window (the camera window, and
