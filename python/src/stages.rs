@@ -125,12 +125,7 @@ pub fn unwarp<'py>(
     };
     options.compression = self::compression("compression", compression.as_deref())?;
     if let Some(bins) = mask_spread_bins {
-        // As the command's parser: a positive number of bins, or infinity (keep every pixel).
-        if bins.is_nan() || bins <= 0.0 {
-            return Err(value_error(format!(
-                "--mask-spread-bins {bins}: must be > 0 (or inf)"
-            )));
-        }
+        // Checked by the library (a positive number of bins, or infinity: keep every pixel).
         options.mask_spread_bins = bins;
     }
     let cast = match (&calibration, &mesh) {

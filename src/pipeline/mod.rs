@@ -197,6 +197,8 @@ pub enum StageOption {
     Threshold,
     /// `--eta`.
     Eta,
+    /// `--mask-spread-bins`.
+    MaskSpreadBins,
     /// `--min-peak`.
     MinPeak,
     /// `--intrinsics`.
@@ -210,6 +212,7 @@ impl StageOption {
     pub fn flag_name(self) -> &'static str {
         match self {
             StageOption::Levels => "levels",
+            StageOption::MaskSpreadBins => "mask-spread-bins",
             StageOption::LaserNm => "laser-nm",
             StageOption::Calibration => "calibration",
             StageOption::Mesh => "mesh",

@@ -163,6 +163,13 @@ pub fn unwarp_file(
         inputs.extend([Path::new(calibration_name), Path::new(mesh_name)]);
     }
     refuse_same_file(output, &inputs, "out")?;
+    let bins = options.mask_spread_bins;
+    if bins.is_nan() || bins <= 0.0 {
+        return Err(StageError::Option {
+            name: StageOption::MaskSpreadBins,
+            message: format!("{bins}: must be > 0 (or inf)"),
+        });
+    }
     let reader = CubeReader::open(input)?;
     let meta = reader.meta().clone();
     let (nx, ny) = (meta.nx, meta.ny);
