@@ -45,7 +45,7 @@ def write_scanlines(mat: Path, out: Path) -> int:
         if k:
             streak = np.roll(streak, k, axis=0)
             streak[:k] = 0
-        Image.fromarray(streak, mode="I;16").save(out / f"scan_{y:03d}.png")
+        Image.fromarray(streak.astype(np.uint16)).save(out / f"scan_{y:03d}.png")
     return ny
 
 

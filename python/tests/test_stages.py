@@ -77,7 +77,7 @@ def test_ingest_of_a_numpy_made_png16_capture_equals_the_cli(femto_bin, tmp_path
     scans.mkdir()
     for y in range(ny):
         img = rng.integers(0, 60000, size=(nt, nx), dtype=np.uint16)
-        Image.fromarray(img, mode="I;16").save(scans / f"scan_{y:03d}.png")
+        Image.fromarray(img.astype(np.uint16)).save(scans / f"scan_{y:03d}.png")
     pattern = str(scans / "scan_*.png")
     r = femto.ingest(pattern, tmp_path / "py.h5", dt_ps=2.0, t0_ps=-5.0, jitter=False,
                      progress=False)
@@ -103,7 +103,7 @@ def test_bad_ingest_arguments_raise_the_cli_message(femto_bin, tmp_path, kwargs,
     scans = tmp_path / "s"
     scans.mkdir()
     for y in range(2):
-        Image.fromarray(np.ones((4, 3), np.uint16), mode="I;16").save(scans / f"s{y}.png")
+        Image.fromarray(np.ones((4, 3), np.uint16)).save(scans / f"s{y}.png")
     pattern = str(scans / "s*.png")
     with pytest.raises(femto.FemtoError) as e:
         femto.ingest(pattern, tmp_path / "o.h5", progress=False, **kwargs)
@@ -154,7 +154,7 @@ def test_an_existing_output_is_refused_as_the_cli_refuses_it(femto_bin, tmp_path
     scans = tmp_path / "s"
     scans.mkdir()
     for y in range(2):
-        Image.fromarray(np.ones((4, 3), np.uint16), mode="I;16").save(scans / f"s{y}.png")
+        Image.fromarray(np.ones((4, 3), np.uint16)).save(scans / f"s{y}.png")
     pattern = str(scans / "s*.png")
     out = tmp_path / "o.h5"
     femto.ingest(pattern, out, dt_ps=1.0, t0_ps=0.0, progress=False)
