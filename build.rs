@@ -56,11 +56,14 @@ fn outside_inputs() {
     ] {
         println!("cargo::rustc-check-cfg=cfg({name})");
     }
-    for var in ["CI", "FEMTO_SHARED", "FEMTO_INTEROP_PYTHON", "PATH"] {
-        println!("cargo::rerun-if-env-changed={var}");
-    }
+    println!("cargo::rerun-if-env-changed=CI");
     if std::env::var("CI").is_ok_and(|v| v == "true") {
+        // Nothing below is read: no rerun when PATH changes (CI's Python step puts the
+        // virtual environment first on PATH, and a rerun would compile femto again).
         return;
+    }
+    for var in ["FEMTO_SHARED", "FEMTO_INTEROP_PYTHON", "PATH"] {
+        println!("cargo::rerun-if-env-changed={var}");
     }
     let shared = match std::env::var_os("FEMTO_SHARED") {
         Some(d) => PathBuf::from(d),
