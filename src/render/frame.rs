@@ -35,8 +35,9 @@ pub struct PixelSample {
     pub t_emit_ps: Option<f64>,
     /// Time of first arrival of the direct light at the camera (see [`View::Isochrones`]).
     pub t_arrival_ps: Option<f64>,
-    /// The cube pixel that recorded the hit point; None when the capture camera does not see
-    /// it.
+    /// The cube pixel nearest to the hit point's projection (the value interpolates it with
+    /// the neighbours that see the point, [`super::RenderScene::capture_taps`]); None when
+    /// the capture camera does not see it.
     pub capture_pixel: Option<(usize, usize)>,
     /// Received wavelength shown, nm (`D lambda_laser`, or the laser's with Doppler off).
     pub lambda_nm: f64,
@@ -287,14 +288,17 @@ impl<'s> FrameCtx<'s> {
             out.colour = Colour::Display(rgb);
             return out;
         }
-        let Some((x, y)) = scene.capture_pixel(&p, d_world) else {
+        let Some(taps) = scene.capture_taps(&p, d_world) else {
             return out;
         };
-        out.capture_pixel = Some((x, y));
+        out.capture_pixel = Some(taps.nearest);
         let d_light = if e.searchlight { doppler } else { 1.0 };
         let value = match settings.view {
             View::Integrated => {
-                let total = scene.pixel_total(x, y);
+                let total: f64 = taps
+                    .iter()
+                    .map(|((x, y), w)| w * scene.pixel_total(x, y))
+                    .sum();
                 let factor = if e.searchlight {
                     constant_light_factor(d_light, settings.radiometry)
                 } else {
@@ -310,7 +314,7 @@ impl<'s> FrameCtx<'s> {
                 };
                 out.t_emit_ps = Some(t_e);
                 let window_ps = settings.dtau_ps / d_light;
-                let energy = scene.emitted_energy(x, y, t_e, t_e + window_ps);
+                let energy = scene.emitted_energy_of(&taps, t_e, t_e + window_ps);
                 // Radiometry::frame_value, with the division by dtau done once per frame.
                 settings.radiometry.window_factor(d_light) * energy * self.inv_dtau_per_ps
             }

@@ -17,10 +17,16 @@
 //!    seed's Fig. 4, physics.md "two clocks"), where `t_receive` is the frame's world time of
 //!    reception: the camera's proper time `tau_k` mapped through the path's clock table
 //!    (`dt_world = gamma dtau`).
-//! 5. Image-based lookup: `p` is projected into the capture camera to find its cube pixel
-//!    (nearest pixel). Points the capture camera does not see render black, as in the seed:
-//!    the capture pixel's own first hit must lie on the same surface as `p` (see
-//!    "Visibility" below).
+//! 5. Image-based lookup: `p` is projected into the capture camera. Points the capture camera
+//!    does not see render black, as in the seed: the nearest cube pixel's own first hit must
+//!    lie on the same surface as `p` (see "Visibility" below). The signal shown is the
+//!    bilinear interpolation of the up to four cube pixels around the projection that see
+//!    `p` on a surface facing the nearest pixel's way ([`RenderScene::capture_taps`], the
+//!    others left out and the weights renormalised: no light is smeared over an edge).
+//!    The nearest pixel alone made a moire of the wavefront wherever the new view magnifies
+//!    the capture: at a magnification `m` a cube pixel repeats every `1 / (m - 1)` rendered
+//!    pixels, and where the pulse crosses a surface within a few bins the band broke into
+//!    slanted teeth with that period (the demo's `fig6` at `beta = 0.23`).
 //! 6. Searchlight accumulation with the prefix sums ([`crate::pyramid::Pyramid::integral`]):
 //!    the light received during the exposure `[tau, tau + dtau]` left the surface during
 //!    `[t_e, t_e + dtau / D]`, and the frame value is
@@ -454,6 +460,10 @@ pub struct RenderScene<'a> {
     /// Laser wavelength in its rest frame, nm.
     pub laser_nm: f64,
     hits: Vec<CaptureHit>,
+    /// Per cube pixel, bit `k` set when its neighbour `NEIGHBOURS[k]` records the same
+    /// surface (`surface_links`): the pixels [`RenderScene::capture_taps`] interpolates
+    /// between.
+    links: Vec<u8>,
     /// `world`'s prefix sums expanded to f64, `nt + 1` values per pixel (`P[i]` = sum of bins
     /// `0 .. i`): an interpolated `P(t)` then reads one cache line, not one of each of the
     /// stored two levels (`Pyramid::prefix`), which made a 640 x 480 frame 5 % slower
@@ -522,6 +532,7 @@ impl<'a> RenderScene<'a> {
                     }
                 }
             });
+        let links = surface_links(&hits, k.width, k.height, world.mask.as_deref());
         let nt = world.axis.nt;
         let mut prefix = vec![0.0f64; world.nx * world.ny * (nt + 1)];
         prefix
@@ -537,6 +548,7 @@ impl<'a> RenderScene<'a> {
             world,
             laser_nm,
             hits,
+            links,
             prefix,
             inv_dt_per_ps: 1.0 / world.axis.dt_ps,
             auto_exposures: Default::default(),
@@ -554,6 +566,21 @@ impl<'a> RenderScene<'a> {
         let at =
             |t_ps: f64| p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps);
         at(t_b_ps) - at(t_a_ps)
+    }
+
+    /// [`RenderScene::emitted_energy`] of the pixels of `taps`, weighted: the signal shown at
+    /// a point ([`RenderScene::capture_taps`]). The bin coordinates are computed once.
+    #[inline]
+    pub fn emitted_energy_of(&self, taps: &CaptureTaps, t_a_ps: f64, t_b_ps: f64) -> f64 {
+        let w = self.world;
+        let coord = |t_ps: f64| (self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps;
+        let (ca, cb) = (coord(t_a_ps), coord(t_b_ps));
+        taps.iter()
+            .map(|((x, y), weight)| {
+                let p = self.pixel_prefix(x, y);
+                weight * (p.at_coord(cb) - p.at_coord(ca))
+            })
+            .sum()
     }
 
     /// The time integral of cube pixel `(x, y)`'s signal (its prefix's last value).
@@ -615,8 +642,8 @@ impl<'a> RenderScene<'a> {
     }
 
     /// The cube pixel that records `p_m` for a viewer looking along `d_world` (unit, towards
-    /// `p_m`), or None when the capture camera does not see that side of that point or the
-    /// pixel is masked out.
+    /// `p_m`): the nearest pixel to `p_m`'s projection, or None when the capture camera does
+    /// not see that side of that point or the pixel is masked out.
     #[inline(always)]
     pub fn capture_pixel(
         &self,
@@ -629,26 +656,183 @@ impl<'a> RenderScene<'a> {
             return None;
         }
         let (x, y) = (u as usize, v as usize);
-        let h = &self.hits[y * k.width + x];
-        if h.point[0].is_nan() {
+        self.pixel_sees(x, y, p_m, d_world).then_some((x, y))
+    }
+
+    /// The cube pixels whose signal is shown at `p_m` (module doc, step 5): None when its
+    /// nearest pixel ([`RenderScene::capture_pixel`]) does not see it; else the up to four
+    /// pixels around its projection with their bilinear weights, those that do not record
+    /// the nearest pixel's surface left out (another surface: a first hit off the nearest
+    /// pixel's plane, or one turned by more than [`TAP_MAX_ANGLE_DEG`]; masked; outside the
+    /// image; computed once per scene) and the others' weights scaled to sum to 1.
+    #[inline(always)]
+    pub fn capture_taps(&self, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> Option<CaptureTaps> {
+        let (u, v) = self.capture.project(p_m)?;
+        let k = &self.capture.intrinsics;
+        if !(u >= 0.0 && v >= 0.0 && u < k.width as f64 && v < k.height as f64) {
             return None;
+        }
+        let nearest = (u as usize, v as usize);
+        if !self.pixel_sees(nearest.0, nearest.1, p_m, d_world) {
+            return None;
+        }
+        // Pixel centres sit at half-integer coordinates; the nearest pixel is one of the four
+        // and its weight is at least 1/4.
+        let (fu, fv) = (u - 0.5, v - 0.5);
+        let (x0, y0) = (fu.floor(), fv.floor());
+        let (ax, ay) = (fu - x0, fv - y0);
+        let mut taps = CaptureTaps {
+            nearest,
+            pixels: [nearest; 4],
+            weights: [0.0; 4],
+            count: 0,
+        };
+        let corners = [
+            (0.0, 0.0, (1.0 - ax) * (1.0 - ay)),
+            (1.0, 0.0, ax * (1.0 - ay)),
+            (0.0, 1.0, (1.0 - ax) * ay),
+            (1.0, 1.0, ax * ay),
+        ];
+        let mut sum = 0.0;
+        for (dx, dy, w) in corners {
+            let (xf, yf) = (x0 + dx, y0 + dy);
+            if w <= 0.0 || xf < 0.0 || yf < 0.0 || xf >= k.width as f64 || yf >= k.height as f64 {
+                continue;
+            }
+            let (x, y) = (xf as usize, yf as usize);
+            if (x, y) != nearest {
+                // The corners are at most one pixel from the nearest in each axis.
+                let cell = 3 * (y + 1 - nearest.1) + (x + 1 - nearest.0);
+                let bit = cell - usize::from(cell > 4);
+                if self.links[nearest.1 * k.width + nearest.0] & (1 << bit) == 0 {
+                    continue;
+                }
+            }
+            taps.pixels[taps.count] = (x, y);
+            taps.weights[taps.count] = w;
+            taps.count += 1;
+            sum += w;
+        }
+        let inv = 1.0 / sum;
+        taps.weights[..taps.count]
+            .iter_mut()
+            .for_each(|w| *w *= inv);
+        Some(taps)
+    }
+
+    /// Whether cube pixel `(x, y)` (inside the image) records `p_m` for a viewer looking
+    /// along `d_world`: its first hit's surface holds `p_m` (module doc, "Visibility"), both
+    /// cameras face the same side of it, and the cube's mask keeps the pixel.
+    #[inline(always)]
+    fn pixel_sees(&self, x: usize, y: usize, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> bool {
+        let width = self.capture.intrinsics.width;
+        let h = &self.hits[y * width + x];
+        if h.point[0].is_nan() {
+            return false;
         }
         let q = Point3::new(h.point[0] as f64, h.point[1] as f64, h.point[2] as f64);
         let n = Vector3::new(h.normal[0] as f64, h.normal[1] as f64, h.normal[2] as f64);
         if n.dot(&(p_m - q)).abs() > h.tolerance_m as f64 {
-            return None;
+            return false;
         }
         // Same side: the capture camera and the viewer both face the same face.
         let viewer_side = -n.dot(d_world);
         if h.capture_side * viewer_side <= 0.0 {
-            return None;
+            return false;
         }
-        if let Some(mask) = &self.world.mask {
-            if mask[y * k.width + x] == 0 {
-                return None;
+        self.world
+            .mask
+            .as_ref()
+            .is_none_or(|mask| mask[y * width + x] != 0)
+    }
+}
+
+/// The largest angle between the surface normals of two cube pixels that
+/// [`RenderScene::capture_taps`] interpolates between, degrees: a tessellated curved surface
+/// turns by a few degrees from pixel to pixel, a crease by tens.
+pub const TAP_MAX_ANGLE_DEG: f64 = 10.0;
+/// `cos(TAP_MAX_ANGLE_DEG)`.
+const TAP_MIN_COS: f64 = 0.984_807_753_012_208;
+
+/// The eight neighbours of a cube pixel, `(dx, dy)`, in the bit order of the links.
+const NEIGHBOURS: [(isize, isize); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// For each cube pixel of a `width x height` G-buffer, the neighbours that record the same
+/// surface: bit `k` is set when neighbour [`NEIGHBOURS`]`[k]` is inside the image, kept by
+/// the cube's `mask`, has a first hit that lies on the plane of the pixel's own (within the
+/// pixel's visibility tolerance, module doc "Visibility") and whose normal turns from the
+/// pixel's by at most [`TAP_MAX_ANGLE_DEG`]. A neighbour across a crease (a box's edge, where
+/// it stands on the floor) or a depth step holds another surface's light, which interpolation
+/// would smear over the edge. Computed once per scene, so that a lookup tests one bit per
+/// neighbour instead of each neighbour's plane (`benches/render.rs`, 640 x 480, all effects:
+/// 58.6 CPU ms per frame with the planes tested per rendered pixel, 55.9 with the links,
+/// against 43.4 for the nearest pixel alone; benches/render_results.md).
+fn surface_links(hits: &[CaptureHit], width: usize, height: usize, mask: Option<&[u8]>) -> Vec<u8> {
+    let kept = |i: usize| mask.is_none_or(|m| m[i] != 0) && !hits[i].point[0].is_nan();
+    let f64s = |a: [f32; 3]| Vector3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let mut links = vec![0u8; width * height];
+    links
+        .par_chunks_mut(width.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, l) in row.iter_mut().enumerate() {
+                let i = y * width + x;
+                if !kept(i) {
+                    continue;
+                }
+                let h = &hits[i];
+                let (q, n) = (f64s(h.point), f64s(h.normal));
+                for (bit, &(dx, dy)) in NEIGHBOURS.iter().enumerate() {
+                    let (xn, yn) = (x as isize + dx, y as isize + dy);
+                    if xn < 0 || yn < 0 || xn >= width as isize || yn >= height as isize {
+                        continue;
+                    }
+                    let j = yn as usize * width + xn as usize;
+                    if !kept(j) {
+                        continue;
+                    }
+                    let (qn, nn) = (f64s(hits[j].point), f64s(hits[j].normal));
+                    if n.dot(&(qn - q)).abs() <= h.tolerance_m as f64
+                        && n.dot(&nn).abs() >= TAP_MIN_COS
+                    {
+                        *l |= 1 << bit;
+                    }
+                }
             }
-        }
-        Some((x, y))
+        });
+    links
+}
+
+/// The cube pixels shown at a point and their weights ([`RenderScene::capture_taps`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CaptureTaps {
+    /// The nearest pixel to the point's projection (always among the taps).
+    pub nearest: (usize, usize),
+    /// The pixels, `count` of them; the rest repeat `nearest` with weight 0.
+    pub pixels: [(usize, usize); 4],
+    /// Their weights, summing to 1.
+    pub weights: [f64; 4],
+    /// How many of the four are used (1 to 4).
+    pub count: usize,
+}
+
+impl CaptureTaps {
+    /// The pixels and their weights.
+    #[inline(always)]
+    pub fn iter(&self) -> impl Iterator<Item = ((usize, usize), f64)> + '_ {
+        self.pixels[..self.count]
+            .iter()
+            .copied()
+            .zip(self.weights[..self.count].iter().copied())
     }
 }
 
@@ -782,6 +966,21 @@ pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &m
         for (px, out) in pixels.iter().zip(out_rgb8.chunks_exact_mut(3)) {
             let rgb = [px[0] as f64, px[1] as f64, px[2] as f64];
             out.copy_from_slice(&color::encode_u8(rgb));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::NEIGHBOURS;
+
+    #[test]
+    fn neighbour_bits_follow_the_row_major_cells_without_the_centre() {
+        // RenderScene::capture_taps computes a neighbour's bit from its cell in the 3 x 3
+        // block around the nearest pixel; surface_links sets it from NEIGHBOURS.
+        for (bit, &(dx, dy)) in NEIGHBOURS.iter().enumerate() {
+            let cell = (3 * (dy + 1) + (dx + 1)) as usize;
+            assert_eq!(cell - usize::from(cell > 4), bit, "({dx}, {dy})");
         }
     }
 }
