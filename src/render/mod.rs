@@ -561,20 +561,22 @@ impl<'a> RenderScene<'a> {
     /// the total after it), with the bin coordinate computed by one multiplication.
     #[inline]
     pub fn emitted_energy(&self, x: usize, y: usize, t_a_ps: f64, t_b_ps: f64) -> f64 {
-        let w = self.world;
         let p = self.pixel_prefix(x, y);
-        let at =
-            |t_ps: f64| p.at_coord((self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps);
-        at(t_b_ps) - at(t_a_ps)
+        p.at_coord(self.bin_coord(t_b_ps)) - p.at_coord(self.bin_coord(t_a_ps))
+    }
+
+    /// The fractional bin coordinate of the cube's axis (0 at its start) at physical world
+    /// time `t_ps`.
+    #[inline(always)]
+    fn bin_coord(&self, t_ps: f64) -> f64 {
+        (self.cube_time_ps(t_ps) - self.world.axis.t0_ps) * self.inv_dt_per_ps
     }
 
     /// [`RenderScene::emitted_energy`] of the pixels of `taps`, weighted: the signal shown at
     /// a point ([`RenderScene::capture_taps`]). The bin coordinates are computed once.
     #[inline]
     pub fn emitted_energy_of(&self, taps: &CaptureTaps, t_a_ps: f64, t_b_ps: f64) -> f64 {
-        let w = self.world;
-        let coord = |t_ps: f64| (self.cube_time_ps(t_ps) - w.axis.t0_ps) * self.inv_dt_per_ps;
-        let (ca, cb) = (coord(t_a_ps), coord(t_b_ps));
+        let (ca, cb) = (self.bin_coord(t_a_ps), self.bin_coord(t_b_ps));
         taps.iter()
             .map(|((x, y), weight)| {
                 let p = self.pixel_prefix(x, y);
@@ -650,13 +652,26 @@ impl<'a> RenderScene<'a> {
         p_m: &Point3<f64>,
         d_world: &Vector3<f64>,
     ) -> Option<(usize, usize)> {
+        self.seen_projection(p_m, d_world)
+            .map(|(nearest, _)| nearest)
+    }
+
+    /// `p_m`'s nearest cube pixel and its projection `(u, v)` into the capture image, when
+    /// that pixel sees it ([`RenderScene::pixel_sees`]).
+    #[inline(always)]
+    fn seen_projection(
+        &self,
+        p_m: &Point3<f64>,
+        d_world: &Vector3<f64>,
+    ) -> Option<((usize, usize), (f64, f64))> {
         let (u, v) = self.capture.project(p_m)?;
         let k = &self.capture.intrinsics;
         if !(u >= 0.0 && v >= 0.0 && u < k.width as f64 && v < k.height as f64) {
             return None;
         }
         let (x, y) = (u as usize, v as usize);
-        self.pixel_sees(x, y, p_m, d_world).then_some((x, y))
+        self.pixel_sees(x, y, p_m, d_world)
+            .then_some(((x, y), (u, v)))
     }
 
     /// The cube pixels whose signal is shown at `p_m` (module doc, step 5): None when its
@@ -667,15 +682,8 @@ impl<'a> RenderScene<'a> {
     /// image; computed once per scene) and the others' weights scaled to sum to 1.
     #[inline(always)]
     pub fn capture_taps(&self, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> Option<CaptureTaps> {
-        let (u, v) = self.capture.project(p_m)?;
+        let (nearest, (u, v)) = self.seen_projection(p_m, d_world)?;
         let k = &self.capture.intrinsics;
-        if !(u >= 0.0 && v >= 0.0 && u < k.width as f64 && v < k.height as f64) {
-            return None;
-        }
-        let nearest = (u as usize, v as usize);
-        if !self.pixel_sees(nearest.0, nearest.1, p_m, d_world) {
-            return None;
-        }
         // Pixel centres sit at half-integer coordinates; the nearest pixel is one of the four
         // and its weight is at least 1/4.
         let (fu, fv) = (u - 0.5, v - 0.5);
