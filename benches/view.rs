@@ -138,7 +138,7 @@ fn main() {
         .build_global()
         .expect("a rayon pool");
     let inputs = inputs();
-    let session = ViewSession::new(&inputs, "--cube world.h5".into()).expect("a session");
+    let session = ViewSession::new(&inputs, "--cube world.h5".into(), 1.0).expect("a session");
     let (http, addr) = server::bind("127.0.0.1:0".parse().unwrap()).expect("a port");
     let url = format!("http://{addr}/");
     let access = Access::new(addr).expect("a token");

@@ -406,33 +406,50 @@ impl VideoWriter {
                     tmp: crate::atomic::temp_dir_beside(path).map_err(folder)?,
                 }
             }
-            VideoFormat::Mp4 => {
+            VideoFormat::Mp4 | VideoFormat::Gif => {
                 check_parent(path)?;
-                Sink::Mp4(Box::new(mp4_state(path, width, height, fps)?))
-            }
-            VideoFormat::Gif => {
-                check_parent(path)?;
-                if width > u16::MAX as usize || height > u16::MAX as usize {
-                    return Err(VideoError::TooLarge {
-                        format,
-                        width,
-                        height,
-                        limit: "65535x65535",
-                    });
-                }
-                let bytes = SharedBuffer::default();
-                let mut encoder = GifEncoder::new_with_speed(bytes.clone(), 10);
-                encoder
-                    .set_repeat(Repeat::Infinite)
-                    .map_err(|source| VideoError::Image {
-                        path: path.to_path_buf(),
-                        source,
-                    })?;
-                Sink::Gif(Box::new(GifState { encoder, bytes }))
+                stream_sink(path, format, width, height, fps)?
             }
         };
         Ok(VideoWriter {
             path: path.to_path_buf(),
+            format,
+            width,
+            height,
+            fps,
+            first_index: 0,
+            sequence_length: None,
+            pushed: 0,
+            sink,
+        })
+    }
+
+    /// Start an MP4 or GIF of `width` x `height` frames at `fps` frames per second kept in
+    /// memory ([`VideoWriter::finish_bytes`]); `name` stands for its file in messages.
+    /// Nothing touches the file system (`femto view`'s saved videos).
+    pub fn in_memory(
+        name: &str,
+        format: VideoFormat,
+        width: usize,
+        height: usize,
+        fps: f64,
+    ) -> Result<VideoWriter, VideoError> {
+        let path = PathBuf::from(name);
+        if format.is_sequence() {
+            return Err(VideoError::Io {
+                path,
+                source: io::Error::other("a frame sequence is a folder of files, not one stream"),
+            });
+        }
+        if width == 0 || height == 0 {
+            return Err(VideoError::EmptySize { width, height });
+        }
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(VideoError::BadFrameRate(fps));
+        }
+        let sink = stream_sink(&path, format, width, height, fps)?;
+        Ok(VideoWriter {
+            path,
             format,
             width,
             height,
@@ -558,6 +575,20 @@ impl VideoWriter {
     /// Complete the output: write the MP4 or GIF file (atomically), or put a sequence's
     /// folder in place (replacing an earlier one whole). Returns the number of frames written.
     pub fn finish(self) -> Result<usize, VideoError> {
+        if !self.format.is_sequence() {
+            let path = self.path.clone();
+            let (pushed, data) = self.finish_bytes()?;
+            write_file_atomically(&path, |tmp| {
+                let io = |source| VideoError::Io {
+                    path: path.clone(),
+                    source,
+                };
+                let mut file = fs::File::create(tmp).map_err(io)?;
+                file.write_all(&data).map_err(io)?;
+                file.sync_all().map_err(io)
+            })?;
+            return Ok(pushed);
+        }
         let path = self.path;
         match self.sink {
             Sink::Sequence { tmp } => {
@@ -571,12 +602,24 @@ impl VideoWriter {
                     .map_err(|source| VideoError::Io { path, source })?;
                 Ok(self.pushed)
             }
+            Sink::Mp4(_) | Sink::Gif(_) => unreachable!("streams are finished above"),
+        }
+    }
+
+    /// Finish an MP4 or GIF: the frames written and the file's bytes, written nowhere.
+    pub fn finish_bytes(self) -> Result<(usize, Vec<u8>), VideoError> {
+        let path = self.path;
+        match self.sink {
+            Sink::Sequence { .. } => Err(VideoError::Io {
+                path,
+                source: io::Error::other("a frame sequence is a folder of files, not one stream"),
+            }),
             Sink::Mp4(state) => {
                 if state.samples.is_empty() {
                     return Err(VideoError::NoFrames { path });
                 }
-                write_mp4(&path, &state.samples, self.width, self.height, self.fps)?;
-                Ok(self.pushed)
+                let data = mp4_bytes(&path, &state.samples, self.width, self.height, self.fps)?;
+                Ok((self.pushed, data))
             }
             Sink::Gif(state) => {
                 if self.pushed == 0 {
@@ -589,13 +632,7 @@ impl VideoWriter {
                     path: path.clone(),
                     source: io::Error::other("GIF buffer poisoned"),
                 })?);
-                write_file_atomically(&path, |tmp| {
-                    fs::write(tmp, &data).map_err(|source| VideoError::Io {
-                        path: path.clone(),
-                        source,
-                    })
-                })?;
-                Ok(self.pushed)
+                Ok((self.pushed, data))
             }
         }
     }
@@ -675,6 +712,38 @@ fn check_sequence_folder(path: &Path) -> Result<(), VideoError> {
             Ok(())
         }
     }
+}
+
+/// The sink of an MP4 or GIF stream of `width` x `height` frames (`path` names it in errors).
+fn stream_sink(
+    path: &Path,
+    format: VideoFormat,
+    width: usize,
+    height: usize,
+    fps: f64,
+) -> Result<Sink, VideoError> {
+    Ok(match format {
+        VideoFormat::Gif => {
+            if width > u16::MAX as usize || height > u16::MAX as usize {
+                return Err(VideoError::TooLarge {
+                    format,
+                    width,
+                    height,
+                    limit: "65535x65535",
+                });
+            }
+            let bytes = SharedBuffer::default();
+            let mut encoder = GifEncoder::new_with_speed(bytes.clone(), 10);
+            encoder
+                .set_repeat(Repeat::Infinite)
+                .map_err(|source| VideoError::Image {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+            Sink::Gif(Box::new(GifState { encoder, bytes }))
+        }
+        _ => Sink::Mp4(Box::new(mp4_state(path, width, height, fps)?)),
+    })
 }
 
 fn check_parent(path: &Path) -> Result<(), VideoError> {
@@ -843,46 +912,30 @@ fn mp4_state(path: &Path, width: usize, height: usize, fps: f64) -> Result<Mp4St
     })
 }
 
-fn write_mp4(
+/// The MP4 file of `samples` (H.264 access units), as bytes; `path` names it in errors.
+fn mp4_bytes(
     path: &Path,
     samples: &[Sample],
     width: usize,
     height: usize,
     fps: f64,
-) -> Result<(), VideoError> {
+) -> Result<Vec<u8>, VideoError> {
     use muxide::api::{MuxerBuilder, VideoCodec};
     let mux_err = |source| VideoError::Mux {
         path: path.to_path_buf(),
         source,
     };
-    write_file_atomically(path, |tmp| {
-        let file = fs::File::create(tmp).map_err(|source| VideoError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let mut muxer = MuxerBuilder::new(BufWriter::new(file))
-            .video(VideoCodec::H264, width as u32, height as u32, fps)
-            .build()
-            .map_err(mux_err)?;
-        for (k, s) in samples.iter().enumerate() {
-            muxer
-                .write_video(k as f64 / fps, &s.annex_b, s.is_idr)
-                .map_err(mux_err)?;
-        }
-        muxer.finish_in_place().map_err(mux_err)?;
+    let mut muxer = MuxerBuilder::new(io::Cursor::new(Vec::new()))
+        .video(VideoCodec::H264, width as u32, height as u32, fps)
+        .build()
+        .map_err(mux_err)?;
+    for (k, s) in samples.iter().enumerate() {
         muxer
-            .into_writer()
-            .into_inner()
-            .map_err(|e| VideoError::Io {
-                path: path.to_path_buf(),
-                source: e.into_error(),
-            })?
-            .sync_all()
-            .map_err(|source| VideoError::Io {
-                path: path.to_path_buf(),
-                source,
-            })
-    })
+            .write_video(k as f64 / fps, &s.annex_b, s.is_idr)
+            .map_err(mux_err)?;
+    }
+    muxer.finish_in_place().map_err(mux_err)?;
+    Ok(muxer.into_writer().into_inner())
 }
 
 pub mod encode;

@@ -12,7 +12,7 @@ use femto::pipeline::render::{
 use femto::pipeline::StageError;
 use femto::relativity::Radiometry;
 use femto::render::paths::Shortcut;
-use femto::render::{encode_srgb8, Effects};
+use femto::render::Effects;
 use femto::video::VideoFormat;
 use femto::view::state::ViewState;
 use numpy::ndarray::Array4;
@@ -129,12 +129,12 @@ fn render_in_memory<'py>(
         };
         let frame_len = spec.width * spec.height * 3;
         let mut k_local = 0usize;
-        let done = render_planned(inputs, &scene, &plan, shared, |_, frame, settings| {
+        let done = render_planned(inputs, &scene, &plan, shared, |k, frame, _| {
             match &mut pixels {
                 Pixels::Linear(v) => v.extend(frame.iter().flatten()),
                 Pixels::Srgb8(v) => {
                     let out = &mut v[k_local * frame_len..(k_local + 1) * frame_len];
-                    encode_srgb8(settings, frame, out);
+                    plan.display_srgb8(&scene, k, frame, out);
                 }
             }
             k_local += 1;
@@ -251,6 +251,8 @@ pub fn render<'py>(
         format,
         fps,
         force,
+        dark_marks: false,
+        false_colour: false,
     };
     check_options(&options).py_err()?;
     let inputs = py.detach(|| {

@@ -27,8 +27,9 @@ pub struct CompareArgs {
     /// difference over the truth's 99.5th percentile).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Exposure of both display images for the PSNR [default: the automatic exposure's rule
-    /// applied to the truth's pixels].
+    /// Exposure multiplier of both display images for the PSNR, relative to the automatic
+    /// exposure (its rule applied to the truth's pixels), as `femto render --exposure` and
+    /// `femto view`'s Exposure (2^stops) [default: 1].
     #[arg(long, value_name = "X")]
     pub exposure: Option<f64>,
     /// Replace --out's frames if they exist.

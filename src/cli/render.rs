@@ -95,6 +95,17 @@ pub struct RenderArgs {
     /// contours over the frame's range).
     #[arg(long, value_name = "PS")]
     pub contour_ps: Option<f64>,
+    /// Draw the kinds of dark apart in PNG, MP4 and GIF frames: points the capture camera
+    /// never saw as a grey diagonal hatch, pixels `femto unwarp` masked as mixed as a violet
+    /// cross-hatch; no light now, and no surface, stay black (as `femto view` draws them).
+    #[arg(long)]
+    pub dark_marks: bool,
+    /// Draw the received light in false colour relative to the laser: the laser's own
+    /// wavelength green (550 nm), light received at D times it in the colour of D x 550 nm,
+    /// so an infrared or ultraviolet laser shows its Doppler shifts in colour (without it,
+    /// light outside 380-780 nm is drawn grey).
+    #[arg(long)]
+    pub false_colour: bool,
     /// Output format: png or exr (frame sequences in the folder --out), mp4 or gif (the file
     /// --out). Default: from the extension of --out, else png.
     #[arg(long, value_name = "FORMAT", ignore_case = true,
@@ -154,6 +165,8 @@ fn options(args: &RenderArgs) -> anyhow::Result<(Camera, RenderOptions)> {
         format: output_format(args)?,
         fps: args.fps,
         force: args.force,
+        dark_marks: args.dark_marks,
+        false_colour: args.false_colour,
     };
     Ok((camera, options))
 }

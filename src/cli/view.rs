@@ -35,14 +35,25 @@ pub struct ViewArgs {
     /// Open the page in the desktop's browser (xdg-open, or open on macOS).
     #[arg(long)]
     pub open: bool,
+    /// The first view's exposure multiplier relative to the automatic exposure, as
+    /// `femto render --exposure` (the page's Exposure slider shows it in stops, 2^stops).
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub exposure: f64,
     #[command(flatten)]
     pub threads: super::threads::ThreadsArg,
 }
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     args.threads.init()?;
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        return Err(femto::pipeline::StageError::Option {
+            name: femto::pipeline::StageOption::Exposure,
+            message: format!("{}: must be a positive number", args.exposure),
+        }
+        .into());
+    }
     let inputs = args.inputs.open()?;
-    let session = ViewSession::new(&inputs, args.inputs.shell_flags())?;
+    let session = ViewSession::new(&inputs, args.inputs.shell_flags(), args.exposure)?;
     let (http, bound) = server::bind(SocketAddr::new(args.bind, args.port))
         .map_err(|e| anyhow!("--port {} --bind {}: {e}", args.port, args.bind))?;
     let access = Access::new(bound).map_err(|e| anyhow!("femto view: a token: {e}"))?;

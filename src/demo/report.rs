@@ -78,6 +78,13 @@ pub fn markdown(summary: &DemoSummary) -> String {
     }
     let _ = writeln!(md, "| *total* | {:.2} |\n", summary.total_seconds);
 
+    let _ = writeln!(
+        md,
+        "## Explore it\n\nFly through this light in the browser, from this folder \
+         (docs/view.md):\n\n```sh\nfemto view --cube data/world.h5 --calibration \
+         data/calibration.toml --mesh data/capture/scene.glb --open\n```\n\nIt prints a URL \
+         with this run's token; open it (through an SSH tunnel from another machine).\n"
+    );
     let _ = writeln!(md, "## Data\n");
     for f in &summary.data_files {
         let _ = writeln!(md, "- `{f}`");

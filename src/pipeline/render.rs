@@ -384,6 +384,12 @@ pub struct RenderOptions {
     /// Replace existing output (the video file, or the frame files this render writes);
     /// without it they are refused ([`super::overwrite`]).
     pub force: bool,
+    /// Mark the dark pixels the capture never saw and those unwarp masked
+    /// ([`crate::render::dark`]) in 8-bit output; EXR frames stay scene-linear.
+    pub dark_marks: bool,
+    /// Draw the received light in false colour relative to the laser
+    /// ([`crate::render::ColourOutput::FalseColour`]).
+    pub false_colour: bool,
 }
 
 impl Default for RenderOptions {
@@ -402,6 +408,8 @@ impl Default for RenderOptions {
             format: VideoFormat::PngSequence,
             fps: 30.0,
             force: false,
+            dark_marks: false,
+            false_colour: false,
         }
     }
 }
@@ -429,6 +437,34 @@ pub struct Plan {
     pub path: CameraPath,
     pub settings: RenderSettings,
     pub frames: Range<usize>,
+    /// [`RenderOptions::dark_marks`].
+    pub dark_marks: bool,
+}
+
+impl Plan {
+    /// Frame `k`'s linear `pixels` as 8-bit sRGB for display into `out` ([`encode_srgb8`]),
+    /// with the marks of unseen and masked pixels when the plan asks for them
+    /// ([`crate::render::dark::draw_dark_marks`]): what PNG frames, MP4, GIF and the
+    /// viewer's frames hold.
+    pub fn display_srgb8(
+        &self,
+        scene: &RenderScene,
+        k: usize,
+        pixels: &[[f32; 3]],
+        out: &mut [u8],
+    ) {
+        encode_srgb8(&self.settings, pixels, out);
+        self.mark_dark(scene, k, out);
+    }
+
+    /// The marks of [`Plan::display_srgb8`] over frame `k`'s encoded pixels `srgb8`, when the
+    /// plan asks for them.
+    pub fn mark_dark(&self, scene: &RenderScene, k: usize, srgb8: &mut [u8]) {
+        if self.dark_marks {
+            let state = self.path.frame(k);
+            crate::render::dark::draw_dark_marks(scene, &self.settings, &state, srgb8);
+        }
+    }
 }
 
 /// Refuse a shortcut camera that would move at or faster than light (`--dolly`, `--orbit`
@@ -606,6 +642,9 @@ pub fn plan(
     settings.effects = options.effects;
     settings.radiometry = options.radiometry;
     settings.time_offset_ps = options.time_offset_ps.unwrap_or(default_offset_ps);
+    if options.false_colour {
+        settings.colour = crate::render::ColourOutput::FalseColour;
+    }
     settings.view = match options.view {
         ViewKind::Transient => View::Transient,
         ViewKind::Naive => View::Naive,
@@ -619,6 +658,7 @@ pub fn plan(
         path,
         settings,
         frames,
+        dark_marks: options.dark_marks,
     })
 }
 
@@ -803,13 +843,13 @@ pub fn render_to(
         linear_rgb: Vec::new(),
         srgb8: Vec::new(),
     };
-    let mut rendered = render_planned(inputs, &scene, &plan, progress, |_, pixels, settings| {
+    let mut rendered = render_planned(inputs, &scene, &plan, progress, |k, pixels, _| {
         if options.format == VideoFormat::ExrSequence {
             frame.linear_rgb.clear();
             frame.linear_rgb.extend(pixels.iter().flatten());
         } else {
             frame.srgb8.resize(3 * pixels.len(), 0);
-            encode_srgb8(settings, pixels, &mut frame.srgb8);
+            plan.display_srgb8(&scene, k, pixels, &mut frame.srgb8);
         }
         writer.push(&frame)?;
         Ok(())
@@ -835,6 +875,7 @@ pub fn render_planned(
         path,
         settings,
         frames,
+        ..
     } = plan;
     let spec = path.spec();
     // Frames whose times miss the cube's light, predicted before rendering (a coarse probe

@@ -6,7 +6,7 @@
 //! [`probe_pixel`] returns every intermediate quantity of one pixel.
 
 use super::views;
-use super::{ColourOutput, RenderScene, RenderSettings, View};
+use super::{ColourOutput, RenderScene, RenderSettings, View, FALSE_COLOUR_LASER_NM};
 use crate::camera_path::FrameState;
 use crate::color;
 use crate::geometry::Ray;
@@ -118,6 +118,9 @@ pub(super) struct FrameCtx<'s> {
     pub(super) inv_dtau_per_ps: f64,
     /// The colour of every pixel when the Doppler shift is off (the laser's own).
     fixed_colour: Option<[f64; 3]>,
+    /// Wavelength drawn per nm received: 1, or for [`ColourOutput::FalseColour`]
+    /// `FALSE_COLOUR_LASER_NM / laser_nm`.
+    drawn_per_received: f64,
 }
 
 /// A boost for `beta`, its speed pulled just below 1 if rounding took it to 1 (paths and
@@ -141,7 +144,7 @@ fn boost_of(beta: &Vector3<f64>) -> Boost {
 #[inline]
 pub(super) fn colour_of(colour: ColourOutput, lambda_nm: f64) -> [f64; 3] {
     match colour {
-        ColourOutput::LinearSrgb => color::laser_colour(lambda_nm),
+        ColourOutput::LinearSrgb | ColourOutput::FalseColour => color::laser_colour(lambda_nm),
         ColourOutput::Xyz => match color::monochromatic_linear_srgb(lambda_nm) {
             Some(_) => {
                 let [cx, cy, cz] = color::cmf_xyz(lambda_nm).unwrap_or([1.0; 3]);
@@ -194,8 +197,14 @@ impl<'s> FrameCtx<'s> {
             eta,
             eta_over_c_ps_per_m: flight_time_ps(eta, 1.0),
             inv_dtau_per_ps: 1.0 / settings.dtau_ps,
-            fixed_colour: (!e.doppler)
-                .then(|| colour_of(settings.colour, color::nearest_visible_nm(laser_nm))),
+            fixed_colour: (!e.doppler).then(|| match settings.colour {
+                ColourOutput::FalseColour => colour_of(settings.colour, FALSE_COLOUR_LASER_NM),
+                _ => colour_of(settings.colour, color::nearest_visible_nm(laser_nm)),
+            }),
+            drawn_per_received: match settings.colour {
+                ColourOutput::FalseColour => FALSE_COLOUR_LASER_NM / laser_nm,
+                _ => 1.0,
+            },
         }
     }
 
@@ -330,7 +339,7 @@ impl<'s> FrameCtx<'s> {
     pub(super) fn colour(&self, settings: &RenderSettings, lambda_nm: f64) -> [f64; 3] {
         match self.fixed_colour {
             Some(c) => c,
-            None => colour_of(settings.colour, lambda_nm),
+            None => colour_of(settings.colour, lambda_nm * self.drawn_per_received),
         }
     }
 

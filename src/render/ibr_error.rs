@@ -61,9 +61,10 @@ pub struct Scale {
 }
 
 impl Scale {
-    /// The scale of `truth`'s frames; `exposure` overrides the automatic one. None when no
-    /// truth pixel has light.
-    pub fn of_truth(truth: &[&LinearFrame], exposure: Option<f64>) -> Option<Scale> {
+    /// The scale of `truth`'s frames, the display exposure the automatic one times
+    /// `exposure_multiplier` (as `femto render --exposure`; None: 1). None when no truth
+    /// pixel has light.
+    pub fn of_truth(truth: &[&LinearFrame], exposure_multiplier: Option<f64>) -> Option<Scale> {
         let mut y: Vec<f64> = truth
             .iter()
             .flat_map(|f| f.luminance())
@@ -78,7 +79,7 @@ impl Scale {
         Some(Scale {
             reference,
             lit: LIT_FRACTION * reference,
-            exposure: exposure.unwrap_or(auto),
+            exposure: auto * exposure_multiplier.unwrap_or(1.0),
         })
     }
 }

@@ -126,6 +126,7 @@
 //! pixel records the occluder anyway.
 
 pub mod coverage;
+pub mod dark;
 pub mod exposure;
 pub mod frame;
 pub mod ibr_error;
@@ -361,7 +362,15 @@ pub enum ColourOutput {
     /// CIE 1931 XYZ of the received wavelength before any gamut mapping, `Y = value` (grey
     /// outside the visible range is D65 white). For measuring chromaticities.
     Xyz,
+    /// Linear sRGB in false colour relative to the laser: light received at `D` times the
+    /// laser's wavelength is drawn in the colour of `D` times [`FALSE_COLOUR_LASER_NM`], so
+    /// the laser itself is green and an infrared or ultraviolet laser is drawn in colour
+    /// (grey only past a shift of 380/550 or 780/550). `femto render --false-colour`.
+    FalseColour,
 }
+
+/// The wavelength [`ColourOutput::FalseColour`] draws the laser's own light at, nm (green).
+pub const FALSE_COLOUR_LASER_NM: f64 = 550.0;
 
 /// Everything about how frames are rendered, resolved before rendering.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -728,11 +737,45 @@ impl<'a> RenderScene<'a> {
         Some(taps)
     }
 
+    /// For a point `p_m` that the nearest pixel of its projection would record without the
+    /// cube's mask (for a viewer looking along `d_world`), whether the mask keeps that pixel;
+    /// None when no pixel would record it ([`dark::DarkKind`]).
+    pub fn nearest_pixel_unmasked(
+        &self,
+        p_m: &Point3<f64>,
+        d_world: &Vector3<f64>,
+    ) -> Option<bool> {
+        let (u, v) = self.capture.project(p_m)?;
+        let k = &self.capture.intrinsics;
+        if !(u >= 0.0 && v >= 0.0 && u < k.width as f64 && v < k.height as f64) {
+            return None;
+        }
+        let (x, y) = (u as usize, v as usize);
+        self.surface_holds(x, y, p_m, d_world).then(|| {
+            self.world
+                .mask
+                .as_ref()
+                .is_none_or(|mask| mask[y * k.width + x] != 0)
+        })
+    }
+
     /// Whether cube pixel `(x, y)` (inside the image) records `p_m` for a viewer looking
     /// along `d_world`: its first hit's surface holds `p_m` (module doc, "Visibility"), both
     /// cameras face the same side of it, and the cube's mask keeps the pixel.
     #[inline(always)]
     fn pixel_sees(&self, x: usize, y: usize, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> bool {
+        let width = self.capture.intrinsics.width;
+        self.surface_holds(x, y, p_m, d_world)
+            && self
+                .world
+                .mask
+                .as_ref()
+                .is_none_or(|mask| mask[y * width + x] != 0)
+    }
+
+    /// [`RenderScene::pixel_sees`] without the mask.
+    #[inline(always)]
+    fn surface_holds(&self, x: usize, y: usize, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> bool {
         let width = self.capture.intrinsics.width;
         let h = &self.hits[y * width + x];
         if h.point[0].is_nan() {
@@ -748,10 +791,7 @@ impl<'a> RenderScene<'a> {
         if h.capture_side * viewer_side <= 0.0 {
             return false;
         }
-        self.world
-            .mask
-            .as_ref()
-            .is_none_or(|mask| mask[y * width + x] != 0)
+        true
     }
 }
 

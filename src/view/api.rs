@@ -104,6 +104,51 @@ pub fn parse_frame_query(query: &str) -> Result<FrameOptions, String> {
     Ok(q)
 }
 
+/// The query of `/api/probe`: `x=I&y=J&t0=PS&t1=PS` (the pixel and the received
+/// profile's range); each is needed, and unknown keys are refused.
+pub fn parse_probe_query(query: &str) -> Result<(usize, usize, [f64; 2]), String> {
+    let (mut x, mut y, mut t0, mut t1) = (None, None, None, None);
+    for pair in query.split('&').filter(|p| !p.is_empty()) {
+        let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+        let pixel = || {
+            value
+                .parse::<usize>()
+                .map_err(|_| format!("{key}={value}: must be a pixel index (0, 1, ...)"))
+        };
+        let time = || {
+            value
+                .parse::<f64>()
+                .ok()
+                .filter(|t| t.is_finite())
+                .ok_or_else(|| format!("{key}={value}: must be a finite time in ps"))
+        };
+        match key {
+            "x" => x = Some(pixel()?),
+            "y" => y = Some(pixel()?),
+            "t0" => t0 = Some(time()?),
+            "t1" => t1 = Some(time()?),
+            _ => return Err(format!("unknown query parameter '{key}' (x, y, t0, t1)")),
+        }
+    }
+    match (x, y, t0, t1) {
+        (Some(x), Some(y), Some(t0), Some(t1)) => Ok((x, y, [t0, t1])),
+        _ => Err("the probe needs x, y, t0 and t1 (docs/view.md, \"Pixel probe\")".into()),
+    }
+}
+
+/// The query of `POST /api/video`: `format=mp4` (default) or `format=gif`.
+fn parse_video_query(query: &str) -> Result<crate::video::VideoFormat, String> {
+    let mut format = crate::video::VideoFormat::Mp4;
+    for pair in query.split('&').filter(|p| !p.is_empty()) {
+        let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+        match key {
+            "format" => format = super::video_export::parse_video_format(value)?,
+            _ => return Err(format!("unknown query parameter '{key}' (format)")),
+        }
+    }
+    Ok(format)
+}
+
 /// A JSON array of states (a page's own keyframes), each checked as a state is, at most
 /// [`super::keyframes::MAX_KEYFRAMES`].
 fn keyframes_of_json(body: &[u8]) -> Result<Vec<ViewState>, BadState> {
@@ -196,6 +241,51 @@ pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Re
             },
             Err(e) => e.into(),
         },
+        ("POST", "/api/curve") => match ViewState::from_json(body) {
+            Ok(state) => match session.light_curve(&state) {
+                Ok(curve) => Reply::json(&curve),
+                Err(e) => e.into(),
+            },
+            Err(e) => e.into(),
+        },
+        ("POST", "/api/probe") => {
+            let (x, y, range) = match parse_probe_query(query) {
+                Ok(q) => q,
+                Err(e) => return Reply::error(400, e),
+            };
+            match ViewState::from_json(body) {
+                Ok(state) => match session.probe(&state, x, y, range) {
+                    Ok(probe) => Reply::json(&probe),
+                    Err(e) => e.into(),
+                },
+                Err(e) => e.into(),
+            }
+        }
+        ("GET", "/api/video") => Reply::json(&session.video_progress().status()),
+        ("POST", "/api/video") => {
+            let format = match parse_video_query(query) {
+                Ok(f) => f,
+                Err(e) => return Reply::error(400, e),
+            };
+            match keyframes_of_json(body) {
+                Ok(states) => match session.video(&states, format) {
+                    Ok(bytes) => {
+                        let (kind, name) = match format {
+                            crate::video::VideoFormat::Gif => ("image/gif", "femto-path.gif"),
+                            _ => ("video/mp4", "femto-path.mp4"),
+                        };
+                        let mut r = Reply::ok(kind, bytes);
+                        r.headers.push((
+                            "Content-Disposition",
+                            format!("attachment; filename=\"{name}\""),
+                        ));
+                        r
+                    }
+                    Err(e) => e.into(),
+                },
+                Err(e) => e.into(),
+            }
+        }
         ("GET", "/api/keyframes") => Reply::json(&session.keyframes()),
         ("POST", "/api/keyframes") => match ViewState::from_json(body) {
             Ok(state) => match session.add_keyframe(state) {
@@ -253,6 +343,9 @@ pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Re
                 "/api/keyframes",
                 "/api/path.toml",
                 "/api/path",
+                "/api/curve",
+                "/api/probe",
+                "/api/video",
             ];
             if known.contains(&path) {
                 Reply::error(405, format!("{method} {path}: not allowed (docs/view.md)"))

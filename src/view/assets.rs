@@ -15,6 +15,10 @@ const APP: Asset = Asset {
     content_type: "text/javascript; charset=utf-8",
     body: include_bytes!("assets/app.js"),
 };
+const DRAW: Asset = Asset {
+    content_type: "text/javascript; charset=utf-8",
+    body: include_bytes!("assets/draw.js"),
+};
 const STYLE: Asset = Asset {
     content_type: "text/css; charset=utf-8",
     body: include_bytes!("assets/style.css"),
@@ -25,6 +29,7 @@ pub fn find(path: &str) -> Option<&'static Asset> {
     match path {
         "/" | "/index.html" => Some(&INDEX),
         "/app.js" => Some(&APP),
+        "/draw.js" => Some(&DRAW),
         "/style.css" => Some(&STYLE),
         _ => None,
     }

@@ -37,11 +37,11 @@ pub fn export_path(keyframes: &[ViewState], inputs: &str) -> Result<String, BadS
     file.keyframe = Some(sorted.iter().map(ViewState::keyframe).collect());
     let resolve = |file: &CameraPathFile| {
         let text = toml::to_string(file).expect("a camera path serialises");
-        CameraPath::from_toml(&text, "keyframes")
+        CameraPath::from_toml(&text, "their path")
             .map(|_| text)
             .map_err(|e| bad("keyframes", e.to_string()))
     };
-    let path = CameraPath::from_toml(&resolve(&file)?, "keyframes")
+    let path = CameraPath::from_toml(&resolve(&file)?, "their path")
         .map_err(|e| bad("keyframes", e.to_string()))?;
     let (tau_a, tau_b) = path
         .keyframe_tau_span_ps()

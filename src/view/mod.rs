@@ -14,6 +14,9 @@
 //!
 //! - `state`: the camera state (JSON) and its one-frame path and render options;
 //! - `session`: the opened scene, the keyframes, stills, frames and heads-up numbers;
+//! - `curve`: the light curve of the current view, its lit range and the room to travel;
+//! - `probe`: what one pixel shows and why;
+//! - `video_export`: the keyframes' path saved as MP4 or GIF;
 //! - `keyframes`: keyframes to a camera path, a camera path to states;
 //! - `api`: the HTTP API as a function from request to reply (docs/view.md);
 //! - `access`: who is answered (token, `Host`, `Origin`, content type);
@@ -25,10 +28,13 @@ pub mod access;
 pub mod admission;
 pub mod api;
 pub mod assets;
+pub mod curve;
 pub mod keyframes;
+pub mod probe;
 pub mod server;
 pub mod session;
 pub mod state;
+pub mod video_export;
 
 pub use access::Access;
 pub use session::{Hud, ViewError, ViewSession};

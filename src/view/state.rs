@@ -52,6 +52,14 @@ pub struct ViewState {
     pub exposure: f64,
     /// Laser wavelength in its rest frame, nm.
     pub laser_nm: f64,
+    /// Draw the unseen and masked dark pixels apart (`femto render --dark-marks`,
+    /// [`crate::render::dark`]); absent: off, as `femto render` without the flag.
+    #[serde(default)]
+    pub dark_marks: bool,
+    /// Draw the light in false colour relative to the laser (`femto render --false-colour`,
+    /// [`crate::render::ColourOutput::FalseColour`]); absent: off.
+    #[serde(default)]
+    pub false_colour: bool,
 }
 
 /// A rotating sensor: its axis and the speed over c of its farthest point from the axis.
@@ -102,7 +110,7 @@ pub struct BadState {
     pub message: String,
 }
 
-fn bad(field: &str, message: String) -> BadState {
+pub(super) fn bad(field: &str, message: String) -> BadState {
     BadState {
         field: field.to_string(),
         message,
@@ -241,7 +249,10 @@ impl ViewState {
         if !(self.laser_nm.is_finite() && self.laser_nm > 0.0 && self.laser_nm <= 1e6) {
             return Err(bad(
                 "laser_nm",
-                format!("{}: must be a positive wavelength in nm", self.laser_nm),
+                format!(
+                    "{}: must be a wavelength in nm above 0 and at most 1e6 (1 mm)",
+                    self.laser_nm
+                ),
             ));
         }
         Ok(())
@@ -306,7 +317,7 @@ impl ViewState {
     /// The `femto render` flags of the state's render options (the path file has the rest).
     pub fn render_flags(&self) -> String {
         format!(
-            "--view {} --effects {} --radiometry {} --exposure {} --laser-nm {}",
+            "--view {} --effects {} --radiometry {} --exposure {} --laser-nm {}{}{}",
             self.view.as_str(),
             self.effects,
             match self.radiometry {
@@ -314,7 +325,13 @@ impl ViewState {
                 Radiometry::Paper => "paper",
             },
             self.exposure,
-            self.laser_nm
+            self.laser_nm,
+            if self.dark_marks { " --dark-marks" } else { "" },
+            if self.false_colour {
+                " --false-colour"
+            } else {
+                ""
+            },
         )
     }
 
@@ -333,6 +350,8 @@ impl ViewState {
             view: self.view.into(),
             exposure: self.exposure,
             format: VideoFormat::PngSequence,
+            dark_marks: self.dark_marks,
+            false_colour: self.false_colour,
             ..RenderOptions::default()
         }
     }
@@ -364,6 +383,8 @@ pub(crate) mod tests {
             radiometry: Radiometry::Consistent,
             exposure: 1.0,
             laser_nm: 670.0,
+            dark_marks: false,
+            false_colour: false,
         }
     }
 

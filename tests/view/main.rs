@@ -10,6 +10,7 @@ mod cli;
 mod access;
 mod api;
 mod browser;
+mod explorer;
 mod hostile;
 
 use std::collections::BTreeMap;
@@ -72,6 +73,15 @@ impl Server {
 
     /// Start under an address-space limit of `ulimit_kb` kB (`ulimit -v`), when given.
     pub fn start_with(root: &Path, ulimit_kb: Option<u64>) -> Server {
+        Server::launch(&input_args(root), 0, ulimit_kb)
+    }
+
+    /// Start on the inputs `inputs` (`--cube ... --mesh ...`) and `port` (0: a free one).
+    pub fn start_on(inputs: &[String], port: u16) -> Server {
+        Server::launch(inputs, port, None)
+    }
+
+    fn launch(inputs: &[String], port: u16, ulimit_kb: Option<u64>) -> Server {
         let bin = env!("CARGO_BIN_EXE_femto");
         let mut command = match ulimit_kb {
             Some(kb) => {
@@ -85,8 +95,8 @@ impl Server {
         };
         let mut child = command
             .arg("view")
-            .args(input_args(root))
-            .args(["--port", "0"])
+            .args(inputs)
+            .args(["--port", &port.to_string()])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
