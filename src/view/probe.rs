@@ -99,7 +99,7 @@ impl ViewSession<'_> {
                     .unzip();
                 Profile { t_ps, value }
             });
-            let mut moved = frame.clone();
+            let mut moved = frame;
             let step = (t1 - t0) / RECEIVED_SAMPLES as f64;
             let (t_ps, value) = (0..RECEIVED_SAMPLES)
                 .map(|k| {
