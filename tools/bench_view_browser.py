@@ -1,13 +1,22 @@
 #!/usr/bin/env python3
-"""Frames that `femto view` gets onto the screen of a real browser (headless Chromium).
+"""Lit frames that `femto view` gets onto the screen of a real browser (headless Chromium).
 
 Starts `femto view` on the given inputs and Chromium through chromedriver (W3C WebDriver,
-plain HTTP; Python's standard library only), then for each frame size flies the camera for
-SECONDS (a W key press every 20 ms, alternating with S, so the page asks for moving frames)
-and plays for SECONDS (Play: full-size frames), and prints per phase: frames decoded and
-drawn per second (the page's counters, window.femto), bytes per frame, and the femto
-process's CPU milliseconds per frame (utime + stime from /proc/PID/stat). The machine's
-load average (/proc/loadavg) is printed beside every figure.
+plain HTTP; Python's standard library only). For each frame size it resets the page to the
+capture view at its brightest time, waits for it to settle, and then:
+
+- moving: strafes the camera sideways (A/D key events, 10 steps one way and back), which
+  keeps the scene and its light in view, for SECONDS;
+- playing: presses Play (world time loops over the view's lit range) for SECONDS.
+
+Per phase it prints the frames painted per second that hold light, as the page counts them
+(window.femto.litFramesShown: frames whose lit fraction, pixels above 2 of 255 before any
+mark, is above 0); the frames painted at all, counted by a wrapper this script injects
+around the picture canvas's drawImage; the mean lit fraction of the painted frames; the
+size of the frames received (a moving camera gets full-size frames whenever they arrive
+within 40 ms); the femto process's CPU ms per painted frame (utime + stime,
+/proc/PID/stat); Chromium's CPU share (all its processes, as a share of the machine's
+CPUs); and the load average.
 
     tools/bench_view_browser.py --femto target/release/femto --cube world.h5 \
         --calibration cube.calibration.toml --mesh cap/scene.glb [--quality 85]
@@ -38,6 +47,20 @@ def cpu_ms(pid):
         fields = f.read().rsplit(")", 1)[1].split()
     ticks = int(fields[11]) + int(fields[12])  # utime, stime (fields 14 and 15)
     return ticks * 1000.0 / os.sysconf("SC_CLK_TCK")
+
+
+def chromium_cpu_ms():
+    """CPU ms of every process whose command is Chromium's."""
+    total = 0.0
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/comm") as f:
+                if "chrom" not in f.read():
+                    continue
+            total += cpu_ms(pid)
+        except OSError:
+            continue
+    return total
 
 
 def load():
@@ -92,31 +115,48 @@ class Driver:
             shutil.rmtree(self.profile, ignore_errors=True)
 
 
-COUNTERS = "const f = window.femto; return [f.framesDecoded, f.framesShown, f.bytesReceived];"
+COUNTERS = ("const f = window.femto; return [f.litFramesShown, window.__painted || 0, "
+            "f.bytesReceived, f.framesDecoded, window.__litSum || 0];")
 SETTLED = "const f = window.femto; return !!(f && f.hud && f.hud.width === f.state.width && f.settled);"
+# Counts every drawImage onto the picture canvas, and sums the lit fraction of the frame
+# the page shows with it (read once its heads-up numbers are in, right after the draw).
+INJECT = """
+if (!window.__painted) {
+  window.__painted = 0; window.__litSum = 0;
+  const ctx = document.getElementById('view').getContext('2d');
+  const draw = ctx.drawImage.bind(ctx);
+  ctx.drawImage = (...a) => {
+    window.__painted += 1;
+    setTimeout(() => { const h = window.femto.hud; if (h) window.__litSum += h.lit_fraction; }, 0);
+    return draw(...a);
+  };
+}"""
 
 
 def phase(driver, pid, seconds, start_js, stop_js):
     driver.wait(SETTLED)
-    d0, s0, b0 = driver.run(COUNTERS)
-    c0, t0 = cpu_ms(pid), time.time()
+    l0, p0, b0, d0, s0 = driver.run(COUNTERS)
+    c0, k0, t0 = cpu_ms(pid), chromium_cpu_ms(), time.time()
     driver.run(start_js)
     time.sleep(seconds)
+    l1, p1, b1, d1, s1 = driver.run(COUNTERS)
+    c1, k1, t1 = cpu_ms(pid), chromium_cpu_ms(), time.time()
+    size = driver.run("const h = window.femto.hud; return `${h.width}x${h.height}`;")
     driver.run(stop_js)
-    d1, s1, b1 = driver.run(COUNTERS)
-    c1, t1 = cpu_ms(pid), time.time()
-    frames = max(s1 - s0, 1)
-    return {"decoded_per_s": (d1 - d0) / (t1 - t0), "drawn_per_s": (s1 - s0) / (t1 - t0),
-            "bytes_per_frame": (b1 - b0) / max(d1 - d0, 1), "cpu_ms_per_frame": (c1 - c0) / frames,
-            "load": load()}
+    painted = max(p1 - p0, 1)
+    wall = t1 - t0
+    return {"lit_per_s": (l1 - l0) / wall, "painted_per_s": (p1 - p0) / wall,
+            "lit_fraction": (s1 - s0) / painted, "received": size,
+            "bytes_per_frame": (b1 - b0) / max(d1 - d0, 1), "cpu_ms_per_frame": (c1 - c0) / painted,
+            "chromium_share": (k1 - k0) / (wall * 1000.0 * os.cpu_count()), "load": load()}
 
 
 MOVE = """
-window.__benchW = 0;
+window.__benchK = 0;
 window.__bench = setInterval(() => {
-  const code = (window.__benchW++ % 40) < 20 ? 'KeyW' : 'KeyS';
+  const code = (window.__benchK++ % 20) < 10 ? 'KeyD' : 'KeyA';
   document.dispatchEvent(new KeyboardEvent('keydown', {code, bubbles: true}));
-}, 20);"""
+}, 30);"""
 STOP_MOVE = "clearInterval(window.__bench);"
 PLAY = "document.getElementById('play').click();"
 
@@ -147,16 +187,23 @@ def main():
         driver.wait(SETTLED)
         if args.quality:
             driver.run(f"window.femto.quality = {args.quality};")
+        driver.run(INJECT)
         print(f"# femto view in headless Chromium, {args.seconds:.0f} s a phase, "
-              f"JPEG quality {args.quality or 'default (85)'}; {os.cpu_count()} CPUs")
-        print("size      phase    decoded/s  drawn/s  kB/frame  femto CPU ms/frame  load (1, 5, 15 min)")
+              f"JPEG quality {args.quality or 'default (85)'}; {os.cpu_count()} CPUs; "
+              f"{time.strftime('%Y-%m-%d %H:%M')}")
+        print("size      phase    lit frames/s  painted/s  lit frac  received  kB/frame  "
+              "femto CPU ms/frame  Chromium CPU  load (1, 5, 15 min)")
         for size in args.sizes.split(","):
             driver.run(f"const s = document.getElementById('size'); s.value = '{size}'; "
                        "s.dispatchEvent(new Event('change', {bubbles: true}));")
             for name, start, stop in [("moving", MOVE, STOP_MOVE), ("playing", PLAY, PLAY)]:
+                driver.run("document.getElementById('reset').click();")
+                driver.run(f"const s = document.getElementById('size'); s.value = '{size}'; "
+                           "s.dispatchEvent(new Event('change', {bubbles: true}));")
                 r = phase(driver, view.pid, args.seconds, start, stop)
-                print(f"{size:9} {name:8} {r['decoded_per_s']:9.1f} {r['drawn_per_s']:8.1f} "
-                      f"{r['bytes_per_frame'] / 1000:9.1f} {r['cpu_ms_per_frame']:19.1f}  {r['load']}",
+                print(f"{size:9} {name:8} {r['lit_per_s']:12.1f} {r['painted_per_s']:10.1f} "
+                      f"{r['lit_fraction']:9.3f} {r['received']:>9} {r['bytes_per_frame'] / 1000:9.1f} "
+                      f"{r['cpu_ms_per_frame']:19.1f} {100 * r['chromium_share']:11.0f} %  {r['load']}",
                       flush=True)
     finally:
         driver.close()

@@ -25,6 +25,7 @@ const REDUCED_SCALE = 0.5;  // frame scale while moving, when full frames are to
 const FULL_FRAME_MS = 40;   // full-size frames while moving when they arrive within this
 const SETTLE_MS = 150;      // full resolution this long after the last movement
 const CURVE_DELAY_MS = 200; // a new light curve this long after the camera stops changing
+const FADE = 0.05;          // Play loops when the lit pixels fall under this share of the loop's most
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('view');
@@ -278,13 +279,14 @@ function receive(buf) {
   if (lastError) { lastError = null; setStatus(''); }
   // Playing straight, a dark frame is not shown: before the light arrives it is skipped
   // (a whole loop of them is shown, with its explanation), and once the light has left the
-  // view before the loop's end (the camera moved), the loop starts again.
-  if (playing && loop && header.hud.lit_fraction === 0) {
-    loop.dark += 1;
-    if (loop.litSeen) { restartLoop(); advance(); return; }
-    if (loop.dark <= loop.frames) { advance(); return; }
+  // view before the loop's end (the camera moved: under FADE of the loop's brightest), the
+  // loop starts again.
+  const lit = header.hud.lit_fraction;
+  if (playing && loop) {
+    if (loop.litSeen && lit < FADE * loop.maxLit) { restartLoop(); advance(); return; }
+    if (lit === 0 && ++loop.dark <= loop.frames) { advance(); return; }
+    if (lit > 0) { loop.litSeen = true; loop.dark = 0; loop.maxLit = Math.max(loop.maxLit, lit); }
   }
-  if (playing && loop && header.hud.lit_fraction > 0) { loop.litSeen = true; loop.dark = 0; }
   // Decoded off the main thread; drawn when ready, unless a newer frame was drawn first.
   createImageBitmap(new Blob([new Uint8Array(buf, 4 + n)], { type: 'image/jpeg' }))
     .then((bitmap) => { framesDecoded += 1; drawFrame(header, bitmap); });
@@ -413,7 +415,7 @@ function startPlay() {
     const first = (now >= lit[0] && now < lit[1]) ? now : (curve.t_ps.find((t) => t >= lit[0]) ?? lit[0]);
     const step = (state.effects.dilation ? gamma(state.beta) : 1) * state.dtau_ps;
     end = Math.max(end, first);
-    loop = { position: state.position_m.slice(), t0: first, end, litSeen: false, dark: 0,
+    loop = { position: state.position_m.slice(), t0: first, end, litSeen: false, dark: 0, maxLit: 0,
              frames: Math.ceil((end - first) / step) + 1 };
     playing = true; tau = 0;
     restartLoop();
