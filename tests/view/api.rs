@@ -243,3 +243,57 @@ fn the_frame_stream_answers_each_request_with_its_sequence_number_or_a_reason() 
         }
     }
 }
+
+/// Pixels of a PNG in either lighter shade of the dark marks (unseen hatch, masked
+/// cross-hatch: `femto::render::dark`).
+fn marked_pixels(png: &[u8]) -> usize {
+    use femto::render::dark::{MASKED_RGB, UNSEEN_RGB};
+    let img = image::load_from_memory(png).expect("a PNG").to_rgb8();
+    img.pixels()
+        .filter(|p| p.0 == UNSEEN_RGB[1] || p.0 == MASKED_RGB[1])
+        .count()
+}
+
+#[test]
+fn femto_render_draws_the_dark_marks_of_the_viewer_behind_its_flag_and_not_without() {
+    let fx = fixture();
+    let server = Server::start(&fx.root);
+    let info = info(&server);
+    // At rest, moved sideways by a fifth of the scene's extent: points the capture never saw
+    // come into view.
+    let mut state = moving_state(&info, 0.0);
+    let right: Vec<f64> = (0..3)
+        .map(|i| state["world_from_camera"][i][0].as_f64().unwrap())
+        .collect();
+    let step = 10.0 * info["move_step_m"].as_f64().unwrap();
+    for (i, r) in right.iter().enumerate() {
+        let p = state["position_m"][i].as_f64().unwrap();
+        state["position_m"][i] = json!(p + step * r);
+    }
+    assert_eq!(
+        state["dark_marks"],
+        json!(true),
+        "the viewer marks dark pixels by default"
+    );
+    let body = serde_json::to_vec(&state).unwrap();
+    let (status, still) = request("POST", &format!("{}/api/still", server.url), Some(&body));
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&still));
+    let (_, toml) = request(
+        "POST",
+        &format!("{}/api/state.toml", server.url),
+        Some(&body),
+    );
+    let toml = String::from_utf8(toml).unwrap();
+    assert!(toml.contains("--dark-marks"), "{toml}");
+    let marked = render_path(&fx.root, &toml, "marks_on");
+    assert!(
+        marked[0] == still,
+        "femto render --dark-marks differs from the still"
+    );
+    let plain = render_path(&fx.root, &toml.replace(" --dark-marks", ""), "marks_off");
+    let (with, without) = (marked_pixels(&marked[0]), marked_pixels(&plain[0]));
+    assert!(
+        with > 500 && without < with / 50,
+        "marked pixels: {with} with --dark-marks, {without} without"
+    );
+}
