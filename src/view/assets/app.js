@@ -405,20 +405,20 @@ function startPlay() {
   } else {
     const lit = curve && curve.lit_range_ps;
     if (!lit) { setStatus(`nothing to play: ${(curve && curve.note) || 'this view receives no light'}`); return; }
-    const b = norm(state.beta);
-    let end = lit[1];
-    if (b > 0 && curve.travel_m !== null) end = Math.min(end, lit[0] + curve.travel_m / (b * C_M_PER_PS));
-    // The loop starts where Play found the camera when that is inside the lit range, else
-    // at the first lit sample of the curve (its lit range reaches half a sample's spacing
-    // before it), and comes back there.
+    // Each loop runs over the lit range from its first lit sample (the range reaches half a
+    // sample's spacing before it); the first starts where Play found the camera when that
+    // is inside the range. Every loop starts from the place where Play found the camera and
+    // ends before the camera comes within a key step of the geometry ahead.
     const now = state.t_world_ps;
-    const first = (now >= lit[0] && now < lit[1]) ? now : (curve.t_ps.find((t) => t >= lit[0]) ?? lit[0]);
+    const first = curve.t_ps.find((t) => t >= lit[0]) ?? lit[0];
+    const b = norm(state.beta);
+    const room = (b > 0 && curve.travel_m !== null) ? curve.travel_m / (b * C_M_PER_PS) : Infinity;
     const step = (state.effects.dilation ? gamma(state.beta) : 1) * state.dtau_ps;
-    end = Math.max(end, first);
-    loop = { position: state.position_m.slice(), t0: first, end, litSeen: false, dark: 0, maxLit: 0,
-             frames: Math.ceil((end - first) / step) + 1 };
-    playing = true; tau = 0;
+    loop = { position: state.position_m.slice(), t0: first, start: first, room, end: lit[1],
+             litSeen: false, dark: 0, maxLit: 0, frames: Math.ceil((lit[1] - first) / step) + 1 };
     restartLoop();
+    if (now > first && now < lit[1]) { loop.start = now; state.t_world_ps = now - step; }
+    playing = true; tau = 0;
   }
   $('play').textContent = 'Pause';
   advance();
@@ -436,6 +436,7 @@ function stopPlay() {
 function restartLoop() {
   state.t_world_ps = loop.t0 - (state.effects.dilation ? gamma(state.beta) : 1) * state.dtau_ps;
   state.position_m = loop.position.slice();
+  loop.start = loop.t0;
   loop.litSeen = false;
   loop.dark = 0;
   dirty = true;
@@ -453,9 +454,9 @@ function advance() {
   } else {
     const g = state.effects.dilation ? gamma(state.beta) : 1;
     let t = state.t_world_ps + g * state.dtau_ps;
-    if (t > loop.end) { restartLoop(); t = loop.t0; }
+    if (t > Math.min(loop.end, loop.start + loop.room)) { restartLoop(); t = loop.t0; }
     state.t_world_ps = t;
-    state.position_m = add(loop.position, scale(state.beta, C_M_PER_PS * (t - loop.t0)));
+    state.position_m = add(loop.position, scale(state.beta, C_M_PER_PS * (t - loop.start)));
     tau += state.dtau_ps;
     showOutputs();
   }
