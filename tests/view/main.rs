@@ -11,6 +11,7 @@ mod access;
 mod api;
 mod browser;
 mod hostile;
+mod lying_client;
 
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Read};
