@@ -53,6 +53,9 @@ pub fn is_v5_header(bytes: &[u8]) -> bool {
     bytes.len() >= 128 && bytes.starts_with(b"MATLAB 5.0 MAT-file") && !is_v73_header(bytes)
 }
 
+/// The largest expansion of deflate (RFC 1951: 258 bytes from about 2 bits of a code).
+const MAX_DEFLATE_RATIO: u64 = 1032;
+
 /// The longest sub-element of a variable's header (its flags, dimensions, name) read,
 /// bytes: 16,384 dimensions or a name of a million characters are not a MATLAB variable.
 const MAX_HEADER_ELEMENT_BYTES: u64 = 1 << 20;
@@ -133,6 +136,20 @@ pub fn read_mat(
                 let z = flate2::bufread::ZlibDecoder::new((&mut reader).take(tag.n));
                 let mut z = std::io::BufReader::new(z);
                 let inner = read_tag(&mut z, big).map_err(|e| element_error(path, at, e))?;
+                // Deflate expands at most 1032:1: a variable declared larger than its
+                // compressed bytes can inflate to is refused before anything is allocated.
+                let most = tag.n.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1024);
+                if inner.n > most {
+                    return Err(ReaderError::invalid(
+                        path,
+                        "mat data",
+                        format!(
+                            "the compressed element at byte {at} declares a variable of {} \
+                             bytes, more than its {} compressed bytes inflate to (at most {most})",
+                            inner.n, tag.n
+                        ),
+                    ));
+                }
                 if inner.ty == MI_MATRIX {
                     let mut body = (&mut z).take(inner.n);
                     vars.push(matrix(path, &mut body, big, read_values, at)?);
@@ -286,9 +303,9 @@ fn header_element(
 /// The sub-elements of a miMATRIX read from `body` (the element's bytes, inflated if it was
 /// compressed): flags, dimensions, name, then the real part when asked for. `at` is the
 /// element's byte in the file, for messages.
-fn matrix(
+fn matrix<R: Read>(
     path: &Path,
-    body: &mut impl Read,
+    body: &mut std::io::Take<R>,
     big: bool,
     read_values: &dyn Fn(&str) -> bool,
     at: u64,
@@ -344,9 +361,9 @@ fn matrix(
 /// dimensions (exactly, in u128), the decoded array checked against the memory budget, then
 /// the values decoded as they are read (and inflated). Also the first value in full
 /// precision (a scalar's).
-fn values(
+fn values<R: Read>(
     path: &Path,
-    body: &mut impl Read,
+    body: &mut std::io::Take<R>,
     big: bool,
     var: &MatVar,
     at: u64,
@@ -363,6 +380,15 @@ fn values(
         )
     })?;
     let stored = storage_dtype(tag.ty).ok_or_else(|| bad(format!("data type {}", tag.ty)))?;
+    // The values lie inside their element (whose bytes are known to be in the file, or
+    // bounded by what its compressed bytes inflate to).
+    if tag.inline.is_none() && tag.n > body.limit() {
+        return Err(bad(format!(
+            "{} bytes of values declared in the element at byte {at}, which holds {} more",
+            tag.n,
+            body.limit()
+        )));
+    }
     let expected = crate::limits::decoded_bytes(&var.dims, stored.size(), 1);
     let count = super::array::element_count(&var.dims);
     let count = match (expected, count) {

@@ -178,6 +178,22 @@ impl BandInfo {
         })?;
         let info: BandInfo = toml::from_str(&text)
             .map_err(|e| bad(format!("{}: {}", path.display(), one_line(&e))))?;
+        // The capture's size, in exact arithmetic: each side at least 1, the cube at most
+        // MAX_COUNT values (a height of 2^64 - 1 was accepted).
+        let st = &info.settings;
+        let values = [st.nx, st.ny, st.nt]
+            .iter()
+            .try_fold(1u128, |a, &n| (n > 0).then(|| a * n as u128));
+        if values.is_none_or(|v| v > u128::from(crate::limits::MAX_COUNT)) {
+            return Err(bad(format!(
+                "{}: settings nx = {}, ny = {}, nt = {}: not a capture (1 to {} values)",
+                path.display(),
+                st.nx,
+                st.ny,
+                st.nt,
+                crate::limits::MAX_COUNT
+            )));
+        }
         if info.rows_start >= info.rows_end || info.rows_end > info.settings.ny {
             return Err(bad(format!(
                 "{}: rows {}..{} are not a band of {} rows",

@@ -314,7 +314,7 @@ fn an_mp4_under_16_pixels_is_refused_naming_the_size_and_the_limit() {
     let d = dir.path();
     let args = render_args(
         "cube.calibration.toml",
-        &["--frames", "0..2", "--size", "16x12", "--out", "v.mp4"],
+        &["--capture-view", "--frames", "0..2", "--size", "16x12", "--out", "v.mp4"],
     );
     let names = ["16x12", "16x16"];
     refused_under_ulimit(d, &args, &names, Duration::from_secs(20));

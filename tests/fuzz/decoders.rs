@@ -15,31 +15,30 @@ fn s<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
-/// Open an array file as `ingest` and `info` do, both layouts, and check the samples
-/// against the shape.
+/// Open an array file as `ingest` and `info` do and check the samples against the shape;
+/// the outcome is that of the default layout. The transposed layout is read too (for
+/// panics and lying sizes; a HyperSpy signal refuses it by design).
 fn read_array(path: &Path, format: Format) -> Result<(), String> {
-    let mut last = Ok(());
-    for transpose in [false, true] {
+    let open = |transpose| {
         let options = ReadOptions {
             dataset: None,
             transpose,
         };
-        match femto::readers::open(path, format, &options) {
-            Ok(c) => {
-                assert_eq!(c.samples.len(), c.ny * c.nx * c.nt, "samples of {:?}", c.stored_shape);
-                assert!(c.ny * c.nx * c.nt > 0, "an empty capture was read");
-            }
-            Err(e) => last = Err(s(e)),
-        }
-    }
-    last
+        let c = femto::readers::open(path, format, &options).map_err(s)?;
+        assert_eq!(c.samples.len(), c.ny * c.nx * c.nt, "samples of {:?}", c.stored_shape);
+        assert!(c.ny * c.nx * c.nt > 0, "an empty capture was read");
+        Ok::<(), String>(())
+    };
+    let plain = open(false);
+    let _ = open(true);
+    plain
 }
 
 // ---------------------------------------------------------------- .npy
 
 /// A `.npy` file (version 1, or 2 with a 4-byte header length) of `shape` and `descr` with
 /// the raw values `raw`.
-pub fn npy(shape: &[usize], descr: &str, fortran: bool, version: u8, raw: &[u8]) -> Vec<u8> {
+pub fn npy_file(shape: &[usize], descr: &str, fortran: bool, version: u8, raw: &[u8]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(|n| n.to_string()).collect();
     let tuple = match dims.len() {
         1 => format!("({},)", dims[0]),
@@ -70,10 +69,10 @@ fn npy_seeds() -> Vec<Vec<u8>> {
     let u1: Vec<u8> = (0..16u8).collect();
     let f8: Vec<u8> = (0..24).flat_map(|i| (i as f64).to_le_bytes()).collect();
     vec![
-        npy(&[4, 3, 5], "<f4", false, 1, &f4),
-        npy(&[3, 5], ">u2", true, 1, &u2),
-        npy(&[2, 2, 4], "|u1", false, 2, &u1),
-        npy(&[2, 3, 4], "<f8", true, 3, &f8),
+        npy_file(&[4, 3, 5], "<f4", false, 1, &f4),
+        npy_file(&[3, 5], ">u2", true, 1, &u2),
+        npy_file(&[2, 2, 4], "|u1", false, 2, &u1),
+        npy_file(&[2, 3, 4], "<f8", true, 3, &f8),
     ]
 }
 
@@ -139,7 +138,7 @@ fn mat_v5_compressed() {
 
 /// A v7.3 MAT file: HDF5 after a 512-byte user block, a uint16 (4, 3, 2) dataset `rect`
 /// and a double scalar `width`, each with its `MATLAB_class`.
-fn mat_v73() -> Vec<u8> {
+fn mat_v73_file() -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("v73.mat");
     let f = rust_hdf5::H5File::options()
@@ -178,7 +177,7 @@ fn mat_v73() {
         Target {
             name: "mat_v73",
             ext: "mat",
-            seeds: vec![mat_v73()],
+            seeds: vec![mat_v73_file()],
             mutation: Mutation::Bytes,
             read: |p| read_array(p, Format::Mat),
         },
@@ -256,7 +255,7 @@ fn plain_h5() -> Vec<u8> {
         .write_raw(&(0..60).map(|i| i as f32).collect::<Vec<_>>())
         .unwrap();
     g.new_dataset::<f64>()
-        .shape(())
+        .scalar()
         .create("timebin_width_ps")
         .unwrap()
         .write_raw(&[4.0f64])
@@ -437,6 +436,9 @@ fn regression_files_read_without_panic() {
     let mut n = 0;
     for entry in std::fs::read_dir(&root).unwrap() {
         let dir = entry.unwrap().path();
+        if !dir.is_dir() {
+            continue; // the README and the generator of the issue's files
+        }
         let target = dir.file_name().unwrap().to_string_lossy().into_owned();
         let read: fn(&Path) -> Result<(), String> = match target.as_str() {
             "npy" => |p| read_array(p, Format::Npy),
@@ -455,8 +457,21 @@ fn regression_files_read_without_panic() {
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&file)))
             });
             let result = result.unwrap_or_else(|_| panic!("{}: panicked", file.display()));
-            if let Err(e) = result {
+            if let Err(e) = &result {
                 assert_eq!(e.lines().count(), 1, "{}: {e}", file.display());
+            }
+            // The issue's reproducers: each refused naming its file, the valid ones read.
+            let name = file.file_name().unwrap().to_string_lossy().into_owned();
+            if name.starts_with("issue45-") {
+                match (&result, name.contains("-valid")) {
+                    (Ok(()), true) => {}
+                    // (a band's file is read as band.toml of a folder, which it names)
+                    (Err(e), false) => assert!(
+                        e.contains(&name) || e.contains(femto::simulate::band::BAND_FILE),
+                        "{name}: {e}"
+                    ),
+                    (r, _) => panic!("{name}: {r:?}"),
+                }
             }
             assert!(
                 peak <= super::alloc_bound(len),

@@ -177,6 +177,16 @@ pub(super) fn parse_axis_scaling(
             // The table's extent and the part the image holds, in u128: no header value
             // (offset, count, areSource) can wrap.
             let end = u128::from(byte_offset) + 4 * table_len as u128;
+            if end > u128::from(u64::MAX) {
+                return Err(bad(
+                    "ScalingFile",
+                    raw,
+                    &format!(
+                        "a table inside this file ({table_len} float32 at byte {byte_offset} \
+                         would end at byte {end}, past 2^64)"
+                    ),
+                ));
+            }
             if end > u128::from(file.len) {
                 return Err(FormatError::Truncated {
                     path: path.to_path_buf(),
@@ -185,7 +195,7 @@ pub(super) fn parse_axis_scaling(
                          byte {byte_offset})",
                         key("ScalingFile")
                     ),
-                    needed: u64::try_from(end).unwrap_or(u64::MAX),
+                    needed: end as u64,
                     available: file.len,
                 });
             }
