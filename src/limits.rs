@@ -1,9 +1,10 @@
 //! Bounds on what a command may ask of the machine, checked before anything is allocated or
 //! walked: a memory estimate against the memory this process may use (its budget: the least
 //! of the machine's available memory, the process's `ulimit -v` and `ulimit -d` less what it
-//! already maps, and its cgroup's memory limit; [`budget`]), and counts
-//! derived from user numbers (a span divided by a step, a frame count) capped before a loop
-//! or a `Vec` sees them.
+//! already maps, and its cgroup's memory limit; [`budget`]), the one decoded-size check of
+//! every file reader, made from a header's shape in exact arithmetic before any read,
+//! inflate or allocation ([`check_decoded`]), and counts derived from user numbers (a span
+//! divided by a step, a frame count) capped before a loop or a `Vec` sees them.
 //!
 //! Every refusal names the flag or key that would fix it and gives the estimate, so a user
 //! who asked for `--nt 1000000000` reads "needs 64.0 GB ... lower --nt", not "capacity
@@ -13,7 +14,7 @@ use std::fmt;
 
 pub mod budget;
 
-pub use budget::{memory_budget, MemoryBudget, MemorySource};
+pub use budget::{check_decoded, decoded_bytes, memory_budget, MemoryBudget, MemorySource};
 
 /// Environment variable that overrides the memory this machine is taken to have available
 /// (bytes), for tests and for users who share a machine. It stands for `MemAvailable`; the

@@ -85,6 +85,14 @@ pub const COORD_M: Range = Range {
     unit: " m",
 };
 
+/// A distance, metres: from nothing to [`COORD_M`]'s bound (a registration's `dist_m`, the
+/// distance from the camera centre to the surface a pixel sees).
+pub const DISTANCE_M: Range = Range {
+    lo: 0.0,
+    hi: 1e6,
+    unit: " m",
+};
+
 /// A component of a direction or a normal (not necessarily unit), bounded as [`COORD_M`].
 pub const DIRECTION: Range = Range {
     lo: -1e6,

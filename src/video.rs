@@ -52,6 +52,10 @@ use thiserror::Error;
 
 use crate::atomic::write_atomically_with;
 
+/// Smallest side OpenH264 encodes: one macroblock (`EncodeFrameInternal` refuses a frame
+/// narrower or lower than 16 pixels with its bare error code 5).
+const MP4_MIN_SIDE: usize = 16;
+
 /// Largest side OpenH264 accepts (3840x2160 or 2160x3840).
 const MP4_MAX_LONG_SIDE: usize = 3840;
 const MP4_MAX_SHORT_SIDE: usize = 2160;
@@ -81,6 +85,17 @@ pub enum VideoError {
     /// The frame is larger than the format allows.
     #[error("{format} output cannot be {width}x{height}: the largest size is {limit}")]
     TooLarge {
+        format: VideoFormat,
+        width: usize,
+        height: usize,
+        limit: &'static str,
+    },
+    /// The frame is smaller than the format allows.
+    #[error(
+        "{format} output cannot be {width}x{height}: the smallest size is {limit}; render \
+         larger, or write PNG frames"
+    )]
+    TooSmall {
         format: VideoFormat,
         width: usize,
         height: usize,
@@ -138,6 +153,18 @@ pub enum VideoError {
     Exr {
         path: PathBuf,
         source: exr::error::Error,
+    },
+    /// An EXR frame could not be read (not an EXR file, damaged, missing).
+    #[error("cannot read {path}: {source}")]
+    ExrRead {
+        path: PathBuf,
+        source: exr::error::Error,
+    },
+    /// The frame an EXR file's header declares would not fit in the memory budget.
+    #[error("{path}: {source}")]
+    Limit {
+        path: PathBuf,
+        source: crate::limits::LimitError,
     },
     /// OpenH264 refused a setting or a frame (internal failure).
     #[error("H.264 encoder failed for {path}: {message}")]
@@ -817,6 +844,27 @@ pub fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Resu
 /// Read an OpenEXR frame's RGB channels (what [`write_exr`] and EXR sequences write):
 /// width, height and the scene-linear RGB, row-major from the top row.
 pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError> {
+    let read_err = |source| VideoError::ExrRead {
+        path: path.to_path_buf(),
+        source,
+    };
+    // The header first: the crate allocates the declared data window before it reads a
+    // block (a window of 16777216 x 1048576 pixels asked 211 TB).
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(read_err)?;
+    for header in &meta.headers {
+        let (w, h) = (header.layer_size.0, header.layer_size.1);
+        crate::limits::check_decoded(
+            &[h, w],
+            std::mem::size_of::<[f32; 3]>(),
+            1,
+            format_args!("a frame of {w} x {h} pixels (RGB float32)"),
+            "is the header damaged?",
+        )
+        .map_err(|source| VideoError::Limit {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    }
     let image = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |size, _| (size.0, vec![[0.0f32; 3]; size.0 * size.1]),
@@ -824,10 +872,7 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError
             buf[pos.1 * *w + pos.0] = [r, g, b];
         },
     )
-    .map_err(|source| VideoError::Exr {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    .map_err(read_err)?;
     let size = image.layer_data.size;
     Ok((size.0, size.1, image.layer_data.channel_data.pixels.1))
 }
@@ -873,6 +918,14 @@ fn mp4_state(path: &Path, width: usize, height: usize, fps: f64) -> Result<Mp4St
             height,
             even_width: width + width % 2,
             even_height: height + height % 2,
+        });
+    }
+    if width.min(height) < MP4_MIN_SIDE {
+        return Err(VideoError::TooSmall {
+            format: VideoFormat::Mp4,
+            width,
+            height,
+            limit: "16x16 (OpenH264 encodes whole 16 x 16 macroblocks)",
         });
     }
     if width.max(height) > MP4_MAX_LONG_SIDE || width.min(height) > MP4_MAX_SHORT_SIDE {

@@ -21,11 +21,13 @@ pub fn read_image_stack(path: &Path, dataset: &str) -> Result<(Vec<usize>, Vec<f
         });
     }
     let (elem, found) = dataset_elem(&ds, path)?;
-    // The raw values and their f32 copy are held together: at most 8 + 4 bytes a value.
-    let values_count = shape.iter().map(|&n| n as f64).product::<f64>();
-    crate::limits::check_memory(
-        12.0 * values_count,
-        format!("the image stack /{name} of {shape:?} values"),
+    // The raw values and their f32 copy are held together: at most 8 + 4 bytes a value,
+    // three float32 copies (exact arithmetic, before anything is read).
+    crate::limits::check_decoded(
+        &shape,
+        4,
+        3,
+        format_args!("the image stack /{name} of {shape:?} values"),
         "split the stack into several datasets, or ingest its images as files",
     )
     .map_err(|source| ContainerError::Limit {

@@ -60,7 +60,7 @@
 //! in `hamamatsu/settings.rs`, the TIFF container in `hamamatsu/tiff.rs`, the writer in
 //! `hamamatsu/write.rs`, the unit tests in `hamamatsu/tests.rs`.
 
-use super::{AxisTable, FormatError, PixelType, StreakImage};
+use super::{AxisTable, FileRegions, FormatError, PixelType, StreakImage};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -393,13 +393,13 @@ fn le_i32(b: &[u8], at: usize) -> i32 {
     i32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
 }
 
-/// Decode the 64-byte header (`bytes` is the whole file).
-fn parse_header(path: &Path, bytes: &[u8]) -> Result<ImgHeader, FormatError> {
+/// Decode the 64-byte header (`bytes`: the start of a file of `file_bytes`).
+fn parse_header(path: &Path, bytes: &[u8], file_bytes: u64) -> Result<ImgHeader, FormatError> {
     let truncated = |what: &str, needed: usize| FormatError::Truncated {
         path: path.to_path_buf(),
         what: what.to_string(),
         needed: needed as u64,
-        available: bytes.len() as u64,
+        available: file_bytes,
     };
     if bytes.len() >= 2 && &bytes[0..2] != b"IM" {
         return Err(FormatError::BadMagic {
@@ -505,43 +505,55 @@ pub(crate) fn decode_comment(raw: &[u8]) -> String {
     }
 }
 
-/// Read an HPD-TA `.img` file (see the module doc for the layout and the axis rules).
+/// Read an HPD-TA `.img` file (see the module doc for the layout and the axis rules). The
+/// file is read by parts, never whole: the header and comment, then (once the image is
+/// known to lie in the file and to fit in memory, [`super::check_image_size`]) the pixels,
+/// then the axis tables where the comment says they are.
 pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError> {
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
+    let io = |source| FormatError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    let header = parse_header(path, &bytes)?;
-    let comment_end = HEADER_LEN + header.comment_len;
-    if bytes.len() < comment_end {
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let regions = FileRegions::new(&file).map_err(io)?;
+    let head = regions
+        .read(0, HEADER_LEN.min(regions.len as usize))
+        .map_err(io)?;
+    let header = parse_header(path, &head, regions.len)?;
+    let comment_end = (HEADER_LEN + header.comment_len) as u64;
+    if regions.len < comment_end {
         return Err(FormatError::Truncated {
             path: path.to_path_buf(),
             what: format!("the {}-byte comment", header.comment_len),
-            needed: comment_end as u64,
-            available: bytes.len() as u64,
+            needed: comment_end,
+            available: regions.len,
         });
     }
+    // Width and height are int16: the image is below 2^32 pixels, and u64 holds its bytes.
     let (w, h) = (header.width, header.height);
-    let data_end = comment_end + w * h * header.file_type.bytes();
-    if bytes.len() < data_end {
+    let pixel_bytes = header.file_type.bytes();
+    let data_end = comment_end + (w * h * pixel_bytes) as u64;
+    if regions.len < data_end {
         return Err(FormatError::Truncated {
             path: path.to_path_buf(),
-            what: format!(
-                "{w} x {h} pixels of {} bytes after the comment",
-                header.file_type.bytes()
-            ),
-            needed: data_end as u64,
-            available: bytes.len() as u64,
+            what: format!("{w} x {h} pixels of {pixel_bytes} bytes after the comment"),
+            needed: data_end,
+            available: regions.len,
         });
     }
-    let comment = decode_comment(&bytes[HEADER_LEN..comment_end]);
+    super::check_image_size(path, w, h, pixel_bytes)?;
+    let comment = decode_comment(
+        &regions
+            .read(HEADER_LEN as u64, header.comment_len)
+            .map_err(io)?,
+    );
     let sections =
         parse_comment(&comment).map_err(|(offset, message)| FormatError::BadComment {
             path: path.to_path_buf(),
             offset,
             message,
         })?;
-    let data = decode_pixels(header.file_type, &bytes[comment_end..data_end]);
+    let data = read_pixels(&file, comment_end, header.file_type, w * h).map_err(io)?;
     let pixel_type = header.file_type.pixel_type();
     build_image(
         path,
@@ -553,9 +565,33 @@ pub fn read_img(path: &Path, transpose: bool) -> Result<StreakImage, FormatError
             pixel_type,
         },
         (comment, sections),
-        &bytes,
+        &regions,
         transpose,
     )
+}
+
+/// `count` pixels of `file_type` at byte `offset` of `file`, decoded a megabyte at a time.
+fn read_pixels(
+    file: &std::fs::File,
+    offset: u64,
+    file_type: ImgFileType,
+    count: usize,
+) -> std::io::Result<Vec<f32>> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = file;
+    f.seek(SeekFrom::Start(offset))?;
+    let mut reader = std::io::BufReader::new(f);
+    let size = file_type.bytes();
+    let mut data = Vec::with_capacity(count);
+    let mut chunk = vec![0u8; (1 << 20).min(count * size)];
+    let mut left = count;
+    while left > 0 {
+        let n = left.min((1 << 20) / size);
+        reader.read_exact(&mut chunk[..n * size])?;
+        data.extend(decode_pixels(file_type, &chunk[..n * size]));
+        left -= n;
+    }
+    Ok(data)
 }
 
 /// The pixels of an HPD-TA image as its container stores them: `height` rows of `width`.
@@ -568,14 +604,14 @@ pub(crate) struct HpdPixels {
 }
 
 /// The image of an HPD-TA file, whatever its container: the `[Scaling]` axes read (tables
-/// from `bytes`, the whole file) and made to increase, the roles assigned (rows are time
+/// from `file` at the offsets the comment gives) and made to increase, the roles assigned (rows are time
 /// unless `transpose`), the time axis converted to ps or left uncalibrated (Focus mode, a
 /// pixel or length unit, a table outside the file), and the settings of the header.
 pub(crate) fn build_image(
     path: &Path,
     pixels: HpdPixels,
     (comment, sections): (String, BTreeMap<String, BTreeMap<String, String>>),
-    bytes: &[u8],
+    file: &FileRegions,
     transpose: bool,
 ) -> Result<StreakImage, FormatError> {
     let HpdPixels {
@@ -586,8 +622,8 @@ pub(crate) fn build_image(
         pixel_type,
     } = pixels;
     check_scaling_keys(path, &sections)?;
-    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, bytes)?;
-    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, bytes)?;
+    let scaling_x = parse_axis_scaling(path, &sections, 'X', w, file)?;
+    let scaling_y = parse_axis_scaling(path, &sections, 'Y', h, file)?;
 
     // Make every calibrated axis increase with the index.
     let mut x_vals = axis_values(&scaling_x, w);

@@ -246,6 +246,70 @@ pub enum FormatError {
     /// A writer was given an argument it cannot honour (bit depth, scale, dimensions ...).
     #[error("{}: {message}", path.display())]
     InvalidArgument { path: PathBuf, message: String },
+    /// The image the header declares would not fit in the memory budget
+    /// ([`check_image_size`]).
+    #[error("{}: {source}", path.display())]
+    Limit {
+        path: PathBuf,
+        source: crate::limits::LimitError,
+    },
+}
+
+/// Float32 copies of an image a streak-image reader holds at once: the decoded values and
+/// their reorder (a transposed or flipped copy).
+pub const IMAGE_F32_COPIES: usize = 2;
+
+/// The size check of every streak-image reader (PNG, TIFF, EXR, HDR, HPD-TA `.img`), made
+/// from the header alone before any pixel is read or allocated
+/// ([`crate::limits::check_decoded`]): `width` x `height` pixels of `stored_bytes` each (all
+/// channels, as the codec hands them over) read as one float32 each, with
+/// [`IMAGE_F32_COPIES`] copies held, plus the codec's own buffer of the stored samples.
+pub fn check_image_size(
+    path: &Path,
+    width: usize,
+    height: usize,
+    stored_bytes: usize,
+) -> Result<(), FormatError> {
+    let copies = IMAGE_F32_COPIES + stored_bytes.div_ceil(4);
+    crate::limits::check_decoded(
+        &[height, width],
+        4,
+        copies,
+        format_args!(
+            "an image of {width} x {height} pixels of {stored_bytes} bytes (read as float32, \
+             {copies} copies held)"
+        ),
+        "a streak image is far smaller: is the header damaged?",
+    )
+    .map(|_| ())
+    .map_err(|source| FormatError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// A file read by regions at byte offsets, never whole (an HPD-TA image's axis tables).
+pub(crate) struct FileRegions<'a> {
+    file: &'a std::fs::File,
+    /// The file's length, bytes.
+    pub len: u64,
+}
+
+impl<'a> FileRegions<'a> {
+    pub fn new(file: &'a std::fs::File) -> std::io::Result<FileRegions<'a>> {
+        let len = file.metadata()?.len();
+        Ok(FileRegions { file, len })
+    }
+
+    /// `n` bytes at `offset` (the caller has checked that they lie in the file).
+    pub fn read(&self, offset: u64, n: usize) -> std::io::Result<Vec<u8>> {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut f = self.file;
+        f.seek(SeekFrom::Start(offset))?;
+        let mut buf = vec![0u8; n];
+        f.read_exact(&mut buf)?;
+        Ok(buf)
+    }
 }
 
 /// Extensions [`read_streak`] reads (lower case, without the dot).

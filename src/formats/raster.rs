@@ -82,10 +82,16 @@ fn mean_rgb(samples: &[f32], channels: usize) -> Vec<f32> {
 
 /// Read a PNG: 8- or 16-bit grey, grey+alpha, or RGB(A) / palette with equal channels.
 pub fn read_png(path: &Path) -> Result<RasterPixels, FormatError> {
+    use image::ImageDecoder;
     let file = std::fs::File::open(path).map_err(io_err(path))?;
-    let image = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Png)
-        .decode()
-        .map_err(|e| decode_err(path, e))?;
+    // The crate's default limits, as `ImageReader::decode` applies them.
+    let decoder =
+        image::codecs::png::PngDecoder::with_limits(BufReader::new(file), image::Limits::default())
+            .map_err(|e| decode_err(path, e))?;
+    let (w, h) = decoder.dimensions();
+    let stored = decoder.color_type().bytes_per_pixel() as usize;
+    super::check_image_size(path, w as usize, h as usize, stored)?;
+    let image = image::DynamicImage::from_decoder(decoder).map_err(|e| decode_err(path, e))?;
     let (width, height) = (image.width() as usize, image.height() as usize);
     use image::DynamicImage as D;
     let (data, pixel_type) = match &image {
@@ -155,6 +161,7 @@ pub fn read_png_grey16_into(
     }
     let (w, h) = decoder.dimensions();
     let (width, height) = (w as usize, h as usize);
+    super::check_image_size(path, width, height, 2)?;
     samples.resize(width * height, 0);
     // `read_image` writes native-endian samples.
     decoder
@@ -191,6 +198,7 @@ pub fn read_tiff_from<R: std::io::Read + std::io::Seek>(
     let declared_bytes = width as f64 * height as f64 * channels as f64 * bits as f64 / 8.0;
     let image = format!("an image of {width} x {height} pixels");
     check_declared_bytes(path, &image, declared_bytes, file_bytes)?;
+    super::check_image_size(path, width, height, (channels * bits as usize).div_ceil(8))?;
     // A strip or tile holds at most the file's bytes: the crate allocates what the header
     // claims before reading (266 MB for a 3 kB file).
     let mut limits = tiff::decoder::Limits::default();
@@ -442,7 +450,11 @@ fn check_tiff_directory<F: std::io::Read + std::io::Seek>(
         return Ok(());
     };
     let n = n.min(file_bytes / entry_bytes as u64) as usize;
-    let Some(entries) = read_at(directory_at + count_bytes as u64, n * entry_bytes) else {
+    // Checked: a BigTIFF directory offset near 2^64 must not wrap.
+    let Some(entries_at) = directory_at.checked_add(count_bytes as u64) else {
+        return Ok(());
+    };
+    let Some(entries) = read_at(entries_at, n * entry_bytes) else {
         return Ok(());
     };
     for entry in entries.chunks_exact(entry_bytes) {
@@ -481,7 +493,12 @@ fn check_exr_size(path: &Path, file_bytes: u64) -> Result<(), FormatError> {
         .first()
         .map_or((0, 0), |h| (h.layer_size.0, h.layer_size.1));
     let image = format!("a data window of {w} x {h} pixels");
-    check_declared_bytes(path, &image, declared_bytes, file_bytes)
+    check_declared_bytes(path, &image, declared_bytes, file_bytes)?;
+    for h in &meta.headers {
+        let (w, ht) = (h.layer_size.0, h.layer_size.1);
+        super::check_image_size(path, w, ht, 4 * h.channels.list.len())?;
+    }
+    Ok(())
 }
 
 /// Read the single layer of an OpenEXR file: channel `Y`, else the mean of `R, G, B`, else
@@ -580,10 +597,16 @@ pub fn read_exr(path: &Path) -> Result<RasterPixels, FormatError> {
 
 /// Read a Radiance `.hdr` (RGBE) file; each pixel becomes the mean of R, G and B.
 pub fn read_hdr(path: &Path) -> Result<RasterPixels, FormatError> {
+    use image::ImageDecoder;
     let file = std::fs::File::open(path).map_err(io_err(path))?;
-    let image = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Hdr)
-        .decode()
+    let mut decoder = image::codecs::hdr::HdrDecoder::new(BufReader::new(file))
         .map_err(|e| decode_err(path, e))?;
+    decoder
+        .set_limits(image::Limits::default())
+        .map_err(|e| decode_err(path, e))?;
+    let (w, h) = decoder.dimensions();
+    super::check_image_size(path, w as usize, h as usize, 12)?;
+    let image = image::DynamicImage::from_decoder(decoder).map_err(|e| decode_err(path, e))?;
     let (width, height) = (image.width() as usize, image.height() as usize);
     let rgb = image.into_rgb32f();
     Ok(RasterPixels {

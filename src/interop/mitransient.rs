@@ -125,7 +125,7 @@ pub fn read_transient_npy(
             ))
         }
     };
-    if ny * nx * nt * nc == 0 {
+    if a.shape.contains(&0) {
         return Err(bad("shape", format!("{:?} is empty", a.shape)));
     }
     let weights = channels.weights(nc).map_err(|m| bad("channels", m))?;

@@ -89,6 +89,25 @@ fn check_grid(
     Ok(())
 }
 
+/// A capture's sensor grid must see something: at least one point known (not all three
+/// NaN). One unknown point is a pixel that sees nothing; a grid of none is no capture (a
+/// file of NaN was ingested and exported again). For a confocal scan this is also its
+/// laser points.
+fn require_known_point(path: &Path, key: &str, grid: &[[f64; 3]]) -> Result<(), InteropError> {
+    if grid.iter().all(|p| p.iter().all(|c| c.is_nan())) {
+        return Err(invalid(
+            path,
+            key,
+            format!(
+                "all {} points are NaN (unknown): a capture needs at least one known sensor \
+                 point",
+                grid.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Whether `path` is an HDF5 file with y-tal's `H` and `H_format` datasets.
 pub fn is_tal_capture(path: &Path) -> bool {
     if !matches!(crate::container::is_hdf5(path), Ok(true)) {
@@ -231,12 +250,16 @@ fn read_h(ds: &H5Dataset, path: &Path) -> Result<(usize, usize, usize, Vec<f32>)
     let shape = ds.shape();
     let [nt, sx, sy] = <[usize; 3]>::try_from(shape.as_slice())
         .map_err(|_| invalid(path, "H", format!("shape {shape:?}, expected (T, Sx, Sy)")))?;
-    if nt * sx * sy == 0 {
+    if shape.contains(&0) {
         return Err(invalid(path, "H", format!("shape {shape:?} is empty")));
     }
-    crate::limits::check_memory(
-        12.0 * (nt * sx * sy) as f64,
-        format_args!("H of {shape:?} values"),
+    // The stored values (up to 8 bytes), their f64 copy and the f32 capture are held
+    // together: 20 bytes a value, 5 float32 copies (checked arithmetic, before any read).
+    crate::limits::check_decoded(
+        &shape,
+        4,
+        5,
+        format_args!("H of {shape:?} values (read as float32, 5 copies held)"),
         "downscale the capture in y-tal first (NLOSCaptureData.downscale)",
     )
     .map_err(|source| InteropError::Limit {
@@ -279,7 +302,14 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
     };
     let read = |k: &str| -> Result<(Vec<usize>, Vec<f64>), InteropError> {
         let ds = open(k)?;
-        Ok((ds.shape(), numbers(&ds, path, k)?))
+        let shape = ds.shape();
+        // The stored values and their f64 copy, before either is read.
+        crate::limits::check_decoded(&shape, 8, 2, format_args!("{k} of {shape:?} values"), "is the file damaged?")
+            .map_err(|source| InteropError::Limit {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        Ok((shape, numbers(&ds, path, k)?))
     };
     let scalar = |k: &str| -> Result<f64, InteropError> {
         let (_, v) = read(k)?;
@@ -332,6 +362,7 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         ranges::COORD_M,
         xy,
     )?;
+    require_known_point(path, "sensor_grid_xyz", &sensor_grid_xyz_m)?;
     // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
     let sensor_grid_normals = match has("sensor_grid_normals") {
         true if !read("sensor_grid_normals")?.1.is_empty() => Some(grid("sensor_grid_normals")?),
@@ -483,6 +514,7 @@ pub fn geometry_from_group(
         ranges::COORD_M,
         yx,
     )?;
+    require_known_point(path, &key("sensor_grid_m"), &sensor_grid_m)?;
     let sensor_normals = grid("sensor_normals")?;
     if let Some(n) = &sensor_normals {
         check_grid(path, &key("sensor_normals"), n, ranges::DIRECTION, yx)?;

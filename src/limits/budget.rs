@@ -117,6 +117,51 @@ pub fn memory_budget() -> MemoryBudget {
     least(&candidates).unwrap_or(machine)
 }
 
+/// Bytes that decoding an array of shape `dims` needs when each element takes
+/// `element_bytes` after conversion (4 for the float32 cube) and the stage holds `copies`
+/// such arrays at once: the exact product in u128, `None` only beyond u128 (no header of a
+/// realistic rank gets there; any such product is refused).
+pub fn decoded_bytes(dims: &[usize], element_bytes: usize, copies: usize) -> Option<u128> {
+    dims.iter()
+        .map(|&d| d as u128)
+        .chain([element_bytes as u128, copies as u128])
+        .try_fold(1u128, u128::checked_mul)
+}
+
+/// The one size check of every reader, made from the header alone, before any read, inflate
+/// or allocation: refuse decoding an array of shape `dims` (as the file declares it) into
+/// elements of `element_bytes` each (after conversion: 4 for the float32 cube), with
+/// `copies` of it held at once, when that exceeds the memory budget ([`memory_budget`]).
+/// The product is exact ([`decoded_bytes`]): a shape whose byte count wraps a `usize`
+/// (2^62 values of 4 bytes) is refused, never read as 0. `what` names the array and its
+/// declared shape and type; `fix` what would help. Returns the bytes needed.
+pub fn check_decoded(
+    dims: &[usize],
+    element_bytes: usize,
+    copies: usize,
+    what: impl fmt::Display,
+    fix: &str,
+) -> Result<u128, super::LimitError> {
+    let needed = decoded_bytes(dims, element_bytes, copies);
+    let budget = memory_budget();
+    match needed {
+        Some(n) if n <= u128::from(budget.bytes) => Ok(n),
+        _ => {
+            // For the message only: the product in f64 (finite for any realistic rank).
+            let approx = dims.iter().map(|&d| d as f64).product::<f64>()
+                * element_bytes as f64
+                * copies as f64;
+            Err(super::LimitError::Memory {
+                what: what.to_string(),
+                needed_bytes: approx,
+                available_bytes: budget.bytes,
+                limit: budget.source,
+                fix: fix.to_string(),
+            })
+        }
+    }
+}
+
 /// The smallest of the budgets that are known (the first of equals).
 fn least(candidates: &[Option<MemoryBudget>]) -> Option<MemoryBudget> {
     candidates
@@ -297,6 +342,51 @@ fn cgroup_left(limit: u64, usage: u64, inactive_file: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn decoded_sizes_are_exact_where_usize_arithmetic_wraps() {
+        let two = |k: u32| 1usize << k;
+        for (dims, want) in [
+            (vec![0usize], Some(0u128)),
+            (vec![two(31)], Some(1u128 << 34)),
+            (vec![two(32)], Some(1u128 << 35)),
+            (vec![two(62)], Some(1u128 << 65)),
+            (vec![usize::MAX], Some(u128::from(u64::MAX) * 8)),
+            // The .mat of issue 45: 2^62 values of 4 bytes wrapped to 0 in usize.
+            (vec![two(21), two(21), two(20)], Some(1u128 << 65)),
+            (vec![usize::MAX, usize::MAX, usize::MAX], None),
+        ] {
+            assert_eq!(decoded_bytes(&dims, 4, 2), want, "{dims:?}");
+        }
+        assert_eq!(decoded_bytes(&[3, 5], 4, 0), Some(0));
+    }
+
+    #[test]
+    fn a_decode_beyond_the_budget_is_refused_naming_what_and_the_fix() {
+        let two = |k: u32| 1usize << k;
+        for dims in [
+            vec![two(62)],
+            vec![usize::MAX],
+            vec![two(21), two(21), two(20)],
+            vec![usize::MAX, usize::MAX, usize::MAX],
+        ] {
+            let e = check_decoded(&dims, 4, 3, "variable a of [..] uint8", "crop it").unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.starts_with("variable a of [..] uint8 needs about "), "{msg}");
+            assert!(msg.ends_with("; crop it"), "{msg}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+        assert_eq!(check_decoded(&[0], 4, 3, "x", "y"), Ok(0));
+        assert_eq!(check_decoded(&[16, 16], 4, 2, "x", "y"), Ok(2048));
+        // 2^31 and 2^32 values fit the figure of a large machine, not of this test's budget
+        // when it is below 8 GiB: either way the answer is the exact size or a refusal.
+        for dims in [vec![two(31)], vec![two(32)]] {
+            match check_decoded(&dims, 4, 1, "x", "y") {
+                Ok(n) => assert_eq!(n, (dims[0] as u128) * 4),
+                Err(e) => assert!(e.to_string().contains("needs about"), "{e}"),
+            }
+        }
+    }
 
     #[test]
     fn status_fields_are_read_in_kilobytes() {

@@ -65,6 +65,9 @@ pub enum StageError {
     /// An array file (`.npy`, `.mat`, `.hspy`, HDF5 dataset) could not be read.
     #[error(transparent)]
     Reader(#[from] crate::readers::ReaderError),
+    /// Another tool's file (a y-tal capture) could not be read (the message names it).
+    #[error(transparent)]
+    Interop(#[from] crate::interop::InteropError),
     /// A stored group (registration, pyramid) is malformed.
     #[error(transparent)]
     Store(#[from] crate::store::StoreError),

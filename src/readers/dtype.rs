@@ -167,6 +167,42 @@ pub fn decode(bytes: &[u8], dtype: Dtype, big_endian: bool) -> Decoded {
     }
 }
 
+/// Bytes read at a time by [`decode_from`]: a multiple of every sample size.
+const DECODE_CHUNK_BYTES: usize = 1 << 20;
+
+/// Decode `count` samples of `dtype` read from `reader` in chunks of 1 MiB, so that the
+/// stored bytes are never held whole: the f32 values are the only array allocated (the
+/// caller has checked that they fit, [`super::check_decode`]). A reader that ends early is
+/// an `UnexpectedEof` error.
+pub fn decode_from(
+    reader: &mut impl std::io::Read,
+    count: usize,
+    dtype: Dtype,
+    big_endian: bool,
+) -> std::io::Result<Decoded> {
+    let size = dtype.size();
+    let mut values = Vec::with_capacity(count);
+    let mut inexact = 0usize;
+    let mut largest = 0f64;
+    let mut chunk = vec![0u8; DECODE_CHUNK_BYTES.min(count.saturating_mul(size))];
+    let mut left = count;
+    while left > 0 {
+        let n = left.min(DECODE_CHUNK_BYTES / size);
+        let bytes = &mut chunk[..n * size];
+        reader.read_exact(bytes)?;
+        let d = decode(bytes, dtype, big_endian);
+        values.extend_from_slice(&d.values);
+        inexact += d.inexact;
+        largest = largest.max(d.largest_inexact);
+        left -= n;
+    }
+    Ok(Decoded {
+        values,
+        inexact,
+        largest_inexact: largest,
+    })
+}
+
 /// One sample from its bytes, in full f64 precision (`None`: too few bytes).
 pub fn value_f64(bytes: &[u8], dtype: Dtype, big_endian: bool) -> Option<f64> {
     let w = word(bytes.get(..dtype.size())?, big_endian);
@@ -210,6 +246,19 @@ mod tests {
             let be: Vec<u8> = le.iter().rev().copied().collect();
             assert_eq!(decode(&be, dtype, true).values, [want], "{dtype:?} >");
         }
+    }
+
+    #[test]
+    fn decoding_from_a_reader_in_chunks_matches_decoding_the_bytes() {
+        // More than one chunk of u16, big-endian, with a remainder.
+        let n = DECODE_CHUNK_BYTES / 2 + 7;
+        let bytes: Vec<u8> = (0..n).flat_map(|i| ((i * 31) as u16).to_be_bytes()).collect();
+        let whole = decode(&bytes, Dtype::U16, true);
+        let streamed = decode_from(&mut &bytes[..], n, Dtype::U16, true).unwrap();
+        assert_eq!(streamed, whole);
+        assert!(decode_from(&mut &bytes[..], 0, Dtype::U16, true).unwrap().values.is_empty());
+        let short = decode_from(&mut &bytes[..3], 2, Dtype::U16, true).unwrap_err();
+        assert_eq!(short.kind(), std::io::ErrorKind::UnexpectedEof);
     }
 
     #[test]

@@ -76,26 +76,18 @@ pub(super) fn read_array(
         ReaderError::invalid(path, name, format!("not a numeric dataset ({dt:?})"))
     })?;
     let mut shape = ds.shape();
+    super::check_decode(path, &format!("the dataset /{name}"), &shape, dtype, true)?;
     let count = element_count(&shape)
         .ok_or_else(|| ReaderError::invalid(path, name, format!("shape {shape:?} overflows")))?;
-    crate::limits::check_memory(
-        (dtype.size() + 8) as f64 * count as f64,
-        format!("the dataset /{name} of {shape:?} values"),
-        "crop it first",
-    )
-    .map_err(|source| ReaderError::Limit {
-        path: path.to_path_buf(),
-        source,
-    })?;
     let bytes = ds.read_raw_bytes().map_err(h5err(path))?;
-    if bytes.len() != count * dtype.size() {
+    if Some(bytes.len()) != count.checked_mul(dtype.size()) {
         return Err(ReaderError::invalid(
             path,
             name,
             format!(
-                "{} bytes of values for shape {shape:?} ({} expected)",
+                "{} bytes of values for shape {shape:?} of {}",
                 bytes.len(),
-                count * dtype.size()
+                dtype.name()
             ),
         ));
     }
@@ -206,6 +198,19 @@ pub(super) fn read_f64s(file: &H5File, path: &Path, name: &str) -> Result<Vec<f6
     let dt = ds.datatype().map_err(h5err(path))?;
     let (dtype, big) = dtype_of(&dt)
         .ok_or_else(|| ReaderError::invalid(path, name, format!("not numeric ({dt:?})")))?;
+    // The stored bytes and the f64 values are held together.
+    let copies = 1 + dtype.size().div_ceil(8);
+    crate::limits::check_decoded(
+        &ds.shape(),
+        8,
+        copies,
+        format_args!("the axis /{name} of {:?} {} values", ds.shape(), dtype.name()),
+        "crop it first",
+    )
+    .map_err(|source| ReaderError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let bytes = ds.read_raw_bytes().map_err(h5err(path))?;
     Ok(bytes
         .chunks_exact(dtype.size())

@@ -14,11 +14,11 @@
 //! subset (numeric arrays); this reader is the tag walk below, with `flate2` (already in the
 //! build through `png`) for the compressed elements.
 
-use super::array::{element_count, Array};
-use super::dtype::{decode, value_f64, Dtype};
+use super::array::Array;
+use super::dtype::{decode, decode_from, value_f64, Dtype};
 use super::h5;
 use super::ReaderError;
-use std::io::Read;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 const MI_INT8: u32 = 1;
@@ -53,28 +53,48 @@ pub fn is_v5_header(bytes: &[u8]) -> bool {
     bytes.len() >= 128 && bytes.starts_with(b"MATLAB 5.0 MAT-file") && !is_v73_header(bytes)
 }
 
+/// The largest expansion of deflate (RFC 1951: 258 bytes from about 2 bits of a code).
+const MAX_DEFLATE_RATIO: u64 = 1032;
+
+/// The longest sub-element of a variable's header (its flags, dimensions, name) read,
+/// bytes: 16,384 dimensions or a name of a million characters are not a MATLAB variable.
+const MAX_HEADER_ELEMENT_BYTES: u64 = 1 << 20;
+
 /// Read every variable of the `.mat` file at `path`; numeric arrays with their values
 /// when `read_values` accepts their name.
+///
+/// The file is walked element by element, never read whole: each variable's header (flags,
+/// dimensions, name, the tag of its values) is read first, inflated from its miCOMPRESSED
+/// element as far as the header goes; its values are read (and inflated) only when asked
+/// for, after the declared byte count is checked against the dimensions (checked arithmetic)
+/// and the decoded array against the memory budget ([`super::check_decode`]).
 pub fn read_mat(
     path: &Path,
     read_values: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<MatVar>, ReaderError> {
-    let bytes = std::fs::read(path).map_err(|source| ReaderError::Io {
+    let io = |source| ReaderError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    if is_v73_header(&bytes) {
-        drop(bytes);
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let file_bytes = file.metadata().map_err(io)?.len();
+    let mut head = Vec::with_capacity(128);
+    (&mut file)
+        .take(128)
+        .read_to_end(&mut head)
+        .map_err(io)?;
+    if is_v73_header(&head) {
+        drop(file);
         return read_v73(path, read_values);
     }
-    if !is_v5_header(&bytes) {
+    if !is_v5_header(&head) {
         return Err(ReaderError::invalid(
             path,
             "mat header",
             "not a MATLAB .mat file (no 'MATLAB 5.0 MAT-file' or 'MATLAB 7.3 MAT-file' text)",
         ));
     }
-    let big = match &bytes[126..128] {
+    let big = match &head[126..128] {
         b"IM" => false,
         b"MI" => true,
         other => {
@@ -85,44 +105,77 @@ pub fn read_mat(
             ))
         }
     };
+    let mut reader = std::io::BufReader::new(file);
     let mut vars = Vec::new();
-    let mut at = 128usize;
-    while at < bytes.len() {
-        let (ty, n, data_at) = tag(path, &bytes, at, big)?;
-        let body = bytes
-            .get(data_at..data_at + n)
-            .ok_or_else(|| truncated(path, at))?;
-        match ty {
-            MI_MATRIX => vars.push(matrix(path, body, big, read_values)?),
+    let mut at = 128u64;
+    while at < file_bytes {
+        reader.seek(SeekFrom::Start(at)).map_err(io)?;
+        let tag = read_tag(&mut reader, big).map_err(|e| element_error(path, at, e))?;
+        // The element's end, padded to 8 bytes unless compressed (checked: a size near
+        // 2^32 must not wrap).
+        let padded = if tag.ty == MI_COMPRESSED {
+            tag.n
+        } else {
+            tag.n.next_multiple_of(8)
+        };
+        let data_at = at + tag.tag_bytes;
+        let end = if tag.inline.is_some() {
+            at + 8
+        } else {
+            data_at + padded
+        };
+        if data_at + tag.n > file_bytes {
+            return Err(truncated(path, at));
+        }
+        match tag.ty {
+            MI_MATRIX => {
+                let mut body = (&mut reader).take(tag.n);
+                vars.push(matrix(path, &mut body, big, read_values, at)?);
+            }
             MI_COMPRESSED => {
-                let inner = inflate(path, body, big)?;
-                let (ity, inn, idata) = tag(path, &inner, 0, big)?;
-                let ibody = inner
-                    .get(idata..idata + inn)
-                    .ok_or_else(|| truncated(path, at))?;
-                if ity == MI_MATRIX {
-                    vars.push(matrix(path, ibody, big, read_values)?);
+                let z = flate2::bufread::ZlibDecoder::new((&mut reader).take(tag.n));
+                let mut z = std::io::BufReader::new(z);
+                let inner = read_tag(&mut z, big).map_err(|e| element_error(path, at, e))?;
+                // Deflate expands at most 1032:1: a variable declared larger than its
+                // compressed bytes can inflate to is refused before anything is allocated.
+                let most = tag.n.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1024);
+                if inner.n > most {
+                    return Err(ReaderError::invalid(
+                        path,
+                        "mat data",
+                        format!(
+                            "the compressed element at byte {at} declares a variable of {} \
+                             bytes, more than its {} compressed bytes inflate to (at most {most})",
+                            inner.n, tag.n
+                        ),
+                    ));
+                }
+                if inner.ty == MI_MATRIX {
+                    let mut body = (&mut z).take(inner.n);
+                    vars.push(matrix(path, &mut body, big, read_values, at)?);
                 }
             }
             _ => {}
         }
-        // Elements are padded to 8 bytes; compressed ones are not.
-        at = data_at
-            + if ty == MI_COMPRESSED {
-                n
-            } else {
-                n.next_multiple_of(8)
-            };
+        at = end;
     }
     Ok(vars)
 }
 
-fn truncated(path: &Path, at: usize) -> ReaderError {
+fn truncated(path: &Path, at: u64) -> ReaderError {
     ReaderError::invalid(
         path,
         "mat data",
         format!("the element at byte {at} runs past the end of the file (truncated?)"),
     )
+}
+
+/// A tag that could not be read: the end of the data, or a malformed one.
+fn element_error(path: &Path, at: u64, e: std::io::Error) -> ReaderError {
+    if e.kind() == std::io::ErrorKind::UnexpectedEof {
+        return truncated(path, at);
+    }
+    ReaderError::invalid(path, "mat data", format!("the element at byte {at}: {e}"))
 }
 
 fn u32_at(bytes: &[u8], at: usize, big: bool) -> Option<u32> {
@@ -134,44 +187,42 @@ fn u32_at(bytes: &[u8], at: usize, big: bool) -> Option<u32> {
     })
 }
 
-/// The tag at `at`: type, number of bytes, where the data start. A small element (its
-/// size in the upper half of the first word) holds up to 4 bytes inside the tag.
-fn tag(
-    path: &Path,
-    bytes: &[u8],
-    at: usize,
-    big: bool,
-) -> Result<(u32, usize, usize), ReaderError> {
-    let first = u32_at(bytes, at, big).ok_or_else(|| truncated(path, at))?;
-    if first >> 16 != 0 {
-        return Ok((first & 0xffff, (first >> 16) as usize, at + 4));
-    }
-    let n = u32_at(bytes, at + 4, big).ok_or_else(|| truncated(path, at))?;
-    Ok((first, n as usize, at + 8))
+/// A data element's tag: its type, its byte count, the bytes the tag takes (8, or 4 for a
+/// small element), and a small element's data (up to 4 bytes inside the tag).
+struct Tag {
+    ty: u32,
+    n: u64,
+    tag_bytes: u64,
+    inline: Option<Vec<u8>>,
 }
 
-/// Decompress a miCOMPRESSED element, refusing one that would not fit in memory.
-fn inflate(path: &Path, body: &[u8], big: bool) -> Result<Vec<u8>, ReaderError> {
-    let mut z = flate2::read::ZlibDecoder::new(body);
-    let mut head = [0u8; 8];
-    z.read_exact(&mut head)
-        .map_err(|e| ReaderError::invalid(path, "mat data", format!("compressed element: {e}")))?;
-    // The inner element's declared size bounds what is decompressed.
-    let declared = u64::from(u32_at(&head, 4, big).expect("4 bytes"));
-    crate::limits::check_memory(
-        declared as f64 * 2.0,
-        format!("a compressed MATLAB variable of {declared} bytes"),
-        "save it in parts",
-    )
-    .map_err(|source| ReaderError::Limit {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let mut out = head.to_vec();
-    z.take(declared + 8)
-        .read_to_end(&mut out)
-        .map_err(|e| ReaderError::invalid(path, "mat data", format!("compressed element: {e}")))?;
-    Ok(out)
+/// Read a tag. A small element (its size in the upper half of the first word) holds up to
+/// 4 bytes in the second word of the tag, which is read with it.
+fn read_tag(reader: &mut impl Read, big: bool) -> std::io::Result<Tag> {
+    let mut w = [0u8; 8];
+    reader.read_exact(&mut w)?;
+    let first = u32_at(&w, 0, big).expect("4 bytes");
+    if first >> 16 != 0 {
+        let n = (first >> 16) as usize;
+        if n > 4 {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("a small data element of {n} bytes (at most 4)"),
+            ));
+        }
+        return Ok(Tag {
+            ty: first & 0xffff,
+            n: n as u64,
+            tag_bytes: 4,
+            inline: Some(w[4..4 + n].to_vec()),
+        });
+    }
+    Ok(Tag {
+        ty: first,
+        n: u64::from(u32_at(&w, 4, big).expect("4 bytes")),
+        tag_bytes: 8,
+        inline: None,
+    })
 }
 
 /// MATLAB's class code to a numeric type.
@@ -213,34 +264,60 @@ fn storage_dtype(ty: u32) -> Option<Dtype> {
     })
 }
 
-/// The sub-elements of a miMATRIX: flags, dimensions, name, real part.
-fn matrix(
+/// A sub-element of a variable's header, whole (at most [`MAX_HEADER_ELEMENT_BYTES`]): its
+/// type and data, with the padding to 8 bytes read past.
+fn header_element(
     path: &Path,
-    body: &[u8],
+    body: &mut impl Read,
+    big: bool,
+    what: &str,
+) -> Result<(u32, Vec<u8>), ReaderError> {
+    let short = |e: std::io::Error| {
+        ReaderError::invalid(
+            path,
+            "mat data",
+            format!("a variable's {what} is truncated ({e})"),
+        )
+    };
+    let tag = read_tag(body, big).map_err(short)?;
+    if let Some(data) = tag.inline {
+        return Ok((tag.ty, data));
+    }
+    if tag.n > MAX_HEADER_ELEMENT_BYTES {
+        return Err(ReaderError::invalid(
+            path,
+            "mat data",
+            format!(
+                "a variable's {what} of {} bytes (at most {MAX_HEADER_ELEMENT_BYTES})",
+                tag.n
+            ),
+        ));
+    }
+    let mut data = vec![0u8; tag.n as usize];
+    body.read_exact(&mut data).map_err(short)?;
+    let pad = tag.n.next_multiple_of(8) - tag.n;
+    std::io::copy(&mut body.take(pad), &mut std::io::sink()).map_err(short)?;
+    Ok((tag.ty, data))
+}
+
+/// The sub-elements of a miMATRIX read from `body` (the element's bytes, inflated if it was
+/// compressed): flags, dimensions, name, then the real part when asked for. `at` is the
+/// element's byte in the file, for messages.
+fn matrix<R: Read>(
+    path: &Path,
+    body: &mut std::io::Take<R>,
     big: bool,
     read_values: &dyn Fn(&str) -> bool,
+    at: u64,
 ) -> Result<MatVar, ReaderError> {
-    let mut at = 0usize;
-    let mut next = |what: &str| -> Result<(u32, &[u8]), ReaderError> {
-        let (ty, n, d) = tag(path, body, at, big)?;
-        let data = body.get(d..d + n).ok_or_else(|| {
-            ReaderError::invalid(
-                path,
-                "mat data",
-                format!("a variable's {what} is truncated"),
-            )
-        })?;
-        at = d + n.next_multiple_of(if d == at + 4 { 4 } else { 8 });
-        Ok((ty, data))
-    };
-    let (fty, flags) = next("array flags")?;
+    let (fty, flags) = header_element(path, body, big, "array flags")?;
     let flags0 = match (fty, flags.len() >= 4) {
-        (MI_UINT32, true) => u32_at(flags, 0, big).expect("4 bytes"),
+        (MI_UINT32, true) => u32_at(&flags, 0, big).expect("4 bytes"),
         _ => return Err(ReaderError::invalid(path, "mat data", "bad array flags")),
     };
     let (mut dtype, class) = class_dtype((flags0 & 0xff) as u8);
     let complex = flags0 & 0x0800 != 0;
-    let (dty, dims_bytes) = next("dimensions")?;
+    let (dty, dims_bytes) = header_element(path, body, big, "dimensions")?;
     if dty != MI_INT32 {
         return Err(ReaderError::invalid(path, "mat data", "bad dimensions"));
     }
@@ -249,11 +326,11 @@ fn matrix(
         .map(|b| u32_at(b, 0, big).expect("4 bytes") as i32)
         .map(|d| usize::try_from(d).unwrap_or(usize::MAX))
         .collect();
-    let (nty, name_bytes) = next("name")?;
+    let (nty, name_bytes) = header_element(path, body, big, "name")?;
     if nty != MI_INT8 && nty != 2 {
         return Err(ReaderError::invalid(path, "mat data", "bad variable name"));
     }
-    let name = String::from_utf8_lossy(name_bytes).into_owned();
+    let name = String::from_utf8_lossy(&name_bytes).into_owned();
     let mut class = class.to_string();
     if complex && dtype.is_some() {
         dtype = None;
@@ -274,28 +351,84 @@ fn matrix(
     if !(is_scalar || read_values(&var.name)) {
         return Ok(var);
     }
+    let (array, scalar) = values(path, body, big, &var, at)?;
+    var.scalar = scalar.filter(|_| is_scalar);
+    var.array = Some(array);
+    Ok(var)
+}
+
+/// The real part of the numeric variable `var`: its tag, its byte count checked against the
+/// dimensions (exactly, in u128), the decoded array checked against the memory budget, then
+/// the values decoded as they are read (and inflated). Also the first value in full
+/// precision (a scalar's).
+fn values<R: Read>(
+    path: &Path,
+    body: &mut std::io::Take<R>,
+    big: bool,
+    var: &MatVar,
+    at: u64,
+) -> Result<(Array, Option<f64>), ReaderError> {
     let bad = |m: String| ReaderError::invalid(path, &var.name, m);
-    let count = element_count(&var.dims)
-        .filter(|_| var.dims.iter().all(|&d| d != usize::MAX))
-        .ok_or_else(|| bad(format!("dimensions {:?}", var.dims)))?;
-    let (rty, real) = next("values")?;
-    let stored = storage_dtype(rty).ok_or_else(|| bad(format!("data type {rty}")))?;
-    if real.len() != count * stored.size() {
+    if var.dims.contains(&usize::MAX) {
+        return Err(bad(format!("dimensions {:?}", var.dims)));
+    }
+    let tag = read_tag(body, big).map_err(|e| {
+        ReaderError::invalid(
+            path,
+            &var.name,
+            format!("the values of the element at byte {at} are truncated ({e})"),
+        )
+    })?;
+    let stored = storage_dtype(tag.ty).ok_or_else(|| bad(format!("data type {}", tag.ty)))?;
+    // The values lie inside their element (whose bytes are known to be in the file, or
+    // bounded by what its compressed bytes inflate to).
+    if tag.inline.is_none() && tag.n > body.limit() {
         return Err(bad(format!(
-            "{} bytes of values for dimensions {:?} ({} expected)",
-            real.len(),
-            var.dims,
-            count * stored.size()
+            "{} bytes of values declared in the element at byte {at}, which holds {} more",
+            tag.n,
+            body.limit()
         )));
     }
-    if is_scalar {
-        var.scalar = value_f64(real, stored, big);
+    let expected = crate::limits::decoded_bytes(&var.dims, stored.size(), 1);
+    let count = super::array::element_count(&var.dims);
+    let count = match (expected, count) {
+        (Some(e), Some(c)) if e == u128::from(tag.n) => c,
+        _ => {
+            return Err(bad(format!(
+                "{} bytes of values for dimensions {:?} of {} ({} expected)",
+                tag.n,
+                var.dims,
+                stored.name(),
+                expected.map_or("more than 2^128".into(), |e| e.to_string())
+            )))
+        }
+    };
+    let what = format!("variable {}", var.name);
+    super::check_decode(path, &what, &var.dims, stored, false)?;
+    let short = |e: std::io::Error| {
+        ReaderError::invalid(
+            path,
+            &var.name,
+            format!("reading the values of the element at byte {at}: {e}"),
+        )
+    };
+    if count > 1 {
+        let decoded = decode_from(body, count, stored, big).map_err(short)?;
+        return Ok((Array::new(var.dims.clone(), stored, decoded, true), None));
     }
-    // The stored type, as scipy.io.loadmat returns it: MATLAB saves a double array of
-    // counts as uint16 when every value fits (data_s_u.mat's rect_data does).
-    let decoded = decode(real, stored, big);
-    var.array = Some(Array::new(var.dims.clone(), stored, decoded, true));
-    Ok(var)
+    // One value (or none): its bytes, to keep a scalar in full precision.
+    let raw = match tag.inline {
+        Some(raw) => raw,
+        None => {
+            let mut raw = vec![0u8; tag.n as usize];
+            body.read_exact(&mut raw).map_err(short)?;
+            raw
+        }
+    };
+    let raw = &raw[..tag.n as usize];
+    let first = value_f64(raw, stored, big);
+    let decoded = decode(raw, stored, big);
+    Ok((Array::new(var.dims.clone(), stored, decoded, true), first))
 }
 
 /// A v7.3 file: its root datasets with a `MATLAB_class` attribute.

@@ -70,6 +70,43 @@ impl ReaderError {
     }
 }
 
+/// Float32 copies of an array's values that reading it and writing its cube hold at once:
+/// the decoded values, their reorder (C order, x-y-t order, a resampled time axis), and the
+/// cube writer's buffers.
+pub const F32_COPIES: usize = 3;
+
+/// The size check of every array reader, made from the header alone before any value is
+/// read, inflated or allocated ([`crate::limits::check_decoded`]): the values of `dims`,
+/// stored as `stored`, decoded to float32 with [`F32_COPIES`] held at once, plus the stored
+/// bytes themselves when the reader holds them whole (`raw_held`: an HDF5 dataset is read
+/// whole before it is decoded). `what` names the array in the file ("variable rect").
+pub fn check_decode(
+    path: &Path,
+    what: &str,
+    dims: &[usize],
+    stored: Dtype,
+    raw_held: bool,
+) -> Result<(), ReaderError> {
+    let copies = F32_COPIES + if raw_held { stored.size().div_ceil(4) } else { 0 };
+    let shape: Vec<String> = dims.iter().map(|d| d.to_string()).collect();
+    crate::limits::check_decoded(
+        dims,
+        4,
+        copies,
+        format_args!(
+            "{what} of {} {} values (read as float32, {copies} copies held)",
+            shape.join(" x "),
+            stored.name()
+        ),
+        "crop or downsample it first",
+    )
+    .map(|_| ())
+    .map_err(|source| ReaderError::Limit {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// The array formats; each owns its extensions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {

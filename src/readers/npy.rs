@@ -8,8 +8,9 @@
 //! (the `npyz` crate would read it, at the price of a dependency for 100 lines).
 
 use super::array::{element_count, Array};
-use super::dtype::{decode, Dtype};
+use super::dtype::{decode_from, Dtype};
 use super::ReaderError;
+use std::io::Read;
 use std::path::Path;
 
 /// The value of `key` in the header dict, as written (`'<f4'`, `False`, `(16, 16, 32, 3)`).
@@ -48,13 +49,97 @@ fn parse_descr(descr: &str) -> Option<(Dtype, bool)> {
     (order != '|' || size == 1).then_some((dtype, big))
 }
 
-/// Read the `.npy` file at `path`.
+/// The longest header read, bytes: NumPy pads its dict to 64 bytes, and a version-1 header
+/// is at most 65,535 long; a version-2 header may claim 4 GiB, which no array needs.
+const MAX_HEADER_BYTES: usize = 1 << 20;
+
+/// Read the `.npy` file at `path`: the header first, then, once the declared array is known
+/// to match the file's length and to fit in memory ([`super::check_decode`]), its values
+/// decoded in chunks (the file is never read whole).
 pub fn read_npy(path: &Path) -> Result<Array, ReaderError> {
-    let bytes = std::fs::read(path).map_err(|source| ReaderError::Io {
+    let io = |source| ReaderError::Io {
         path: path.to_path_buf(),
         source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let file_bytes = file.metadata().map_err(io)?.len();
+    read_npy_from(path, std::io::BufReader::new(file), file_bytes)
+}
+
+/// [`read_npy`] of the `file_bytes` bytes that `reader` yields.
+fn read_npy_from(
+    path: &Path,
+    mut reader: impl Read,
+    file_bytes: u64,
+) -> Result<Array, ReaderError> {
+    let bad = |m: String| ReaderError::invalid(path, "npy header", m);
+    let short = |e: std::io::Error| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => bad("not a .npy file (truncated header)".into()),
+        _ => bad(format!("reading the header: {e}")),
+    };
+    // The magic and version (8 bytes), then a 2-byte (version 1) or 4-byte length.
+    let mut head = vec![0u8; 10];
+    reader.read_exact(&mut head).map_err(short)?;
+    if matches!(head[6], 2 | 3) {
+        head.resize(12, 0);
+        reader.read_exact(&mut head[10..]).map_err(short)?;
+    }
+    let (header_len, start) = preamble(path, &head)?;
+    if header_len > MAX_HEADER_BYTES {
+        return Err(bad(format!(
+            "a header of {header_len} bytes (at most {MAX_HEADER_BYTES} are read)"
+        )));
+    }
+    let data_start = start + header_len;
+    head.resize(data_start, 0);
+    reader.read_exact(&mut head[start..]).map_err(short)?;
+    let h = parse_header(path, &head)?;
+    let count = data_length(path, &h, file_bytes.saturating_sub(h.data_start as u64))?;
+    super::check_decode(path, "the array", &h.shape, h.dtype, false)?;
+    let decoded = decode_from(&mut reader, count, h.dtype, h.big_endian).map_err(|e| {
+        ReaderError::invalid(path, "npy data", format!("reading the values: {e}"))
     })?;
-    parse_npy(path, &bytes)
+    Ok(Array::new(h.shape, h.dtype, decoded, h.fortran_order))
+}
+
+/// The number of values of the header's shape, refused unless the `data_bytes` after the
+/// header are exactly its bytes (checked arithmetic: a shape whose byte count overflows is
+/// refused, never wrapped).
+fn data_length(path: &Path, h: &NpyHeader, data_bytes: u64) -> Result<usize, ReaderError> {
+    let count = element_count(&h.shape);
+    let want = count.and_then(|c| c.checked_mul(h.dtype.size()));
+    match (count, want) {
+        (Some(count), Some(want)) if want as u64 == data_bytes => Ok(count),
+        _ => Err(ReaderError::invalid(
+            path,
+            "npy data",
+            format!(
+                "{data_bytes} bytes of values for shape {:?} of {} ({} expected): truncated \
+                 or padded",
+                h.shape,
+                h.dtype.name(),
+                crate::limits::decoded_bytes(&h.shape, h.dtype.size(), 1)
+                    .map_or("more than 2^128".into(), |n| n.to_string())
+            ),
+        )),
+    }
+}
+
+/// The header's length and where it starts, from the magic, the version and the length
+/// field of the first 10 or 12 bytes.
+fn preamble(path: &Path, bytes: &[u8]) -> Result<(usize, usize), ReaderError> {
+    let bad = |m: String| ReaderError::invalid(path, "npy header", m);
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad("not a .npy file (no \\x93NUMPY magic)".into()));
+    }
+    match bytes[6] {
+        1 => Ok((usize::from(u16::from_le_bytes([bytes[8], bytes[9]])), 10)),
+        2 | 3 if bytes.len() >= 12 => Ok((
+            u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes")) as usize,
+            12,
+        )),
+        v => Err(bad(format!("version {v} is not read (1 to 3 are)"))),
+    }
 }
 
 /// The `.npy` header of `bytes`: shape, type, byte order, Fortran order, data offset.
@@ -66,23 +151,10 @@ pub(super) struct NpyHeader {
     pub data_start: usize,
 }
 
-/// Parse the header of a `.npy` file's bytes.
+/// Parse the header of a `.npy` file's bytes (the whole file, or its header).
 pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<NpyHeader, ReaderError> {
     let bad = |m: String| ReaderError::invalid(path, "npy header", m);
-    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
-        return Err(bad("not a .npy file (no \\x93NUMPY magic)".into()));
-    }
-    let (header_len, start) = match bytes[6] {
-        1 => (
-            usize::from(u16::from_le_bytes([bytes[8], bytes[9]])),
-            10usize,
-        ),
-        2 | 3 if bytes.len() >= 12 => (
-            u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes")) as usize,
-            12,
-        ),
-        v => return Err(bad(format!("version {v} is not read (1 to 3 are)"))),
-    };
+    let (header_len, start) = preamble(path, bytes)?;
     let header = bytes
         .get(start..start.saturating_add(header_len))
         .and_then(|h| std::str::from_utf8(h).ok())
@@ -118,29 +190,9 @@ pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<NpyHeader, Reade
     })
 }
 
-/// Parse a whole `.npy` file's bytes into a C-order array.
+/// Parse a whole `.npy` file's bytes into a C-order array (as [`read_npy`] reads a file).
 pub fn parse_npy(path: &Path, bytes: &[u8]) -> Result<Array, ReaderError> {
-    let h = parse_header(path, bytes)?;
-    let count = element_count(&h.shape).ok_or_else(|| {
-        ReaderError::invalid(path, "npy header", format!("shape {:?} overflows", h.shape))
-    })?;
-    let data = &bytes[h.data_start..];
-    let want = count.checked_mul(h.dtype.size());
-    if want != Some(data.len()) {
-        return Err(ReaderError::invalid(
-            path,
-            "npy data",
-            format!(
-                "{} bytes of values for shape {:?} of {} ({} expected): truncated or padded",
-                data.len(),
-                h.shape,
-                h.dtype.name(),
-                want.map_or("too many".to_string(), |w| w.to_string())
-            ),
-        ));
-    }
-    let decoded = decode(data, h.dtype, h.big_endian);
-    Ok(Array::new(h.shape, h.dtype, decoded, h.fortran_order))
+    read_npy_from(path, bytes, bytes.len() as u64)
 }
 
 /// A `.npy` file's bytes: version 1, `descr` as given, the raw values in the order given.

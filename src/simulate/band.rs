@@ -36,6 +36,9 @@ use std::time::Instant;
 /// The band's record in a band folder.
 pub const BAND_FILE: &str = "band.toml";
 
+/// The note of a band's truth cubes that records their image rows (`A..B`).
+pub const ROWS_NOTE: &str = "band_rows";
+
 /// The truth cubes a band folder holds (of its rows only).
 pub const BAND_CUBES: [&str; 3] = [TRUTH_CAMERA_FILE, TRUTH_WORLD_FILE, TRUTH_DIRECT_FILE];
 
@@ -175,6 +178,22 @@ impl BandInfo {
         })?;
         let info: BandInfo = toml::from_str(&text)
             .map_err(|e| bad(format!("{}: {}", path.display(), one_line(&e))))?;
+        // The capture's size, in exact arithmetic: each side at least 1, the cube at most
+        // MAX_COUNT values (a height of 2^64 - 1 was accepted).
+        let st = &info.settings;
+        let values = [st.nx, st.ny, st.nt]
+            .iter()
+            .try_fold(1u128, |a, &n| (n > 0).then(|| a * n as u128));
+        if values.is_none_or(|v| v > u128::from(crate::limits::MAX_COUNT)) {
+            return Err(bad(format!(
+                "{}: settings nx = {}, ny = {}, nt = {}: not a capture (1 to {} values)",
+                path.display(),
+                st.nx,
+                st.ny,
+                st.nt,
+                crate::limits::MAX_COUNT
+            )));
+        }
         if info.rows_start >= info.rows_end || info.rows_end > info.settings.ny {
             return Err(bad(format!(
                 "{}: rows {}..{} are not a band of {} rows",
@@ -225,6 +244,9 @@ pub fn simulate_band(
     let (info, files) = stage_and_install(out_dir, opts.force, |dir| {
         let bvh = Bvh::new(scene.mesh.clone());
         let shape = capture_shape(scene, opts)?;
+        // Each truth file records its rows, which the merge checks with the seed.
+        let band_provenance = provenance(scene, opts)
+            .with_note(ROWS_NOTE, format!("{}..{}", rows.start, rows.end));
         let (peaks, stats) = render_truths(
             scene,
             &bvh,
@@ -232,7 +254,7 @@ pub fn simulate_band(
             &shape,
             rows.clone(),
             dir,
-            &provenance(scene, opts),
+            &band_provenance,
             progress,
         )?;
         let info = BandInfo {
@@ -391,6 +413,7 @@ pub fn merge_bands(
         for file in BAND_CUBES {
             let path = dir.join(file);
             let meta = CubeReader::open(&path)?.meta().clone();
+            check_band_truth(&path, &meta.notes, b)?;
             if meta.nx != want.nx || meta.ny != b.rows().len() {
                 return Err(SimulateError::Band {
                     message: format!(
@@ -426,6 +449,34 @@ pub fn merge_bands(
     })?;
     let infos: Vec<BandInfo> = bands.into_iter().map(|(_, b)| b).collect();
     Ok(summary(out_dir, &infos, files, n_points, top, started))
+}
+
+/// A band's truth file must be of the band's rows and seed (the notes it was written
+/// with): a truth file swapped between two bands of as many rows was merged into
+/// duplicated rows.
+fn check_band_truth(
+    path: &Path,
+    notes: &[(String, String)],
+    band: &BandInfo,
+) -> Result<(), SimulateError> {
+    let note = |key: &str| notes.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str());
+    let rows = format!("{}..{}", band.rows_start, band.rows_end);
+    let seed = band.settings.seed.to_string();
+    let refuse = |what: String| {
+        Err(SimulateError::Band {
+            message: format!(
+                "{}: {what}, but its band.toml says rows {rows}, seed {seed}: the truth file \
+                 is not this band's",
+                path.display()
+            ),
+        })
+    };
+    match (note(ROWS_NOTE), note("seed")) {
+        (Some(r), Some(s)) if r == rows && s == seed => Ok(()),
+        (Some(r), Some(s)) => refuse(format!("rows {r}, seed {s}")),
+        (None, _) => refuse(format!("no '{ROWS_NOTE}' note (not written by simulate --rows)")),
+        (_, None) => refuse("no 'seed' note".into()),
+    }
 }
 
 /// Write the whole truth cubes into `dir` from the bands' rows, in row order.

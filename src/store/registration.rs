@@ -261,6 +261,55 @@ pub fn stored_calibration(path: &Path, data: &GroupData) -> Result<Calibration, 
         .map_err(|e| v.schema(format!("attribute 'calibration': {e}")))
 }
 
+/// Every number of a registration's arrays in its range ([`crate::ranges`], docs/faults.md):
+/// `point_m` in [`COORD_M`](crate::ranges::COORD_M) and `normal` in
+/// [`DIRECTION`](crate::ranges::DIRECTION), or all three NaN (a pixel that sees nothing);
+/// `dist_m` in [`DISTANCE_M`](crate::ranges::DISTANCE_M), or NaN; `mask` 0 or 1. A `dist_m`
+/// of 1e12 m was read and its pixel quietly masked.
+fn check_arrays(
+    v: &GroupView,
+    nx: usize,
+    point_m: &[[f32; 3]],
+    normal: &[[f32; 3]],
+    dist_m: &[f32],
+    mask: &[u8],
+) -> Result<(), StoreError> {
+    use crate::ranges::{self, Range};
+    let at = |i: usize| format!("pixel ({}, {})", i % nx.max(1), i / nx.max(1));
+    let triples = |name: &str, values: &[[f32; 3]], range: Range| -> Result<(), StoreError> {
+        for (i, p) in values.iter().enumerate() {
+            if p.iter().all(|c| c.is_nan()) {
+                continue;
+            }
+            let p = p.map(f64::from);
+            ranges::check_point(format_args!("dataset '{name}' at {}", at(i)), &p, range)
+                .map_err(|e| {
+                    v.schema(format!("{e} (a pixel that sees nothing has all three NaN)"))
+                })?;
+        }
+        Ok(())
+    };
+    triples("point_m", point_m, ranges::COORD_M)?;
+    triples("normal", normal, ranges::DIRECTION)?;
+    if let Some((i, &d)) = dist_m
+        .iter()
+        .enumerate()
+        .find(|(_, d)| !d.is_nan() && !ranges::DISTANCE_M.contains(f64::from(**d)))
+    {
+        let e = ranges::check(
+            format_args!("dataset 'dist_m' at {}", at(i)),
+            f64::from(d),
+            ranges::DISTANCE_M,
+        )
+        .expect_err("out of range");
+        return Err(v.schema(format!("{e} (or NaN where the pixel sees nothing)")));
+    }
+    if let Some((i, m)) = mask.iter().enumerate().find(|(_, m)| **m > 1) {
+        return Err(v.schema(format!("dataset 'mask' at {} is {m} (0 or 1)", at(i))));
+    }
+    Ok(())
+}
+
 /// Read a registration group (read from the file at `path`) back into typed values,
 /// checking its schema.
 pub fn from_group(path: &Path, data: &GroupData) -> Result<StoredRegistration, StoreError> {
@@ -278,6 +327,7 @@ pub fn from_group(path: &Path, data: &GroupData) -> Result<StoredRegistration, S
     let dist_m = v.typed::<f32>("dist_m", &[ny, nx])?.to_vec();
     let triangle = v.typed::<u32>("triangle", &[ny, nx])?.to_vec();
     let mask = v.typed::<u8>("mask", &[ny, nx])?.to_vec();
+    check_arrays(&v, nx, &point_m, &normal, &dist_m, &mask)?;
     let camera_m = match data.attr("camera_m") {
         Some(AttrValue::F64Array(c)) if c.len() == 3 => {
             crate::ranges::check_point("attribute 'camera_m'", c, crate::ranges::COORD_M)

@@ -24,13 +24,25 @@ fn refuse(message: String) -> VideoError {
     VideoError::Sequence { message }
 }
 
-/// The frame number of a sequence file name `frame_NNNNN.EXT`, and its extension.
-fn frame_number(name: &str) -> Option<(usize, &str)> {
+/// The largest frame number a sequence may use (2^40, [`crate::limits::MAX_COUNT`]): far
+/// beyond any render, and small enough that `n + 1` cannot overflow.
+const MAX_FRAME_NUMBER: u64 = crate::limits::MAX_COUNT;
+
+/// The frame number of a sequence file name `frame_NNNNN.EXT`, and its extension; `None`
+/// for a name of another form. `Err(digits)`: a frame name whose number cannot be ordered
+/// (above [`MAX_FRAME_NUMBER`], such as a 23-digit one), which must not be skipped silently.
+fn frame_number(name: &str) -> Option<Result<(usize, &str), &str>> {
     let (stem, ext) = name.strip_prefix("frame_")?.split_once('.')?;
     if stem.is_empty() || !stem.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
-    Some((stem.parse().ok()?, ext))
+    Some(
+        stem.parse::<u64>()
+            .ok()
+            .filter(|&n| n <= MAX_FRAME_NUMBER)
+            .map(|n| (n as usize, ext))
+            .ok_or(stem),
+    )
 }
 
 /// The PNG frames of the folders `dirs`, in frame order, checked to be frames `A..B` once
@@ -49,10 +61,18 @@ pub fn list_frames(dirs: &[PathBuf]) -> Result<(std::ops::Range<usize>, Vec<Path
             })?;
             let name = entry.file_name().to_string_lossy().into_owned();
             match frame_number(&name) {
-                Some((n, ext)) if ext.eq_ignore_ascii_case("png") => {
+                Some(Err(digits)) => {
+                    return Err(refuse(format!(
+                        "{}: frame number {digits} cannot be ordered (at most \
+                         {MAX_FRAME_NUMBER}): rename it frame_NNNNN with its place in the \
+                         sequence, or move it out of the folder",
+                        entry.path().display()
+                    )))
+                }
+                Some(Ok((n, ext))) if ext.eq_ignore_ascii_case("png") => {
                     frames.push((n, entry.path(), dir))
                 }
-                Some((_, ext)) if ext.eq_ignore_ascii_case("exr") => {
+                Some(Ok((_, ext))) if ext.eq_ignore_ascii_case("exr") => {
                     return Err(refuse(format!(
                         "{}: an EXR frame holds linear values, not the displayed ones: render the \
                          parts with --format png to encode them",
@@ -164,8 +184,19 @@ mod tests {
 
     #[test]
     fn frame_numbers_come_from_sequence_names_only() {
-        assert_eq!(frame_number("frame_00042.png"), Some((42, "png")));
-        assert_eq!(frame_number("frame_123456.exr"), Some((123456, "exr")));
+        assert_eq!(frame_number("frame_00042.png"), Some(Ok((42, "png"))));
+        assert_eq!(frame_number("frame_123456.exr"), Some(Ok((123456, "exr"))));
+        // Numbers that cannot be ordered are named, not skipped.
+        let huge = "12345678901234567890123";
+        assert_eq!(frame_number(&format!("frame_{huge}.png")), Some(Err(huge)));
+        assert_eq!(
+            frame_number("frame_18446744073709551615.png"),
+            Some(Err("18446744073709551615"))
+        );
+        assert_eq!(
+            frame_number("frame_1099511627776.png"),
+            Some(Ok((1 << 40, "png")))
+        );
         for name in [
             "frame_.png",
             "frame_12a.png",

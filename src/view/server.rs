@@ -17,8 +17,9 @@ use super::api::{self, Reply, MAX_BODY_BYTES};
 use super::session::ViewSession;
 use super::state::{FrameOptions, ViewState, DEFAULT_JPEG_QUALITY};
 use serde::{Deserialize, Serialize};
-use std::io::Read;
+use std::io::ErrorKind;
 use std::net::SocketAddr;
+use std::time::{Duration, Instant};
 use tungstenite::protocol::Role;
 use tungstenite::{Message, WebSocket};
 
@@ -108,19 +109,59 @@ fn answer(session: &ViewSession, access: &Access, mut request: tiny_http::Reques
     if path == "/ws" && websocket {
         return frame_stream(session, request);
     }
-    let mut body = Vec::new();
-    let mut reply = match request
-        .as_reader()
-        .take(MAX_BODY_BYTES as u64 + 1)
-        .read_to_end(&mut body)
-    {
-        Ok(_) => api::handle(session, &method, &url, &body),
-        Err(e) => Reply::error(400, format!("reading the request body: {e}")),
+    let mut reply = match read_body(&mut request) {
+        Ok(body) => api::handle(session, &method, &url, &body),
+        Err(refusal) => refusal,
     };
     if let Some(cookie) = set_cookie.filter(|_| reply.status == 200) {
         reply.headers.push(("Set-Cookie", cookie));
     }
     let _ = request.respond(to_response(reply));
+}
+
+/// The longest a request's body may take to arrive.
+const BODY_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// A request's body, read in chunks of 8 kB up to [`MAX_BODY_BYTES`] and within
+/// [`BODY_TIMEOUT`]; a declared `Content-Length` over the limit is refused (413) before
+/// anything is read or allocated. A client that lies about the length and disconnects, or
+/// stops sending, gets a refusal, and the server goes on (the patched tiny_http discards the
+/// rest of a refused body through a fixed buffer, vendor/tiny_http/PATCH.md).
+fn read_body(request: &mut tiny_http::Request) -> Result<Vec<u8>, Reply> {
+    if let Some(declared) = request.body_length().filter(|&n| n > MAX_BODY_BYTES) {
+        return Err(Reply::error(
+            413,
+            format!("the body is {declared} bytes; at most {MAX_BODY_BYTES}"),
+        ));
+    }
+    let started = Instant::now();
+    let reader = request.as_reader();
+    let mut body = Vec::new();
+    let mut chunk = [0u8; 8192];
+    loop {
+        if started.elapsed() > BODY_TIMEOUT {
+            return Err(Reply::error(
+                408,
+                format!("the body took more than {} s", BODY_TIMEOUT.as_secs()),
+            ));
+        }
+        let n = match reader.read(&mut chunk) {
+            Ok(0) => return Ok(body),
+            Ok(n) => n,
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock) => {
+                return Err(Reply::error(408, "the body stopped arriving"))
+            }
+            Err(e) => return Err(Reply::error(400, format!("reading the request body: {e}"))),
+        };
+        if body.len() + n > MAX_BODY_BYTES {
+            return Err(Reply::error(
+                413,
+                format!("the body is over {MAX_BODY_BYTES} bytes"),
+            ));
+        }
+        body.extend_from_slice(&chunk[..n]);
+    }
 }
 
 fn header(name: &str, value: &str) -> tiny_http::Header {
@@ -201,6 +242,12 @@ fn frame_stream(session: &ViewSession, request: tiny_http::Request) {
         let reply = match socket.read() {
             Ok(Message::Text(text)) => frame_reply(session, text.as_bytes()),
             Ok(Message::Binary(bytes)) => frame_reply(session, &bytes),
+            // A read that timed out (tiny_http's socket read timeout) on an idle tab.
+            Err(tungstenite::Error::Io(e))
+                if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock) =>
+            {
+                continue
+            }
             Ok(Message::Close(_)) | Err(_) => break,
             Ok(_) => continue,
         };

@@ -11,6 +11,7 @@
 mod cli;
 
 mod consistency;
+mod decoders;
 mod numbers;
 mod outputs;
 mod overwrite;

@@ -21,6 +21,7 @@
 
 #[path = "../common/cli.rs"]
 mod cli;
+mod decoders;
 mod extremes;
 mod mutate;
 mod regressions;

@@ -12,6 +12,7 @@ mod api;
 mod browser;
 mod explorer;
 mod hostile;
+mod lying_client;
 
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Read};

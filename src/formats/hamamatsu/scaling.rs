@@ -12,6 +12,7 @@
 //! the axis without a table in this file ([`AxisScaling::External`]).
 
 use super::FormatError;
+use crate::formats::FileRegions;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -101,13 +102,14 @@ fn bad_area(path: &Path, raw: &str) -> FormatError {
 }
 
 /// Read the scaling of one axis (`axis` is 'X' or 'Y', `len` its pixel count); tables are
-/// read from `bytes`, the whole file.
+/// read from `file` at the offset the header gives, once their extent is known to lie in it
+/// (checked arithmetic: an offset or count near 2^64 is refused, never wrapped).
 pub(super) fn parse_axis_scaling(
     path: &Path,
     sections: &BTreeMap<String, BTreeMap<String, String>>,
     axis: char,
     len: usize,
-    bytes: &[u8],
+    file: &FileRegions,
 ) -> Result<AxisScaling, FormatError> {
     let Some(scaling) = sections.get("Scaling") else {
         return Ok(AxisScaling::Pixels);
@@ -172,8 +174,20 @@ pub(super) fn parse_axis_scaling(
                 .parse()
                 .map_err(|_| bad("ScalingFile", raw, expected))?;
             let first_entry = table_part(path, sections, axis, len, table_len)?;
-            let end = byte_offset.saturating_add(4 * table_len as u64);
-            if end > bytes.len() as u64 {
+            // The table's extent and the part the image holds, in u128: no header value
+            // (offset, count, areSource) can wrap.
+            let end = u128::from(byte_offset) + 4 * table_len as u128;
+            if end > u128::from(u64::MAX) {
+                return Err(bad(
+                    "ScalingFile",
+                    raw,
+                    &format!(
+                        "a table inside this file ({table_len} float32 at byte {byte_offset} \
+                         would end at byte {end}, past 2^64)"
+                    ),
+                ));
+            }
+            if end > u128::from(file.len) {
                 return Err(FormatError::Truncated {
                     path: path.to_path_buf(),
                     what: format!(
@@ -181,12 +195,17 @@ pub(super) fn parse_axis_scaling(
                          byte {byte_offset})",
                         key("ScalingFile")
                     ),
-                    needed: end,
-                    available: bytes.len() as u64,
+                    needed: end as u64,
+                    available: file.len,
                 });
             }
-            let start = byte_offset as usize + 4 * first_entry;
-            let values: Vec<f64> = bytes[start..start + 4 * len]
+            // Inside the file, so below 2^64: `first_entry + len <= table_len` (table_part).
+            let start = byte_offset + 4 * first_entry as u64;
+            let table_bytes = file.read(start, 4 * len).map_err(|source| FormatError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let values: Vec<f64> = table_bytes
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)
                 .collect();
@@ -248,15 +267,13 @@ fn table_part(
     } else {
         (area[1], area[3])
     };
-    if size != len || offset + size > table_len {
+    // In u128: an areSource offset of 2^64 - 1 must not wrap past the table's length.
+    let part_end = offset as u128 + size as u128;
+    if size != len || part_end > table_len as u128 {
         return Err(mismatch(format!(
             "{axis} axis table length ({key}; [Acquisition] areSource=\"{},{},{},{}\" gives \
-             entries {offset}..{} of it)",
-            area[0],
-            area[1],
-            area[2],
-            area[3],
-            offset + size
+             entries {offset}..{part_end} of it)",
+            area[0], area[1], area[2], area[3],
         )));
     }
     Ok(offset)

@@ -14,7 +14,7 @@
 
 use super::{build_image, decode_comment, parse_comment, HpdContainer, HpdPixels};
 use crate::formats::raster::{read_tiff_from, RasterPixels};
-use crate::formats::{FormatError, StreakImage};
+use crate::formats::{FileRegions, FormatError, StreakImage};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -60,12 +60,14 @@ pub enum TiffImage {
 /// Read a TIFF, as an HPD-TA image when its ImageDescription holds an HPD-TA header, else as
 /// a plain raster image.
 pub fn read_hpd_tiff(path: &Path, transpose: bool) -> Result<TiffImage, FormatError> {
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
+    let io = |source| FormatError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let regions = FileRegions::new(&file).map_err(io)?;
     let (raster, description) =
-        read_tiff_from(path, std::io::Cursor::new(&bytes[..]), bytes.len() as u64)?;
+        read_tiff_from(path, std::io::BufReader::new(&file), regions.len)?;
     let header = match description {
         Some(d) => hpd_tiff_header(path, &d)?,
         None => None,
@@ -86,6 +88,6 @@ pub fn read_hpd_tiff(path: &Path, transpose: bool) -> Result<TiffImage, FormatEr
         data,
         pixel_type,
     };
-    build_image(path, pixels, header, &bytes, transpose)
+    build_image(path, pixels, header, &regions, transpose)
         .map(|image| TiffImage::Hpd(Box::new(image)))
 }

@@ -100,10 +100,7 @@ pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, S
 /// Describe the y-tal capture at `path` as `femto ingest` reads it: `H (T, Sx, Sy)`, its
 /// axis in ps, its clock and its laser (one spot, or confocal).
 pub fn describe_tal(path: &Path) -> Result<ArrayDescription, StageError> {
-    let cap = crate::interop::read_tal(path).map_err(|e| StageError::Input {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let cap = crate::interop::read_tal(path)?;
     let (cube, _) = cap.to_cube();
     let laser = match cap.laser_grid_xyz_m {
         LaserSpot::Single(p) => format!("one spot at {p:?} m"),
