@@ -59,14 +59,19 @@ pub fn read_mat(
     path: &Path,
     read_values: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<MatVar>, ReaderError> {
-    let bytes = std::fs::read(path).map_err(|source| ReaderError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if is_v73_header(&bytes) {
-        drop(bytes);
+    let mut head = [0u8; 20];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .map_err(|source| ReaderError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    if is_v73_header(&head[..n]) {
         return read_v73(path, read_values);
     }
+    // A v5 file is read whole: its bytes, and up to 8 bytes of decoded f32 values (a
+    // column-major reorder included) per stored byte, checked against the budget first.
+    let bytes = super::read_whole(path, 8)?;
     if !is_v5_header(&bytes) {
         return Err(ReaderError::invalid(
             path,

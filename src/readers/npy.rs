@@ -48,13 +48,51 @@ fn parse_descr(descr: &str) -> Option<(Dtype, bool)> {
     (order != '|' || size == 1).then_some((dtype, big))
 }
 
-/// Read the `.npy` file at `path`.
+/// Read the `.npy` file at `path`: its header first, then the whole file once what it
+/// declares (the file's bytes and the f32 values decoded from them, twice for Fortran order)
+/// fits the memory budget.
 pub fn read_npy(path: &Path) -> Result<Array, ReaderError> {
-    let bytes = std::fs::read(path).map_err(|source| ReaderError::Io {
+    let io = |source| ReaderError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let mut head = Vec::new();
+    std::io::Read::read_to_end(
+        &mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, HEAD_BYTES),
+        &mut head,
+    )
+    .map_err(io)?;
+    let h = parse_header(path, &head)?;
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    check_declared(path, &h, len)?;
+    let bytes = std::fs::read(path).map_err(io)?;
     parse_npy(path, &bytes)
+}
+
+/// The most of a `.npy` file read to find its header (NumPy writes headers of a few
+/// hundred bytes; version 2 allows up to 4 GiB, which no array needs).
+pub(super) const HEAD_BYTES: u64 = 1 << 20;
+
+/// Refuse an array whose declared values, with the `stored_bytes` they come in, do not fit
+/// the memory budget.
+pub(super) fn check_declared(
+    path: &Path,
+    h: &NpyHeader,
+    stored_bytes: u64,
+) -> Result<(), ReaderError> {
+    let count = h
+        .shape
+        .iter()
+        .try_fold(1u128, |a, &n| a.checked_mul(n as u128));
+    let copies = if h.fortran_order { 2 } else { 1 };
+    let need = count
+        .and_then(|c| c.checked_mul(4 * copies))
+        .and_then(|v| v.checked_add(u128::from(stored_bytes)));
+    super::check_bytes(
+        path,
+        need,
+        &format!("the array {:?} of {}", h.shape, h.dtype.name()),
+    )
 }
 
 /// The `.npy` header of `bytes`: shape, type, byte order, Fortran order, data offset.
