@@ -649,3 +649,120 @@ fn unknown_and_unread_formats_say_what_femto_reads() {
     assert_eq!((c.ny, c.nx, c.nt()), (3, 4, 9));
     assert!(c.data.iter().all(|&v| v == 2.0));
 }
+
+/// A Delmic SPARC map as Odemis writes it: a survey SEM image (T = 1), the streak-camera map
+/// `Image` (C = 2, T = 5, Z = 1, Y = 3, X = 4) with its dimension scales, and an RGB preview.
+fn delmic_map(p: &Path) -> Vec<f32> {
+    let f = rust_hdf5::H5File::create(p).unwrap();
+    let labels = ["C", "T", "Z", "Y", "X"];
+    let image = |group: &str, shape: [usize; 5], values: &[u16]| {
+        let g = f
+            .create_group(group)
+            .unwrap()
+            .create_group("ImageData")
+            .unwrap();
+        let d = g.new_dataset::<u16>().shape(shape).create("Image").unwrap();
+        d.write_raw(values).unwrap();
+        d.new_attr::<rust_hdf5::VarLenUnicode>()
+            .shape([5])
+            .create("DIMENSION_LABELS")
+            .unwrap()
+            .write_string_array(&labels)
+            .unwrap();
+        g
+    };
+    image("Acquisition0", [1, 1, 1, 6, 6], &[7; 36]);
+    // value(c, t, y, x) = 1000 c + 100 t + 10 y + x
+    let mut values = Vec::new();
+    for c in 0..2u16 {
+        for t in 0..5u16 {
+            for y in 0..3u16 {
+                for x in 0..4u16 {
+                    values.push(1000 * c + 100 * t + 10 * y + x);
+                }
+            }
+        }
+    }
+    let g = image("Acquisition1", [2, 5, 1, 3, 4], &values);
+    let scalar = |name: &str, v: f64| {
+        g.new_dataset::<f64>()
+            .shape([0usize; 0])
+            .create(name)
+            .unwrap()
+            .write_raw(&[v])
+            .unwrap();
+    };
+    scalar("DimensionScaleX", 2e-6);
+    scalar("DimensionScaleY", 2e-6);
+    scalar("XOffset", 1e-5);
+    scalar("YOffset", -3e-6);
+    let t: Vec<f64> = (0..5).map(|i| 1e-9 + 20e-12 * f64::from(i)).collect();
+    g.new_dataset::<f64>()
+        .shape([5])
+        .create("DimensionScaleT")
+        .unwrap()
+        .write_raw(&t)
+        .unwrap();
+    g.new_dataset::<f64>()
+        .shape([2])
+        .create("DimensionScaleC")
+        .unwrap()
+        .write_raw(&[5.5e-7, 5.6e-7])
+        .unwrap();
+    let preview = f.create_group("Preview").unwrap();
+    preview
+        .new_dataset::<u8>()
+        .shape([8, 8, 3])
+        .create("Image")
+        .unwrap()
+        .write_raw(&[9u8; 192])
+        .unwrap();
+    f.close().unwrap();
+    // The cube: [y][x][t] with C summed.
+    let mut want = Vec::new();
+    for y in 0..3 {
+        for x in 0..4 {
+            for t in 0..5 {
+                want.push(
+                    (0..2)
+                        .map(|c| (1000 * c + 100 * t + 10 * y + x) as f32)
+                        .sum(),
+                );
+            }
+        }
+    }
+    want
+}
+
+#[test]
+fn a_delmic_map_reads_with_no_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("map.h5");
+    let want = delmic_map(&p);
+    let out = dir.path().join("cube.h5");
+    let c = ingest(&p, &out, &[]);
+    assert_eq!((c.ny, c.nx, c.nt()), (3, 4, 5));
+    assert_eq!(c.data, want);
+    assert!((c.axis.t0_ps - 1000.0).abs() < 1e-6 && (c.axis.dt_ps - 20.0).abs() < 1e-6);
+    assert_eq!(
+        note(&out, "delmic.acquisition").as_deref(),
+        Some("Acquisition1")
+    );
+    assert_eq!(
+        note(&out, "delmic.wavelengths_nm").as_deref(),
+        Some("[550.0,560.0]")
+    );
+    // As rosettasciio: Y goes up, the first row at the top; offsets are the first pixel's.
+    assert_eq!(note(&out, "axis.y.scale").as_deref(), Some("-0.000002"));
+    assert_eq!(
+        note(&out, "axis.x.offset").as_deref(),
+        Some(&*(1e-5 - 3e-6f64).to_string())
+    );
+    let c = ingest(&p, &out, &["--select", "C=1"]);
+    assert_eq!(at(&c, 2, 3, 4), 1423.0);
+    let text = info(&[p.to_str().unwrap()]);
+    assert!(
+        text.contains("Acquisition1 [2, 5, 1, 3, 4]") && !text.contains("Preview"),
+        "{text}"
+    );
+}
