@@ -283,7 +283,10 @@ fn a_streak_image_is_described_as_read_and_transposed() {
     assert!(s.time_axis.is_none() && s.img.is_none());
     assert!(format!("{s}").contains("3 x 2 (nx, nt): x across, time down"));
 
-    let options = DescribeOptions { transpose: true };
+    let options = DescribeOptions {
+        transpose: true,
+        ..Default::default()
+    };
     let Description::StreakImage(t) = describe_file(&path, &options, &Quiet).unwrap() else {
         panic!("not a streak image")
     };
@@ -330,10 +333,13 @@ fn errors_name_the_file_once() {
 
     let e = err(&txt);
     assert!(matches!(e, StageError::Input { .. }), "{e:?}");
+    // The refusal lists what femto reads (issue 44).
+    let text = e.to_string();
     assert!(
-        e.to_string().contains("not a femto cube (HDF5) file"),
+        text.contains("not a file femto reads") && text.contains("femto cubes (.h5)"),
         "{e}"
     );
+    assert!(text.contains(".ptu") && text.contains(".npz"), "{e}");
     let e = err(&missing);
     assert!(matches!(e, StageError::Io { .. }), "{e:?}");
     let e = err(&png);

@@ -4,7 +4,8 @@
 Usage: python3 tools/interop_check.py path/to/femto [workdir]
 
 Runs `check(femto, workdir)` of every module in tools/interop/ (hpdta: rosettasciio and
-HPD-TA `.img`; h5: h5py annotations; ytal: y-tal captures; mitransient_render: transient
+HPD-TA `.img`; h5: h5py annotations; instruments: PTU, Delmic, time-first and `.npz` files
+against ptufile, rosettasciio, h5py and scipy; ytal: y-tal captures; mitransient_render: transient
 renders; mitsuba_compare: tools/compare_mitsuba.py in small; noise_parts: tools/noise_split.py
 --by-bounce in small; no module is named like a package it
 imports),

@@ -1,7 +1,8 @@
 //! The inputs of `femto ingest` that other tools write: a y-tal capture (HDF5), a
-//! mitransient transient array (`.npy` with its binning), and array files as labs save them
-//! (`.npy`, `.mat`, `.hspy`, plain HDF5 datasets: [`femto::readers`]). Their flags, their
-//! detection, and the call to the library's stages ([`femto::interop::ingest_tal`],
+//! mitransient transient array (`.npy` with its binning), and files as labs and instruments
+//! save them (`.npy`, `.npz`, `.mat`, `.hspy`, plain HDF5 datasets, Delmic SPARC HDF5,
+//! PicoQuant PTU: [`femto::readers`]). Their flags, mapped onto the library's kind decision
+//! ([`femto::ingest::kind::decide`]), and the call to the library's stages ([`femto::interop::ingest_tal`],
 //! [`femto::interop::ingest_mitransient`], [`femto::ingest::arrays::ingest_array`]). They
 //! hold rendered or already assembled data, so the streak corrections of `ingest` (dark,
 //! flat, sweep, jitter, power) do not apply and their flags are refused; `--saturation`
@@ -12,9 +13,10 @@ use clap::{Args, ValueEnum};
 use femto::container::Provenance;
 use femto::cube::TimeFrame;
 use femto::ingest::arrays::{ingest_array, ArrayIngest, Confocal};
+use femto::ingest::kind::{InputKind, KindHints};
 use femto::interop::mitransient::{Channels, OplBinning};
-use femto::interop::{ingest_mitransient, ingest_tal, is_tal_capture};
-use femto::readers::{Format, ReadOptions};
+use femto::interop::{ingest_mitransient, ingest_tal};
+use femto::readers::{AxisRef, Format, LayoutOptions, ReadOptions};
 use std::path::Path;
 
 /// Another tool's file as input.
@@ -83,41 +85,44 @@ pub struct InteropArgs {
     /// whose time zero is at the wall) [default: camera].
     #[arg(long, value_enum)]
     pub clock: Option<super::values::Clock>,
+    /// Array files: which axis of the stored array is time, N indexing the shape `femto info`
+    /// prints (MATLAB's order for .mat). Without it, the file's own axis names decide, else
+    /// the last axis when no other is twice as long or more (else ingest asks for this flag).
+    #[arg(long, value_name = "N")]
+    pub time_axis: Option<usize>,
+    /// Array, Delmic and PTU files: keep one index of an extra axis (channels, wavelengths,
+    /// frames, z) instead of summing it: AXIS=I, AXIS a name `femto info` prints (frame,
+    /// channel, C, Z) or an axis number. Repeatable.
+    #[arg(long, value_name = "AXIS=I", value_parser = super::values::axis_index)]
+    pub select: Vec<(AxisRef, usize)>,
+    /// Array files: sum an extra axis of an unnamed array with more than three (AXIS a number
+    /// or name). Axes a file names as extra are summed without it. Repeatable.
+    #[arg(long, value_name = "AXIS", value_parser = super::values::axis_ref)]
+    pub sum: Vec<AxisRef>,
 }
 
-/// Which foreign input `args` names, if any.
-fn kind(args: &IngestArgs) -> Option<Foreign> {
-    if let Some(f) = args.interop.from {
-        return Some(f);
-    }
-    let path = Path::new(&args.input);
+/// The library's decision of what `args.input` is ([`femto::ingest::kind::decide`]), from
+/// the flags that bear on it; `None`: a streak capture.
+fn kind(args: &IngestArgs) -> anyhow::Result<Option<Foreign>> {
     let i = &args.interop;
-    let format = Format::sniff(path);
-    if format == Some(Format::Npy) {
-        let opl = i.start_opl_m.is_some() || i.bin_width_opl_m.is_some();
-        let mitransient = opl || i.channels.is_some() || i.opl_clock.is_some();
-        return Some(if mitransient {
-            Foreign::Mitransient
-        } else {
-            Foreign::Array
-        });
-    }
-    // y-tal's H is (T, Sx, Sy), not a stack of (ny, nt, nx) streak images: read as a capture.
-    let tal_dataset = args
-        .dataset
-        .as_deref()
-        .is_none_or(|d| d.trim_start_matches('/') == "H");
-    if tal_dataset && path.is_file() && is_tal_capture(path) {
-        return Some(Foreign::Tal);
-    }
-    match (format, args.dataset.as_deref()) {
-        (Some(Format::Mat | Format::Hspy), _) => Some(Foreign::Array),
-        // A 3-D dataset named with --dataset is a stack of streak images (the scanline route,
-        // docs/ingest.md); --from array reads it as an x-y-t cube instead.
-        (Some(Format::Hdf5Array), Some(d)) if femto::readers::is_3d_dataset(path, d) => None,
-        (Some(Format::Hdf5Array), _) => Some(Foreign::Array),
-        _ => None,
-    }
+    let hints = KindHints {
+        from: i.from.map(|f| match f {
+            Foreign::Tal => InputKind::Tal,
+            Foreign::Mitransient => InputKind::Mitransient,
+            Foreign::Array => InputKind::Array(Format::Npy),
+        }),
+        dataset: args.dataset.as_deref(),
+        mitransient_flags: i.start_opl_m.is_some()
+            || i.bin_width_opl_m.is_some()
+            || i.channels.is_some()
+            || i.opl_clock.is_some(),
+    };
+    Ok(match femto::ingest::kind::decide(&args.input, &hints)? {
+        InputKind::Streak => None,
+        InputKind::Tal => Some(Foreign::Tal),
+        InputKind::Mitransient => Some(Foreign::Mitransient),
+        InputKind::Array(_) => Some(Foreign::Array),
+    })
 }
 
 /// The streak-capture flags given, which do not apply to another tool's file.
@@ -145,6 +150,9 @@ fn streak_flags(args: &IngestArgs, kind: Foreign) -> Vec<&'static str> {
         ),
         (args.interop.device_m.is_some() && !array, "--device-m"),
         (args.interop.clock.is_some() && !array, "--clock"),
+        (args.interop.time_axis.is_some() && !array, "--time-axis"),
+        (!args.interop.select.is_empty() && !array, "--select"),
+        (!args.interop.sum.is_empty() && !array, "--sum"),
         (args.allow_missing, "--allow-missing"),
         (args.value_scale.is_some(), "--value-scale"),
         (args.compression.is_some(), "--compression"),
@@ -155,21 +163,11 @@ fn streak_flags(args: &IngestArgs, kind: Foreign) -> Vec<&'static str> {
 
 /// Ingest another tool's file when `args` names one (`None`: a streak capture).
 pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
-    let path = Path::new(&args.input);
-    if args.dataset.is_none()
-        && args.interop.from.is_none()
-        && Format::sniff(path) == Some(Format::Hdf5Array)
-    {
-        if let Some(name) = femto::readers::ambiguous_3d_dataset(path) {
-            return Some(Err(anyhow::anyhow!(
-                "{}: /{name} is 3-D and records no time axis, so its layout is not known: \
-                 --dataset {name} reads it as streak images (ny, nt, nx; with --transpose ny, \
-                 nx, nt), --from array as an x-y-t cube (ny, nx, nt)",
-                path.display()
-            )));
-        }
-    }
-    let Some(kind) = kind(args) else {
+    let kind = match kind(args) {
+        Ok(k) => k,
+        Err(e) => return Some(Err(e)),
+    };
+    let Some(kind) = kind else {
         let i = &args.interop;
         let mitransient_only = [
             (i.start_opl_m.is_some(), "--start-opl-m"),
@@ -188,6 +186,9 @@ pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
                 (i.wall_size_m.is_some(), "--wall-size-m"),
                 (i.device_m.is_some(), "--device-m"),
                 (i.clock.is_some(), "--clock"),
+                (i.time_axis.is_some(), "--time-axis"),
+                (!i.select.is_empty(), "--select"),
+                (!i.sum.is_empty(), "--sum"),
             ];
             let c: Vec<&str> = confocal
                 .iter()
@@ -198,8 +199,8 @@ pub fn run(args: &IngestArgs) -> Option<anyhow::Result<()>> {
                 return None;
             }
             return Some(Err(anyhow::anyhow!(
-                "{}: only for array files (.npy, .mat, .hspy, HDF5 datasets); {} is a streak \
-                 capture",
+                "{}: only for array files (.npy, .npz, .mat, .hspy, HDF5 datasets, Delmic, \
+                 .ptu); {} is a streak capture",
                 c.join(", "),
                 args.input
             )));
@@ -333,16 +334,22 @@ fn ingest_arrays(
             input.display()
         ),
     };
-    let format = Format::sniff(input).ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: not an array file (.npy, .mat, .hspy, or HDF5)",
-            input.display()
-        )
-    })?;
+    let hints = KindHints {
+        from: Some(InputKind::Array(Format::Npy)),
+        ..KindHints::default()
+    };
+    let InputKind::Array(format) = femto::ingest::kind::decide(&args.input, &hints)? else {
+        unreachable!("decide answers an array format for --from array")
+    };
     let opts = ArrayIngest {
         read: ReadOptions {
             dataset: args.dataset.clone(),
-            transpose: args.transpose,
+            layout: LayoutOptions {
+                time_axis: i.time_axis,
+                transpose: args.transpose,
+                select: i.select.clone(),
+                sum: i.sum.clone(),
+            },
         },
         dt_ps: args.dt_ps,
         t0_ps: args.t0_ps,

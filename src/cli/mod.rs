@@ -65,7 +65,7 @@ pub enum Command {
     Encode(encode::EncodeArgs),
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
-    Ingest(ingest::IngestArgs),
+    Ingest(Box<ingest::IngestArgs>),
     /// Write a cube for another tool: a y-tal capture (--to tal).
     Export(export::ExportArgs),
     /// Explore a world-time cube interactively in the browser: fly a relativistic camera
@@ -88,7 +88,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(*args),
         Command::Merge(args) => merge::run(args),
         Command::Encode(args) => encode::run(args),
-        Command::Ingest(args) => ingest::run(args),
+        Command::Ingest(args) => ingest::run(*args),
         Command::View(args) => view::run(args),
         Command::Export(args) => export::run(args),
         Command::Compare(args) => compare::run(args),

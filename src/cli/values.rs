@@ -352,6 +352,29 @@ pub enum Clock {
     Camera,
 }
 
+/// `AXIS=I` of `--select`: an axis (number or name) and the index kept.
+pub fn axis_index(s: &str) -> Result<(femto::readers::AxisRef, usize), String> {
+    let (axis, index) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}' is not AXIS=I (frame=0, C=12, 3=1)"))?;
+    let index: usize = index
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}': the index after '=' must be a whole number >= 0"))?;
+    if axis.trim().is_empty() {
+        return Err(format!("'{s}': name the axis before '='"));
+    }
+    Ok((femto::readers::AxisRef::parse(axis), index))
+}
+
+/// `AXIS` of `--sum`: an axis number or name.
+pub fn axis_ref(s: &str) -> Result<femto::readers::AxisRef, String> {
+    if s.trim().is_empty() {
+        return Err("name an axis (a number or a name)".into());
+    }
+    Ok(femto::readers::AxisRef::parse(s))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -495,5 +518,19 @@ mod tests {
             .map(|p| p.get_name().to_string())
             .collect();
         assert_eq!(listed.len(), 2 + Effects::NAMES.len());
+    }
+
+    #[test]
+    fn select_takes_an_axis_and_an_index() {
+        use femto::readers::AxisRef;
+        assert_eq!(
+            axis_index("frame=2"),
+            Ok((AxisRef::Name("frame".into()), 2))
+        );
+        assert_eq!(axis_index("3=0"), Ok((AxisRef::Index(3), 0)));
+        assert!(axis_index("C").is_err());
+        assert!(axis_index("C=-1").is_err());
+        assert!(axis_index("=1").is_err());
+        assert_eq!(axis_ref("0"), Ok(AxisRef::Index(0)));
     }
 }

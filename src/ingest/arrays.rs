@@ -1,5 +1,5 @@
-//! The ingest route of array files ([`crate::readers`]: `.npy`, `.mat`, `.hspy`, plain
-//! HDF5): the [`Capture`] read becomes a cube on a uniform camera-time axis, with the
+//! The ingest route of array files ([`crate::readers`]: `.npy`, `.npz`, `.mat`, `.hspy`,
+//! plain HDF5, Delmic SPARC HDF5, PicoQuant PTU): the [`Capture`] read becomes a cube on a uniform camera-time axis, with the
 //! saturation mask of streak ingest, a confocal scan's wall (the `tal` group), and the file's
 //! other axes and scalars as cube attributes; written atomically.
 //!
@@ -94,6 +94,8 @@ pub struct ArrayReport {
     /// How the time axis was decided.
     pub time_axis: String,
     pub saturated_pixels: usize,
+    /// Which stored axis became time, rows and columns, and what became of the others.
+    pub layout: String,
     /// Integer samples f32 does not hold exactly (a warning), and the largest.
     pub inexact: usize,
     pub largest_inexact: f64,
@@ -294,6 +296,17 @@ pub fn ingest_array(
         }
     }
     let c = readers::open(input, format, &opts.read)?;
+    if opts.confocal.is_some() && c.nx != c.ny {
+        return Err(flag(
+            input,
+            "--confocal",
+            format!(
+                "the grid is {} x {} (rows x columns, from {:?}; {}), not square as a \
+                 confocal scan's is; name the time axis with --time-axis N",
+                c.ny, c.nx, c.stored_shape, c.layout
+            ),
+        ));
+    }
     if let Some(i) = c.samples.iter().position(|v| !v.is_finite()) {
         let (p, t) = (i / c.nt, i % c.nt);
         return Err(flag(
@@ -326,6 +339,7 @@ pub fn ingest_array(
             ),
         ),
         ("ingest.time_axis".into(), time_axis.clone()),
+        ("ingest.layout".into(), c.layout.clone()),
     ];
     // The mask is taken on the raw values, before any resampling.
     let mut mask = None;
@@ -375,6 +389,7 @@ pub fn ingest_array(
         axis,
         time_axis,
         saturated_pixels,
+        layout: c.layout.clone(),
         inexact: c.inexact,
         largest_inexact: c.largest_inexact,
     };

@@ -14,7 +14,8 @@
 //!   HDF5 cube (`docs/cube-format.md`), decoding rows in parallel with a bounded number in
 //!   flight, so peak memory does not grow with the number of scanlines.
 //!
-//! [`flags`] names the `femto ingest` flag in an error's line (the CLI and the Python package).
+//! [`kind`] decides what kind of input a file is (streak capture, y-tal, mitransient, or a
+//! file of [`crate::readers`]); [`arrays`] ingests the last. [`flags`] names the `femto ingest` flag in an error's line (the CLI and the Python package).
 //!
 //! Errors of both steps are [`IngestError`]; each message names the file (and the row, the
 //! pixel or the size) that is wrong.
@@ -23,6 +24,7 @@ pub mod arrays;
 pub mod assemble;
 pub mod corrections;
 pub mod flags;
+pub mod kind;
 pub mod plan;
 pub mod row_offsets;
 pub mod time_axis;

@@ -1,6 +1,6 @@
 //! An N-dimensional array read from a file (shape, stored type, values as f32 in C order),
-//! the reordering of column-major (Fortran, MATLAB) storage into C order, and the move of
-//! its time dimension last: the x-y-t layout `[y][x][t]` of a cube.
+//! the reordering of column-major (Fortran, MATLAB) storage into C order, and the general
+//! transpose that [`super::layout`] uses to put time last.
 
 use super::dtype::{Decoded, Dtype};
 
@@ -88,33 +88,6 @@ pub fn permute(shape: &[usize], values: &[f32], order: &[usize]) -> Vec<f32> {
     }
 }
 
-/// The array's values as x-y-t samples `[y][x][t]` with `t_dim` its time dimension: a
-/// 3-D array's other two dimensions are y then x (in their order), a 2-D array's other
-/// dimension is x (one scanline, y = 1), a 1-D array is one pixel. Returns
-/// `(ny, nx, nt, samples)`, or `None` for another rank.
-pub fn to_xyt(a: &Array, t_dim: usize) -> Option<(usize, usize, usize, Vec<f32>)> {
-    let rank = a.shape.len();
-    if !(1..=3).contains(&rank) || t_dim >= rank {
-        return None;
-    }
-    let mut order: Vec<usize> = (0..rank).filter(|&d| d != t_dim).collect();
-    order.push(t_dim);
-    let nt = a.shape[t_dim];
-    let others: Vec<usize> = order[..rank - 1].iter().map(|&d| a.shape[d]).collect();
-    let (ny, nx) = match others.as_slice() {
-        [] => (1, 1),
-        [x] => (1, *x),
-        [y, x] => (*y, *x),
-        _ => unreachable!("rank checked above"),
-    };
-    let samples = if t_dim == rank - 1 {
-        a.values.clone()
-    } else {
-        permute(&a.shape, &a.values, &order)
-    };
-    Some((ny, nx, nt, samples))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,22 +123,5 @@ mod tests {
             column_major_to_c(&[2, 3], &v),
             [0.0, 2.0, 4.0, 1.0, 3.0, 5.0]
         );
-    }
-
-    #[test]
-    fn the_time_dimension_moves_last() {
-        // (t=2, y=1, x=3): value = 10 t + x.
-        let values = vec![0.0, 1.0, 2.0, 10.0, 11.0, 12.0];
-        let a = Array {
-            shape: vec![2, 1, 3],
-            dtype: Dtype::F32,
-            values,
-            inexact: 0,
-            largest_inexact: 0.0,
-        };
-        let (ny, nx, nt, s) = to_xyt(&a, 0).unwrap();
-        assert_eq!((ny, nx, nt), (1, 3, 2));
-        assert_eq!(s, [0.0, 10.0, 1.0, 11.0, 2.0, 12.0]);
-        assert!(to_xyt(&a, 3).is_none());
     }
 }

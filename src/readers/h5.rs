@@ -217,3 +217,39 @@ pub(super) fn read_f64s(file: &H5File, path: &Path, name: &str) -> Result<Vec<f6
         .filter_map(|b| super::dtype::value_f64(b, dtype, big))
         .collect())
 }
+
+/// The shape and sample type of the numeric dataset `name`, if it is one.
+pub(super) fn dataset_type(file: &H5File, name: &str) -> Option<(Vec<usize>, Dtype)> {
+    let ds = file.dataset(name.trim_start_matches('/')).ok()?;
+    let (dtype, _) = dtype_of(&ds.datatype().ok()?)?;
+    Some((ds.shape(), dtype))
+}
+
+/// A text attribute of dataset `name` (`CLASS`, `UNIT`), bytes or string.
+pub(super) fn text_attr(file: &H5File, name: &str, key: &str) -> Option<String> {
+    dataset_attrs(file, name)
+        .into_iter()
+        .find_map(|(k, v)| match v {
+            Attr::Text(s) if k == key => Some(s),
+            _ => None,
+        })
+}
+
+/// Whether dataset `name` is an HDF5 dimension scale (`CLASS = "DIMENSION_SCALE"`): an axis
+/// of another dataset, never data.
+pub(super) fn is_dimension_scale(file: &H5File, name: &str) -> bool {
+    text_attr(file, name, "CLASS").is_some_and(|c| c.trim_end_matches('\0') == "DIMENSION_SCALE")
+}
+
+/// The dimension labels of dataset `name` (`DIMENSION_LABELS`, as h5py's `dims[i].label`
+/// writes them), one per dimension; `None` when it has none.
+pub(super) fn dimension_labels(file: &H5File, name: &str) -> Option<Vec<String>> {
+    let ds = file.dataset(name.trim_start_matches('/')).ok()?;
+    let a = ds.attr("DIMENSION_LABELS").ok()?;
+    let labels = a.read_strings().ok()?;
+    let labels: Vec<String> = labels
+        .into_iter()
+        .map(|l| l.trim_end_matches('\0').to_string())
+        .collect();
+    (labels.len() == ds.shape().len()).then_some(labels)
+}

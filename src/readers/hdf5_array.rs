@@ -1,5 +1,6 @@
-//! Plain HDF5 arrays: one numeric dataset of 1 to 3 dimensions (`--dataset NAME`, or the
-//! only numeric dataset of 2 or 3 dimensions), with what its group records of its time axis.
+//! Plain HDF5 arrays: one numeric dataset (`--dataset NAME`, or the only candidate of
+//! [`super::datasets`]), with its dimension labels (`DIMENSION_LABELS`: `T` names time, `Y`
+//! and `X` space, others are extra axes) and what its group records of its time axis.
 //!
 //! Scalars beside the dataset (in its group), or attributes of the dataset, give:
 //! - the bin width: a key named like `timebin_width_ps`, `bin_width_ps`, `dt_ps`,
@@ -14,6 +15,7 @@
 use super::array::Array;
 use super::h5::{self, Attr};
 use super::hspy::ps_per_unit;
+use super::layout::Role;
 use super::ReaderError;
 use rust_hdf5::H5File;
 use std::path::Path;
@@ -33,6 +35,8 @@ const COUNT_KEYS: [&str; 3] = ["n_timebins", "n_bins", "nt"];
 pub(super) struct Plain {
     pub name: String,
     pub array: Array,
+    /// Its dimension labels (`DIMENSION_LABELS`, one per dimension), if it has them.
+    pub labels: Option<Vec<String>>,
     /// Bin width in ps and the key it came from.
     pub dt_ps: Option<(f64, String)>,
     /// Start of the first bin in ps and the key it came from.
@@ -41,8 +45,20 @@ pub(super) struct Plain {
     pub t_dim: Option<(usize, String)>,
 }
 
-/// The numeric datasets of 2 or 3 dimensions (the default candidates).
-pub(super) fn candidates(file: &H5File) -> Vec<(String, Vec<usize>)> {
+/// The role of an axis from its dimension label: `T`/`time` is time, `Y`, `X` space, any
+/// other label an extra axis (`C` channels or wavelengths, `Z`); an empty label says nothing.
+pub(super) fn role_of_label(label: &str) -> Option<Role> {
+    match label.trim().to_ascii_lowercase().as_str() {
+        "" => None,
+        "t" | "time" => Some(Role::Time),
+        "y" => Some(Role::Y),
+        "x" => Some(Role::X),
+        _ => Some(Role::Extra),
+    }
+}
+
+/// The numeric datasets of 2 or 3 dimensions (whether a lone 3-D one is a streak stack).
+fn candidates(file: &H5File) -> Vec<(String, Vec<usize>)> {
     h5::datasets(file)
         .into_iter()
         .filter(|(_, shape, numeric)| *numeric && matches!(shape.len(), 2 | 3))
@@ -107,40 +123,9 @@ pub(super) fn read_keys(file: &H5File, name: &str) -> Option<(usize, bool)> {
     Some((rank, counted || timed(&WIDTH_KEYS, &found).is_some()))
 }
 
-/// Read `want`, or the only candidate.
-pub(super) fn read_plain(
-    file: &H5File,
-    path: &Path,
-    want: Option<&str>,
-) -> Result<Plain, ReaderError> {
-    let name = match want {
-        Some(w) => w.trim_start_matches('/').to_string(),
-        None => {
-            let c = candidates(file);
-            match c.as_slice() {
-                [(n, _)] => n.clone(),
-                [] => {
-                    return Err(ReaderError::invalid(
-                        path,
-                        "--dataset",
-                        "no numeric dataset of 2 or 3 dimensions; name one with --dataset",
-                    ))
-                }
-                many => {
-                    let list: Vec<String> =
-                        many.iter().map(|(n, s)| format!("/{n} {s:?}")).collect();
-                    return Err(ReaderError::invalid(
-                        path,
-                        "--dataset",
-                        format!(
-                            "several datasets could be the data; name one of: {}",
-                            list.join(", ")
-                        ),
-                    ));
-                }
-            }
-        }
-    };
+/// Read the dataset `name`.
+pub(super) fn read_plain(file: &H5File, path: &Path, name: &str) -> Result<Plain, ReaderError> {
+    let name = name.to_string();
     let array = h5::read_array(file, path, &name, false)?;
     let found = keys(file, &name);
     let t_dim = found.iter().find_map(|(k, v)| {
@@ -159,7 +144,46 @@ pub(super) fn read_plain(
         dt_ps: timed(&WIDTH_KEYS, &found),
         t0_ps: timed(&START_KEYS, &found),
         t_dim,
+        labels: h5::dimension_labels(file, &name),
         name,
         array,
     })
+}
+
+/// The plain HDF5 file's only candidate dataset when it is a 3-D one that records no time
+/// axis: either a stack of streak images `(ny, nt, nx)` (`--dataset NAME`, the scanline route)
+/// or an x-y-t cube `(ny, nx, nt)` (`--from array`). Nothing in the file tells them apart,
+/// so `femto ingest` asks which rather than guess.
+pub fn ambiguous_3d_dataset(path: &Path) -> Option<String> {
+    let file = h5::open(path).ok()?;
+    match candidates(&file).as_slice() {
+        [(name, shape)] if shape.len() == 3 && is_streak_stack(path, name) => Some(name.clone()),
+        _ => None,
+    }
+}
+
+/// Whether `dataset` of the HDF5 file `path` is 3-D: named with `--dataset`, such a dataset
+/// is a stack of streak images `(ny, nt, nx)` for the scanline route of `femto ingest`.
+pub fn is_3d_dataset(path: &Path, dataset: &str) -> bool {
+    let Ok(file) = h5::open(path) else {
+        return false;
+    };
+    matches!(
+        read_keys(&file, dataset.trim_start_matches('/')),
+        Some((3, _))
+    )
+}
+
+/// Whether `dataset` of the plain HDF5 file `path` is a stack of streak images for the
+/// scanline route of `femto ingest` (`(ny, nt, nx)`, streak corrections apply): a 3-D
+/// dataset whose group records no bin width or bin count. Any other dataset is an
+/// assembled array read by [`open`].
+pub fn is_streak_stack(path: &Path, dataset: &str) -> bool {
+    let Ok(file) = h5::open(path) else {
+        return false;
+    };
+    match read_keys(&file, dataset.trim_start_matches('/')) {
+        Some((rank, recorded)) => rank == 3 && !recorded,
+        None => false,
+    }
 }

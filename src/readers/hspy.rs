@@ -49,7 +49,7 @@ pub(super) fn signals(file: &H5File) -> Vec<String> {
 }
 
 /// What a signal holds: its array, the index of its time dimension (if found), the time
-/// axis, and the other axes in array order.
+/// axis, and every axis in array order (the time axis among them).
 pub(super) struct Signal {
     pub name: String,
     pub array: Array,
@@ -162,18 +162,12 @@ pub(super) fn read_signal(
         },
         Some(d) => time_of(path, &group, d, &axes[d])?,
     };
-    let others = axes
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| Some(*i) != t_dim)
-        .map(|(_, a)| a)
-        .collect();
     Ok(Signal {
         name,
         array,
         t_dim,
         time,
-        axes: others,
+        axes,
     })
 }
 

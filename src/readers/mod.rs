@@ -1,35 +1,50 @@
-//! Array files as labs save them, read into one value, [`Capture`]: NumPy `.npy`, MATLAB
-//! `.mat` (v5 and v7.3), HyperSpy `.hspy`, and plain HDF5 datasets. `femto ingest` writes a
-//! cube from it ([`crate::ingest::arrays`]) and `femto info` describes it.
+//! Time-resolved files as instruments and labs save them, read into one value, [`Capture`]:
+//! NumPy `.npy` and `.npz`, MATLAB `.mat` (v5 and v7.3), HyperSpy `.hspy`, plain HDF5
+//! datasets, Delmic SPARC HDF5 (Odemis) and PicoQuant PTU time-tagged records. `femto ingest`
+//! writes a cube from it ([`crate::ingest::arrays`]) and `femto info` describes it. Which
+//! kind a file is, is decided here ([`Format::sniff`]) and nowhere else.
 //!
 //! | module | what it reads |
 //! |---|---|
 //! | `dtype` | stored sample types and their decoding into f32 ([`Dtype`]) |
-//! | `array` | an N-D array in C order, column-major reordering, the move of time last |
+//! | `array` | an N-D array in C order, column-major reordering |
+//! | [`layout`] | which axis is time, which are rows and columns, what the others become |
 //! | [`npy`] | `.npy`, C and Fortran order, every integer and float type, both byte orders |
+//! | `npz` | `.npz`: a zip of `.npy` arrays, each one a dataset |
 //! | [`mat`] | MATLAB v5 (compressed elements too) and v7.3 (HDF5 behind a user block) |
 //! | `hspy` | HyperSpy signals with their axes |
-//! | `hdf5_array` | one plain HDF5 dataset and the bin width its group records |
+//! | `hdf5_array` | one plain HDF5 dataset, its dimension labels and the bin width its group records |
+//! | `delmic` | Delmic SPARC acquisitions: `Image` (C, T, Z, Y, X) with its dimension scales |
+//! | [`ptu`] | PicoQuant PTU: T3 records of image scans and point measurements, histogrammed |
+//! | `datasets` | the candidate arrays of a file, pictures left out |
+//! | `open` | [`open`]: a file of any of these formats into a [`Capture`] |
 //! | `h5` | the HDF5 reading these share |
 //!
-//! Layout: an array's time dimension becomes the cube's bins, the others its rows and
-//! columns in their order. A 3-D array `A[i, j, k]` is row `i`, column `j`, bin `k`; a 2-D
-//! array `A[i, k]` is one scanline, pixel `i`, bin `k`; a 1-D array is one pixel. For
-//! `.npy`, `.mat` and plain HDF5 the time dimension is the last one, or the one before it
-//! with `transpose` (a 2-D `(t, x)` image, a 3-D `(y, t, x)` stack); a HyperSpy signal's is
-//! the axis with time units, and a plain dataset's the one a sibling `n_timebins` names.
+//! Layout: the array's axes are numbered as the file stores them (the shape `femto info`
+//! prints); time is the axis the file names, or `--time-axis N`, or the last one when that is
+//! unambiguous ([`layout`]); the other axes become rows and columns in their order.
 
 mod array;
+mod datasets;
+mod delmic;
 mod dtype;
 mod h5;
 mod hdf5_array;
 mod hspy;
+pub mod layout;
 pub mod mat;
 pub mod npy;
+mod npz;
+mod open;
+pub mod ptu;
 
 pub use array::{column_major_to_c, permute, Array};
+pub use datasets::{candidates, Candidate};
 pub use dtype::{decode, Decoded, Dtype};
+pub use hdf5_array::{ambiguous_3d_dataset, is_3d_dataset, is_streak_stack};
 pub use hspy::ps_per_unit;
+pub use layout::{AxisRef, LayoutOptions};
+pub use open::open;
 
 use std::path::{Path, PathBuf};
 
@@ -107,23 +122,61 @@ pub fn check_decode(
     })
 }
 
-/// The array formats; each owns its extensions.
+/// Refuse before allocating `bytes` (a size a file declares or has, times what reading it
+/// costs): checked against the memory this process may use ([`crate::limits::check_memory`]);
+/// `None` (an overflow in the caller's checked product) is refused too.
+pub(crate) fn check_bytes(path: &Path, bytes: Option<u128>, what: &str) -> Result<(), ReaderError> {
+    let needed = bytes.map_or(f64::INFINITY, |b| b as f64);
+    crate::limits::check_memory(needed, what, "crop or split it first").map_err(|source| {
+        ReaderError::Limit {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+/// The file formats femto reads as arrays; each owns its extensions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
     Npy,
+    Npz,
     Mat,
     Hspy,
     Hdf5Array,
+    Delmic,
+    Ptu,
 }
 
+/// Formats femto knows and does not read, by extension, with the tool that converts them.
+const CONVERT: [(&str, &str); 4] = [
+    ("sdt", "a Becker & Hickl SPCImage .sdt file: export it as .npy or HDF5 (sdtfile in Python: sdtfile.SdtFile(f).data[0], then numpy.save), or to .ptu"),
+    ("spc", "a Becker & Hickl .spc photon stream: histogram it first (tttrlib or sdtfile in Python) and save it as .npy"),
+    ("pt3", "a PicoQuant .pt3 file (the PTU format's predecessor): convert it with ptufile or tttrlib in Python, or save the histogram as .npy"),
+    ("phu", "a PicoQuant .phu histogram file: read it with ptufile (PhuFile) in Python and save the histograms as .npy"),
+];
+
 impl Format {
+    /// Every format, in the order messages list them.
+    pub const ALL: [Format; 7] = [
+        Format::Npy,
+        Format::Npz,
+        Format::Mat,
+        Format::Hspy,
+        Format::Hdf5Array,
+        Format::Delmic,
+        Format::Ptu,
+    ];
+
     /// Its name in messages and provenance.
     pub fn name(self) -> &'static str {
         match self {
             Format::Npy => "NumPy array",
+            Format::Npz => "NumPy .npz archive",
             Format::Mat => "MATLAB file",
             Format::Hspy => "HyperSpy signal",
             Format::Hdf5Array => "HDF5 dataset",
+            Format::Delmic => "Delmic SPARC acquisition",
+            Format::Ptu => "PicoQuant PTU file",
         }
     }
 
@@ -131,45 +184,79 @@ impl Format {
     pub fn extensions(self) -> &'static [&'static str] {
         match self {
             Format::Npy => &["npy"],
+            Format::Npz => &["npz"],
             Format::Mat => &["mat"],
             Format::Hspy => &["hspy"],
-            Format::Hdf5Array => &["h5", "hdf5", "he5"],
+            Format::Hdf5Array | Format::Delmic => &["h5", "hdf5", "he5"],
+            Format::Ptu => &["ptu"],
         }
     }
 
-    /// The format of `path` from its extension and contents: `.npy`; `.mat`, or an HDF5
-    /// file behind a MATLAB 7.3 header; `.hspy`, or an HDF5 file whose root says
-    /// `file_format = HyperSpy`; any other HDF5 file is [`Format::Hdf5Array`]. `None`: not
-    /// an array file (an image, a folder, a missing file).
+    /// One line listing what femto reads, for the refusal of a file it does not.
+    pub fn readable_list() -> String {
+        "femto reads femto cubes (.h5), streak images (.png, .tif, .tiff, .exr, .hdr, .img), \
+         capture folders and manifests, meshes (.obj, .gltf, .glb), y-tal captures, arrays \
+         (.npy, .npz, .mat, .hspy, HDF5 datasets), Delmic SPARC HDF5 and PicoQuant .ptu"
+            .to_string()
+    }
+
+    /// For a format femto knows and does not read (by extension): what to convert it with.
+    pub fn convert_hint(path: &Path) -> Option<&'static str> {
+        let ext = extension(path);
+        CONVERT.iter().find(|(e, _)| *e == ext).map(|(_, h)| *h)
+    }
+
+    /// The format of `path` from its extension and contents: `.npy`, `.npz`; `.mat`, or an
+    /// HDF5 file behind a MATLAB 7.3 header; `.hspy`, or an HDF5 file whose root says
+    /// `file_format = HyperSpy`; `.ptu`, or a file starting `PQTTTR`; an HDF5 file with a
+    /// Delmic acquisition (`AcquisitionN/ImageData/Image`); any other HDF5 file is
+    /// [`Format::Hdf5Array`]. `None`: not an array file (an image, a folder, a missing file).
     pub fn sniff(path: &Path) -> Option<Format> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        let by_ext = [Format::Npy, Format::Mat, Format::Hspy]
-            .into_iter()
-            .find(|f| f.extensions().contains(&ext.as_str()));
+        let ext = extension(path);
+        let by_ext = [
+            Format::Npy,
+            Format::Npz,
+            Format::Mat,
+            Format::Hspy,
+            Format::Ptu,
+        ]
+        .into_iter()
+        .find(|f| f.extensions().contains(&ext.as_str()));
         if by_ext.is_some() {
             return by_ext;
         }
-        if !path.is_file() || !crate::container::is_hdf5(path).unwrap_or(false) {
+        if !path.is_file() {
             return None;
         }
         let mut head = [0u8; 20];
         let n = std::fs::File::open(path)
             .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
             .unwrap_or(0);
+        if head[..n].starts_with(ptu::MAGIC) {
+            return Some(Format::Ptu);
+        }
+        if !crate::container::is_hdf5(path).unwrap_or(false) {
+            return None;
+        }
         if mat::is_v73_header(&head[..n]) {
             return Some(Format::Mat);
         }
         match h5::open(path) {
             Ok(file) if hspy::is_hyperspy(&file) => Some(Format::Hspy),
+            Ok(file) if !delmic::acquisitions(&file).is_empty() => Some(Format::Delmic),
             _ => Some(Format::Hdf5Array),
         }
     }
 }
 
-/// A time or space axis of the file other than time: its name, units, and either a
+/// The extension of `path` in lower case ("" without one).
+fn extension(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// A space axis of the file (or any axis other than time): its name, units, and either a
 /// uniform `scale`/`offset` or explicit values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Axis {
@@ -265,16 +352,17 @@ pub fn check_time(path: &Path, key: &str, t_ps: f64) -> Result<(), ReaderError> 
         .map_err(|e| ReaderError::invalid(path, key, format!("time offset {}", e.detail())))
 }
 
-/// How to read a file: which dataset or variable, and whether time comes before x.
+/// How to read a file: which dataset or variable, and its layout.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ReadOptions {
-    /// The dataset (HDF5), variable (`.mat`) or signal (`.hspy`); `None`: the only one.
+    /// The dataset (HDF5), variable (`.mat`), array (`.npz`), signal (`.hspy`) or
+    /// acquisition (Delmic); `None`: the only candidate.
     pub dataset: Option<String>,
-    /// The array stores time before x (the last two dimensions swapped).
-    pub transpose: bool,
+    /// Which axis is time, what becomes of the extra ones ([`layout`]).
+    pub layout: LayoutOptions,
 }
 
-/// An array file read: what it is, its x-y-t samples and its axes.
+/// A file read: what it is, its x-y-t samples and its axes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Capture {
     pub path: PathBuf,
@@ -289,6 +377,8 @@ pub struct Capture {
     pub time: TimeSpec,
     /// Where the time axis came from (an axis, a key), for provenance.
     pub time_source: String,
+    /// Which stored axis became time, rows and columns, and what became of the others.
+    pub layout: String,
     /// The row and column axes, when the file records them.
     pub y: Option<Axis>,
     pub x: Option<Axis>,
@@ -299,297 +389,4 @@ pub struct Capture {
     /// Integer samples f32 does not hold exactly, and the largest of them.
     pub inexact: usize,
     pub largest_inexact: f64,
-}
-
-/// The time dimension of a rank-`rank` array: the last, or the one before it (`transpose`).
-fn default_t_dim(rank: usize, transpose: bool) -> usize {
-    if transpose && rank >= 2 {
-        rank - 2
-    } else {
-        rank.saturating_sub(1)
-    }
-}
-
-/// Open the array file at `path` as `format` (see [`Format::sniff`]).
-pub fn open(path: &Path, format: Format, options: &ReadOptions) -> Result<Capture, ReaderError> {
-    let dataset = options.dataset.as_deref();
-    let no_axis = |what: &str| TimeSpec::Uncalibrated {
-        reason: format!("{what} records no time axis"),
-    };
-    let (source, array, t_dim, time, time_source, axes, attributes) = match format {
-        Format::Npy => {
-            if dataset.is_some() {
-                return Err(ReaderError::invalid(
-                    path,
-                    "--dataset",
-                    "a .npy file holds one array",
-                ));
-            }
-            let a = npy::read_npy(path)?;
-            let t = default_t_dim(a.shape.len(), options.transpose);
-            (
-                String::new(),
-                a,
-                t,
-                no_axis("a .npy array"),
-                String::new(),
-                vec![],
-                vec![],
-            )
-        }
-        Format::Mat => {
-            let (name, a, attrs) = mat_variable(path, dataset)?;
-            let t = default_t_dim(a.shape.len(), options.transpose);
-            let src = format!("variable {name}");
-            (
-                src,
-                a,
-                t,
-                no_axis("a MATLAB array"),
-                String::new(),
-                vec![],
-                attrs,
-            )
-        }
-        Format::Hspy => {
-            let file = h5::open(path)?;
-            let s = hspy::read_signal(&file, path, dataset)?;
-            let t = match s.t_dim {
-                Some(_) if options.transpose => {
-                    return Err(ReaderError::invalid(
-                        path,
-                        "--transpose",
-                        "a HyperSpy signal names its time axis; leave out --transpose",
-                    ))
-                }
-                Some(d) => d,
-                None => default_t_dim(s.array.shape.len(), options.transpose),
-            };
-            let ts = s.t_dim.map_or(String::new(), |d| format!("axis-{d}"));
-            (
-                format!("signal {}", s.name),
-                s.array,
-                t,
-                s.time,
-                ts,
-                s.axes,
-                vec![],
-            )
-        }
-        Format::Hdf5Array => {
-            let file = h5::open(path)?;
-            let p = hdf5_array::read_plain(&file, path, dataset)?;
-            let rank = p.array.shape.len();
-            let (t, t_note) = match &p.t_dim {
-                Some((d, key)) => (*d, format!("time dimension {d} from {key}")),
-                None => (default_t_dim(rank, options.transpose), String::new()),
-            };
-            let (time, ts) = match (&p.dt_ps, &p.t0_ps) {
-                (Some((dt, kd)), Some((t0, k0))) => (
-                    TimeSpec::uniform(path, kd, *t0, *dt)?,
-                    format!("bin width from {kd}, start from {k0}"),
-                ),
-                (Some((dt, kd)), None) => {
-                    check_dt(path, kd, *dt)?;
-                    (
-                        TimeSpec::Width { dt_ps: *dt },
-                        format!("bin width from {kd}"),
-                    )
-                }
-                _ => (
-                    no_axis(&format!("/{} (no sibling timebin_width_ps, dt_ps)", p.name)),
-                    String::new(),
-                ),
-            };
-            let ts = [ts, t_note]
-                .into_iter()
-                .filter(|s| !s.is_empty())
-                .collect::<Vec<_>>()
-                .join("; ");
-            (
-                format!("dataset /{}", p.name),
-                p.array,
-                t,
-                time,
-                ts,
-                vec![],
-                vec![],
-            )
-        }
-    };
-    let stored_shape = array.shape.clone();
-    let rank = stored_shape.len();
-    let (ny, nx, nt, samples) = array::to_xyt(&array, t_dim).ok_or_else(|| {
-        let hint = if format == Format::Npy && rank == 4 {
-            " (a 4-D (H, W, T, C) array is a mitransient render: give --start-opl-m and \
-             --bin-width-opl-m)"
-        } else {
-            ""
-        };
-        ReaderError::invalid(
-            path,
-            "shape",
-            format!("{stored_shape:?}: 1 to 3 dimensions are read{hint}"),
-        )
-    })?;
-    if ny * nx * nt == 0 {
-        return Err(ReaderError::invalid(
-            path,
-            "shape",
-            format!("{stored_shape:?} is empty"),
-        ));
-    }
-    if let TimeSpec::Table(t) = &time {
-        if t.len() != nt {
-            return Err(ReaderError::invalid(
-                path,
-                "time axis",
-                "length differs from the data",
-            ));
-        }
-    }
-    let (y, x) = match axes.len() {
-        2 => (Some(axes[0].clone()), Some(axes[1].clone())),
-        1 => (None, Some(axes[0].clone())),
-        _ => (None, None),
-    };
-    Ok(Capture {
-        path: path.to_path_buf(),
-        format,
-        source,
-        stored_shape,
-        dtype: array.dtype,
-        ny,
-        nx,
-        nt,
-        time,
-        time_source,
-        y,
-        x,
-        samples,
-        attributes,
-        inexact: array.inexact,
-        largest_inexact: array.largest_inexact,
-    })
-}
-
-/// A variable picked: its name, its array, the scalars kept as attributes.
-type MatPick = (String, Array, Vec<(String, String)>);
-
-/// The variable of a `.mat` file: the one named, else the only 3-D numeric array (else the
-/// only 2-D one); numeric scalars become attributes `mat.NAME`.
-fn mat_variable(path: &Path, want: Option<&str>) -> Result<MatPick, ReaderError> {
-    // A first pass lists the variables without decoding the large ones.
-    let listed = mat::read_mat(path, &|_| false)?;
-    let numeric = |v: &&mat::MatVar| v.dtype.is_some();
-    let pick = match want {
-        Some(w) => match listed.iter().find(|v| v.name == w) {
-            Some(v) if v.dtype.is_some() => v.name.clone(),
-            Some(v) => {
-                return Err(ReaderError::invalid(
-                    path,
-                    "--dataset",
-                    format!("variable {w} is a {} array, not a numeric one", v.class),
-                ))
-            }
-            None => {
-                let names: Vec<&str> = listed.iter().map(|v| v.name.as_str()).collect();
-                return Err(ReaderError::invalid(
-                    path,
-                    "--dataset",
-                    format!("no variable {w}; the file holds: {}", names.join(", ")),
-                ));
-            }
-        },
-        None => {
-            let rank = |r: usize| -> Vec<&mat::MatVar> {
-                listed
-                    .iter()
-                    .filter(numeric)
-                    .filter(|v| v.dims.iter().filter(|&&d| d > 1).count() == r)
-                    .collect()
-            };
-            let three = rank(3);
-            let c = if three.is_empty() { rank(2) } else { three };
-            match c.as_slice() {
-                [one] => one.name.clone(),
-                [] => {
-                    return Err(ReaderError::invalid(
-                        path,
-                        "--dataset",
-                        "no numeric array of 2 or 3 dimensions",
-                    ))
-                }
-                many => {
-                    let list: Vec<String> = many
-                        .iter()
-                        .map(|v| format!("{} {:?}", v.name, v.dims))
-                        .collect();
-                    return Err(ReaderError::invalid(
-                        path,
-                        "--dataset",
-                        format!(
-                            "several arrays could be the data; name one of: {}",
-                            list.join(", ")
-                        ),
-                    ));
-                }
-            }
-        }
-    };
-    let vars = mat::read_mat(path, &|n| n == pick)?;
-    let mut attrs = Vec::new();
-    let mut chosen = None;
-    for v in vars {
-        if v.name == pick {
-            chosen = v.array;
-        } else if let Some(x) = v.scalar {
-            attrs.push((format!("mat.{}", v.name), x.to_string()));
-        }
-    }
-    let mut array = chosen.ok_or_else(|| ReaderError::invalid(path, &pick, "not read"))?;
-    // MATLAB arrays have at least 2 dimensions; trailing singleton ones are dropped (a
-    // column vector (n, 1) stays 2-D).
-    while array.shape.len() > 2 && array.shape.last() == Some(&1) {
-        array.shape.pop();
-    }
-    Ok((pick, array, attrs))
-}
-
-/// The plain HDF5 file's only candidate dataset when it is a 3-D one that records no time
-/// axis: either a stack of streak images `(ny, nt, nx)` (`--dataset NAME`, the scanline route)
-/// or an x-y-t cube `(ny, nx, nt)` (`--from array`). Nothing in the file tells them apart,
-/// so `femto ingest` asks which rather than guess.
-pub fn ambiguous_3d_dataset(path: &Path) -> Option<String> {
-    let file = h5::open(path).ok()?;
-    match hdf5_array::candidates(&file).as_slice() {
-        [(name, shape)] if shape.len() == 3 && is_streak_stack(path, name) => Some(name.clone()),
-        _ => None,
-    }
-}
-
-/// Whether `dataset` of the HDF5 file `path` is 3-D: named with `--dataset`, such a dataset
-/// is a stack of streak images `(ny, nt, nx)` for the scanline route of `femto ingest`.
-pub fn is_3d_dataset(path: &Path, dataset: &str) -> bool {
-    let Ok(file) = h5::open(path) else {
-        return false;
-    };
-    matches!(
-        hdf5_array::read_keys(&file, dataset.trim_start_matches('/')),
-        Some((3, _))
-    )
-}
-
-/// Whether `dataset` of the plain HDF5 file `path` is a stack of streak images for the
-/// scanline route of `femto ingest` (`(ny, nt, nx)`, streak corrections apply): a 3-D
-/// dataset whose group records no bin width or bin count. Any other dataset is an
-/// assembled array read by [`open`].
-pub fn is_streak_stack(path: &Path, dataset: &str) -> bool {
-    let Ok(file) = h5::open(path) else {
-        return false;
-    };
-    match hdf5_array::read_keys(&file, dataset.trim_start_matches('/')) {
-        Some((rank, recorded)) => rank == 3 && !recorded,
-        None => false,
-    }
 }

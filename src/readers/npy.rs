@@ -66,8 +66,8 @@ pub fn read_npy(path: &Path) -> Result<Array, ReaderError> {
     read_npy_from(path, std::io::BufReader::new(file), file_bytes)
 }
 
-/// [`read_npy`] of the `file_bytes` bytes that `reader` yields.
-fn read_npy_from(
+/// [`read_npy`] of the `file_bytes` bytes that `reader` yields (a file, or an `.npz` member).
+pub(super) fn read_npy_from(
     path: &Path,
     mut reader: impl Read,
     file_bytes: u64,
@@ -140,6 +140,32 @@ fn preamble(path: &Path, bytes: &[u8]) -> Result<(usize, usize), ReaderError> {
         )),
         v => Err(bad(format!("version {v} is not read (1 to 3 are)"))),
     }
+}
+
+/// The most of a `.npy` file read to find its header (NumPy writes headers of a few
+/// hundred bytes; version 2 allows up to 4 GiB, which no array needs).
+pub(super) const HEAD_BYTES: u64 = 1 << 20;
+
+/// Refuse an array whose declared values, with the `stored_bytes` they come in, do not fit
+/// the memory budget.
+pub(super) fn check_declared(
+    path: &Path,
+    h: &NpyHeader,
+    stored_bytes: u64,
+) -> Result<(), ReaderError> {
+    let count = h
+        .shape
+        .iter()
+        .try_fold(1u128, |a, &n| a.checked_mul(n as u128));
+    let copies = if h.fortran_order { 2 } else { 1 };
+    let need = count
+        .and_then(|c| c.checked_mul(4 * copies))
+        .and_then(|v| v.checked_add(u128::from(stored_bytes)));
+    super::check_bytes(
+        path,
+        need,
+        &format!("the array {:?} of {}", h.shape, h.dtype.name()),
+    )
 }
 
 /// The `.npy` header of `bytes`: shape, type, byte order, Fortran order, data offset.

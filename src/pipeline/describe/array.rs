@@ -29,6 +29,12 @@ pub struct ArrayDescription {
     pub nt: usize,
     /// The time axis recorded, in words.
     pub time_axis: String,
+    /// Which stored axis becomes time, rows and columns, and what becomes of the others
+    /// (empty when the layout could not be decided: `ingest_needs` says why).
+    pub layout: String,
+    /// Every array of the file that could be the data, with its shape (`.npz`, `.mat`,
+    /// HDF5, Delmic acquisitions, HyperSpy signals).
+    pub candidates: Vec<String>,
     /// The column and row axes: `name (units): scale, offset` or `n values`.
     pub x_axis: Option<String>,
     pub y_axis: Option<String>,
@@ -46,10 +52,51 @@ fn axis_text(a: &readers::Axis) -> String {
     }
 }
 
-/// Describe the array file at `path` (read as `format`).
-pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, StageError> {
-    let c = readers::open(path, format, &ReadOptions::default())?;
-    let ambiguous = (format == Format::Hdf5Array)
+/// Describe the array file at `path` (read as `format`, with `read`'s dataset and layout).
+/// A file whose dataset or layout `femto ingest` would ask for is still described: its
+/// candidates and shape, and in `ingest_needs` the line ingest would refuse it with.
+pub fn describe_array(
+    path: &Path,
+    format: Format,
+    read: &ReadOptions,
+) -> Result<ArrayDescription, StageError> {
+    let candidates: Vec<readers::Candidate> = readers::candidates(path, format)?;
+    let listed: Vec<String> = candidates
+        .iter()
+        .map(readers::Candidate::describe)
+        .collect();
+    let c = match readers::open(path, format, read) {
+        Ok(c) => c,
+        Err(readers::ReaderError::Invalid { key, message, .. }) => {
+            let want = read.dataset.as_deref().map(|w| w.trim_start_matches('/'));
+            let one = match (want, candidates.as_slice()) {
+                (Some(w), _) => candidates
+                    .iter()
+                    .find(|c| c.name.trim_start_matches('/') == w),
+                (None, [c]) => Some(c),
+                _ => None,
+            };
+            return Ok(ArrayDescription {
+                file: path.to_path_buf(),
+                format: format.name().into(),
+                source: one.map_or(String::new(), |c| c.name.clone()),
+                stored_shape: one.map_or(vec![], |c| c.shape.clone()),
+                dtype: one.map_or(String::new(), |c| c.dtype.name().to_string()),
+                ny: 0,
+                nx: 0,
+                nt: 0,
+                time_axis: String::new(),
+                layout: String::new(),
+                candidates: listed,
+                x_axis: None,
+                y_axis: None,
+                attributes: vec![],
+                ingest_needs: format!("{key}: {message}"),
+            });
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let ambiguous = (format == Format::Hdf5Array && read.dataset.is_none())
         .then(|| readers::ambiguous_3d_dataset(path))
         .flatten();
     let (time_axis, needs) = match &c.time {
@@ -84,6 +131,8 @@ pub fn describe_array(path: &Path, format: Format) -> Result<ArrayDescription, S
         nx: c.nx,
         nt: c.nt,
         time_axis,
+        layout: c.layout,
+        candidates: listed,
         x_axis: c.x.as_ref().map(axis_text),
         y_axis: c.y.as_ref().map(axis_text),
         attributes: c.attributes,
@@ -129,6 +178,8 @@ pub fn describe_tal(path: &Path) -> Result<ArrayDescription, StageError> {
                 "False"
             }
         ),
+        layout: "time: axis 0 of H (T, Sx, Sy); rows: Sy; columns: Sx".into(),
+        candidates: vec![],
         x_axis: None,
         y_axis: None,
         attributes: vec![
@@ -146,17 +197,32 @@ impl fmt::Display for ArrayDescription {
         if !self.source.is_empty() {
             line(f, "reads", &self.source)?;
         }
-        line(
-            f,
-            "stored",
-            format!("{:?} {}", self.stored_shape, self.dtype),
-        )?;
-        line(
-            f,
-            "cube",
-            format!("{} x {} x {} (ny, nx, nt)", self.ny, self.nx, self.nt),
-        )?;
-        line(f, "time axis", &self.time_axis)?;
+        if !self.stored_shape.is_empty() {
+            line(
+                f,
+                "stored",
+                format!(
+                    "{:?} {} (axes 0 to {}, as --time-axis and --select number them)",
+                    self.stored_shape,
+                    self.dtype,
+                    self.stored_shape.len() - 1
+                ),
+            )?;
+        }
+        if self.candidates.len() > 1 || self.stored_shape.is_empty() {
+            for c in &self.candidates {
+                line(f, "candidate", c)?;
+            }
+        }
+        if self.nt > 0 {
+            line(
+                f,
+                "cube",
+                format!("{} x {} x {} (ny, nx, nt)", self.ny, self.nx, self.nt),
+            )?;
+            line(f, "layout", &self.layout)?;
+            line(f, "time axis", &self.time_axis)?;
+        }
         if let Some(x) = &self.x_axis {
             line(f, "x axis", x)?;
         }

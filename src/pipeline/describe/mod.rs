@@ -35,6 +35,9 @@ pub struct DescribeOptions {
     /// Read a streak image as storing time across and x down, as `femto ingest --transpose`
     /// reads it (the HPD-TA axis roles swap too); cubes and meshes are unaffected.
     pub transpose: bool,
+    /// For array files: which dataset and layout, as `femto ingest` takes them
+    /// (`--dataset`, `--time-axis`, `--select`, `--sum`).
+    pub array: crate::readers::ReadOptions,
 }
 
 /// What a file is and holds; `kind` in the JSON tells which.
@@ -110,7 +113,11 @@ pub fn describe_file(
         }
         if !has_cube {
             if let Some(format) = crate::readers::Format::sniff(path) {
-                return Ok(Description::Array(array::describe_array(path, format)?));
+                return Ok(Description::Array(array::describe_array(
+                    path,
+                    format,
+                    &options.array,
+                )?));
             }
         }
         // A cube, or not ours: then the cube reader says why.
@@ -120,10 +127,12 @@ pub fn describe_file(
     if MESH_EXTENSIONS.contains(&ext.as_str()) {
         return Ok(Description::Mesh(mesh::describe_mesh(path)?));
     }
-    if let Some(format @ (crate::readers::Format::Npy | crate::readers::Format::Mat)) =
-        crate::readers::Format::sniff(path)
-    {
-        return Ok(Description::Array(array::describe_array(path, format)?));
+    if let Some(format) = crate::readers::Format::sniff(path) {
+        return Ok(Description::Array(array::describe_array(
+            path,
+            format,
+            &options.array,
+        )?));
     }
     if crate::formats::streak_extension(path).is_some() {
         return Ok(Description::StreakImage(streak::describe_streak(
@@ -131,11 +140,16 @@ pub fn describe_file(
             options.transpose,
         )?));
     }
+    let message = match crate::readers::Format::convert_hint(path) {
+        Some(hint) => hint.to_string(),
+        None => format!(
+            "not a file femto reads; {}",
+            crate::readers::Format::readable_list()
+        ),
+    };
     Err(StageError::Input {
         path: path.display().to_string(),
-        message: "not a femto cube (HDF5) file, a mesh (.obj, .gltf, .glb) or a streak image \
-                  (.png, .tif, .tiff, .exr, .hdr, .img)"
-            .into(),
+        message,
     })
 }
 
