@@ -12,7 +12,9 @@
 //! frames of a longer one stay; a partial render keeps the earlier frames of its own sequence,
 //! [`VideoWriter::sequence_length`], so split renders into one folder add up). A destination
 //! folder that holds anything but frames is refused when the writer is created, before
-//! anything is written.
+//! anything is written. Each PNG frame of a render records its place in the sequence the
+//! render planned (`frame K of N`, [`place`]), so that `femto encode` can refuse a set of
+//! parts that falls short of it.
 //!
 //! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
 //! displayable value):
@@ -40,8 +42,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use image::codecs::gif::{GifEncoder, Repeat};
-use image::codecs::png::PngEncoder;
-use image::{Delay, ExtendedColorType, ImageEncoder, RgbaImage};
+use image::{Delay, RgbaImage};
 use openh264::encoder::{
     BitRate, Encoder, EncoderConfig, FrameRate, FrameType, IntraFramePeriod, QpRange,
     RateControlMode, TransferCharacteristics, UsageType, VuiConfig,
@@ -546,7 +547,13 @@ impl VideoWriter {
                 let name = sequence_file_name(index, self.format);
                 let dest = tmp.path().join(&name);
                 match self.format {
-                    VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height),
+                    VideoFormat::PngSequence => {
+                        let place = self.sequence_length.map(|frames| SequencePlace {
+                            index,
+                            frames,
+                        });
+                        write_png(&dest, &frame.srgb8, width, height, place)
+                    }
                     _ => write_exr(&dest, &frame.linear_rgb, width, height),
                 }
                 .map_err(|e| e.at(self.path.join(&name)))?;
@@ -810,30 +817,42 @@ impl VideoError {
     }
 }
 
-/// Encode an 8-bit sRGB frame as PNG into `out`: the bytes of a frame of a PNG sequence.
+/// Encode an 8-bit sRGB still as PNG into `out`: the bytes of the frame a one-frame render
+/// writes (its place, `frame 0 of 1`, included), as `femto view` saves a still.
 pub fn encode_png(
     srgb8: &[u8],
     width: usize,
     height: usize,
     out: &mut impl Write,
-) -> Result<(), image::ImageError> {
-    PngEncoder::new(out).write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
+) -> Result<(), png::EncodingError> {
+    let still = SequencePlace {
+        index: 0,
+        frames: 1,
+    };
+    place::encode_png(srgb8, width, height, Some(still), out)
 }
 
 /// Write one 8-bit sRGB frame as the PNG file `dest` (atomically: a temporary file beside it,
-/// renamed).
-pub fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
+/// renamed), recording its `place` in its sequence when given ([`place`]).
+pub fn write_png(
+    dest: &Path,
+    srgb8: &[u8],
+    width: usize,
+    height: usize,
+    place: Option<SequencePlace>,
+) -> Result<(), VideoError> {
     write_file_atomically(dest, |tmp| {
-        let image_err = |source| VideoError::Image {
-            path: dest.to_path_buf(),
-            source,
-        };
         let file = fs::File::create(tmp).map_err(|source| VideoError::Io {
             path: dest.to_path_buf(),
             source,
         })?;
         let mut out = BufWriter::new(file);
-        encode_png(srgb8, width, height, &mut out).map_err(image_err)?;
+        place::encode_png(srgb8, width, height, place, &mut out).map_err(|e| {
+            VideoError::Image {
+                path: dest.to_path_buf(),
+                source: image::ImageError::IoError(io::Error::other(e)),
+            }
+        })?;
         out.flush().map_err(|source| VideoError::Io {
             path: dest.to_path_buf(),
             source,
@@ -992,6 +1011,9 @@ fn mp4_bytes(
 }
 
 pub mod encode;
+pub mod place;
+
+pub use place::SequencePlace;
 
 #[cfg(test)]
 mod tests;

@@ -56,12 +56,15 @@ fn three_bands_equal_the_whole_run_with_one_and_two_threads() {
     let whole = files_under(&whole_dir.join("cap"));
     for threads in [1, 2] {
         let bands_dir = tmp.path().join(format!("bands_{threads}"));
+        // `--threads N` on the bands: the merged capture records the equivalent single
+        // command, without it, as the whole run (which had none) recorded.
+        let n = threads.to_string();
         for r in BANDS {
             let rows = format!("{}..{}", r.0, r.1);
             simulate_in(
                 &bands_dir,
                 threads,
-                &["--out", &band_name(r), "--rows", &rows],
+                &["--out", &band_name(r), "--rows", &rows, "--threads", &n],
             );
         }
         // Each band's truth rows are the whole run's rows.
@@ -220,6 +223,15 @@ fn encode_makes_the_single_renders_mp4_and_gif_from_split_png_frames() {
         &["frames 3..5", "no folder", "part0", "part2"],
     );
     encode(&["part0", "part1", "part1"], &["frame 3", "two folders"]);
+    // A set shorter than the 7 frames the render planned: the last part, or the first.
+    encode(
+        &["part0", "part1"],
+        &["frames 5..7 of the 7 the render planned", "part1 ends at frame 4"],
+    );
+    encode(
+        &["part2", "part1"],
+        &["frames 0..3 of the 7 the render planned", "part1 starts at frame 3"],
+    );
     encode(&["cap"], &["cap", "no PNG frames"]);
     refused_unchanged(
         dir,

@@ -1,20 +1,22 @@
-//! The cluster scripts (tools/slurm/, docs/cluster.md) on a real Slurm: a one-node cluster
-//! on localhost (munged, slurmctld and slurmd from Debian's `munge` and `slurm-wlm`, with a
-//! generated slurm.conf: the machine's CPUs, `proctrack/linuxproc`, `task/none`, no cgroups,
-//! every state, spool and log folder in a temporary folder) runs `tools/slurm/submit.sh
-//! --wait`: a simulate job array, the merge, the chain job, a render job array and the
-//! encode. The merged capture must equal a single-process `femto simulate` file for file
-//! and byte for byte, and the encoded MP4 a single-process `femto render`'s; a pipeline
-//! whose first task fails must end with a non-zero status and no video. The daemons are
-//! stopped when the test ends, pass or fail (a Drop guard).
+//! The cluster scripts (tools/slurm/, docs/cluster.md) on a real Slurm: the one-node cluster
+//! on localhost that docs/cluster.md's "Try it on one machine" starts, with the same script
+//! (`tools/slurm/one-node.sh start`: munged, slurmctld and slurmd from Debian's `munge` and
+//! `slurm-wlm`, configured from `tools/slurm/one-node.conf`: the machine's CPUs,
+//! `proctrack/linuxproc`, `task/none`, no cgroups, every state, spool and log folder in a
+//! temporary folder; here on free ports), runs `tools/slurm/submit.sh --wait`: a simulate
+//! job array, the merge, the chain job, a render job array and the encode. The merged
+//! capture must equal a single-process `femto simulate` file for file and byte for byte, and
+//! the encoded MP4 a single-process `femto render`'s; a pipeline whose first task fails must
+//! end with a non-zero status, no video and no video line. The daemons are stopped when the
+//! test ends, pass or fail (a Drop guard running `one-node.sh stop`).
 
 #[path = "common/cli.rs"]
 mod cli;
 
 use cli::{files_under, FemtoCmd};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Instant;
 
 /// The capture: small, with every imperfection, so the test adds well under a minute.
 const SIM: &str = "--scene cube --size 32x24 --nt 64 --spp 4 --realistic";
@@ -22,14 +24,8 @@ const SIM: &str = "--scene cube --size 32x24 --nt 64 --spp 4 --realistic";
 const RENDER: &str = "--dolly 0.5 --size 32x24";
 const FRAMES: &str = "7";
 
-/// A program on PATH (or in /usr/sbin, where Debian puts the daemons).
-fn program(name: &str) -> PathBuf {
-    let path = std::env::var_os("PATH").unwrap_or_default();
-    std::env::split_paths(&path)
-        .chain([PathBuf::from("/usr/sbin")])
-        .map(|d| d.join(name))
-        .find(|p| p.is_file())
-        .unwrap_or_else(|| panic!("{name} is not installed (apt-get install slurm-wlm munge)"))
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
 /// A free TCP port on localhost (bound, read and released).
@@ -40,36 +36,42 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// The daemons this test started, stopped (killed and reaped) when it is dropped.
-struct Daemons {
-    children: Vec<(String, Child)>,
+/// The one-node Slurm of `tools/slurm/one-node.sh` in `dir`, stopped by the same script
+/// when dropped.
+struct Cluster {
     dir: PathBuf,
 }
 
-impl Daemons {
-    fn start(&mut self, name: &str, args: &[&str]) {
-        let log = std::fs::File::create(self.dir.join(format!("{name}.out"))).unwrap();
-        let child = Command::new(program(name))
-            .args(args)
-            .env("SLURM_CONF", self.dir.join("slurm.conf"))
-            .stdin(Stdio::null())
-            .stdout(log.try_clone().unwrap())
-            .stderr(log)
-            .spawn()
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
-        self.children.push((name.to_string(), child));
+impl Cluster {
+    fn start(dir: &Path) -> Cluster {
+        let out = Command::new(repo().join("tools/slurm/one-node.sh"))
+            .arg("start")
+            .arg(dir)
+            .env("SLURMCTLD_PORT", free_port().to_string())
+            .env("SLURMD_PORT", free_port().to_string())
+            .output()
+            .expect("tools/slurm/one-node.sh");
+        let cluster = Cluster {
+            dir: dir.to_path_buf(),
+        };
+        assert!(
+            out.status.success(),
+            "one-node.sh start: {:?}\n{}{}",
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        cluster
+    }
+
+    fn conf(&self) -> PathBuf {
+        self.dir.join("slurm.conf")
     }
 
     /// The daemons' logs, for a failure message.
     fn logs(&self) -> String {
         let mut text = String::new();
-        for name in [
-            "munged.out",
-            "slurmctld.log",
-            "slurmd.log",
-            "slurmctld.out",
-            "slurmd.out",
-        ] {
+        for name in ["munge/munged.log", "slurmctld.log", "slurmd.log"] {
             let body = std::fs::read_to_string(self.dir.join(name)).unwrap_or_default();
             let tail: Vec<&str> = body.lines().rev().take(15).collect();
             text += &format!("--- {name}\n");
@@ -82,135 +84,12 @@ impl Daemons {
     }
 }
 
-impl Drop for Daemons {
+impl Drop for Cluster {
     fn drop(&mut self) {
-        // Jobs still queued or running (a failed test) go first, while slurmctld is up.
-        if self.children.len() == 3 {
-            let _ = Command::new(program("scancel"))
-                .args(["--full", "--user"])
-                .arg(
-                    String::from_utf8_lossy(
-                        &Command::new("id")
-                            .arg("-un")
-                            .output()
-                            .map_or(vec![], |o| o.stdout),
-                    )
-                    .trim(),
-                )
-                .env("SLURM_CONF", self.dir.join("slurm.conf"))
-                .output();
-            std::thread::sleep(Duration::from_millis(500));
-        }
-        // Newest first: slurmd, slurmctld, then munged.
-        for (_, child) in self.children.iter_mut().rev() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
-
-fn slurm_conf(dir: &Path) -> String {
-    let host = Command::new("hostname").arg("-s").output().unwrap();
-    let host = String::from_utf8_lossy(&host.stdout).trim().to_string();
-    let user = Command::new("id").arg("-un").output().unwrap();
-    let user = String::from_utf8_lossy(&user.stdout).trim().to_string();
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let d = dir.display();
-    format!(
-        "ClusterName=femtotest\n\
-         SlurmctldHost={host}\n\
-         SlurmctldPort={ctld}\n\
-         SlurmdPort={slurmd}\n\
-         AuthType=auth/munge\n\
-         AuthInfo=socket={d}/munge/munge.sock\n\
-         CredType=cred/munge\n\
-         SlurmUser={user}\n\
-         SlurmdUser={user}\n\
-         StateSaveLocation={d}/state\n\
-         SlurmdSpoolDir={d}/spool\n\
-         SlurmctldPidFile={d}/slurmctld.pid\n\
-         SlurmdPidFile={d}/slurmd.pid\n\
-         SlurmctldLogFile={d}/slurmctld.log\n\
-         SlurmdLogFile={d}/slurmd.log\n\
-         ProctrackType=proctrack/linuxproc\n\
-         TaskPlugin=task/none\n\
-         SwitchType=switch/none\n\
-         MpiDefault=none\n\
-         SchedulerType=sched/builtin\n\
-         SelectType=select/cons_tres\n\
-         SelectTypeParameters=CR_CPU\n\
-         ReturnToService=2\n\
-         JobCompType=jobcomp/none\n\
-         AccountingStorageType=accounting_storage/none\n\
-         JobAcctGatherType=jobacct_gather/none\n\
-         NodeName={host} NodeAddr=127.0.0.1 CPUs={cpus} RealMemory=1000 State=UNKNOWN\n\
-         PartitionName=debug Nodes={host} Default=YES MaxTime=INFINITE State=UP\n",
-        ctld = free_port(),
-        slurmd = free_port(),
-    )
-}
-
-/// Start munged, slurmctld and slurmd for a one-node cluster in `dir`, and wait until the
-/// node is idle.
-fn start_cluster(dir: &Path) -> Daemons {
-    for sub in ["state", "spool", "munge", "key"] {
-        std::fs::create_dir_all(dir.join(sub)).unwrap();
-    }
-    std::fs::write(dir.join("slurm.conf"), slurm_conf(dir)).unwrap();
-    let key = dir.join("key/munge.key");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(dir.join("key"), std::fs::Permissions::from_mode(0o700)).unwrap();
-    }
-    let made = Command::new(program("mungekey"))
-        .args(["-c", "-k"])
-        .arg(&key)
-        .output()
-        .unwrap();
-    assert!(made.status.success(), "mungekey: {made:?}");
-    let mut daemons = Daemons {
-        children: Vec::new(),
-        dir: dir.to_path_buf(),
-    };
-    let at = |p: &str| dir.join(p).display().to_string();
-    daemons.start(
-        "munged",
-        &[
-            "-F",
-            "-f",
-            &format!("--socket={}", at("munge/munge.sock")),
-            &format!("--key-file={}", key.display()),
-            &format!("--log-file={}", at("munge/munged.log")),
-            &format!("--pid-file={}", at("munge/munged.pid")),
-            &format!("--seed-file={}", at("munge/munged.seed")),
-        ],
-    );
-    wait_for(&daemons, "the munge socket", || {
-        dir.join("munge/munge.sock").exists()
-    });
-    let conf = at("slurm.conf");
-    daemons.start("slurmctld", &["-D", "-i", "-f", &conf]);
-    daemons.start("slurmd", &["-D", "-f", &conf]);
-    wait_for(&daemons, "an idle node", || {
-        Command::new(program("sinfo"))
-            .args(["-h", "-o", "%T"])
-            .env("SLURM_CONF", &conf)
-            .output()
-            .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "idle")
-    });
-    daemons
-}
-
-fn wait_for(daemons: &Daemons, what: &str, ready: impl Fn() -> bool) {
-    let start = Instant::now();
-    while !ready() {
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "no {what} after 60 s:\n{}",
-            daemons.logs()
-        );
-        std::thread::sleep(Duration::from_millis(200));
+        let _ = Command::new(repo().join("tools/slurm/one-node.sh"))
+            .arg("stop")
+            .arg(&self.dir)
+            .output();
     }
 }
 
@@ -222,10 +101,10 @@ fn wait_for(daemons: &Daemons, what: &str, ready: impl Fn() -> bool) {
 fn slurm_job_arrays_merge_and_encode_as_one_process_would() {
     let tmp = tempfile::tempdir().unwrap();
     let cluster = tmp.path().join("cluster");
-    let daemons = start_cluster(&cluster);
+    let daemons = Cluster::start(&cluster);
     let work = tmp.path().join("work");
     let femto = env!("CARGO_BIN_EXE_femto");
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let repo = repo();
     let started = Instant::now();
     let run = Command::new(repo.join("tools/slurm/submit.sh"))
         .args([
@@ -238,7 +117,7 @@ fn slurm_job_arrays_merge_and_encode_as_one_process_would() {
         ])
         .args(["--sim", SIM, "--render", RENDER, "--frames", FRAMES])
         .args(["--femto", femto, "--wait"])
-        .env("SLURM_CONF", cluster.join("slurm.conf"))
+        .env("SLURM_CONF", daemons.conf())
         .output()
         .unwrap();
     let seconds = started.elapsed().as_secs_f64();
@@ -276,13 +155,29 @@ fn slurm_job_arrays_merge_and_encode_as_one_process_would() {
             RENDER,
         ])
         .args(["--frames", FRAMES, "--femto", femto, "--wait"])
-        .env("SLURM_CONF", cluster.join("slurm.conf"))
+        .env("SLURM_CONF", daemons.conf())
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&failed.stderr);
     assert_eq!(failed.status.code(), Some(1), "a failed task: {stderr}");
     assert!(stderr.contains("a job failed or was cancelled"), "{stderr}");
     assert!(!failed_work.join("video.mp4").exists());
+    let stdout = String::from_utf8_lossy(&failed.stdout);
+    assert!(!stdout.contains("video:"), "a failed run names no video: {stdout}");
+
+    // submit.sh's own default --sim (no --size in it) is submitted as it is: its rows come
+    // from the default's explicit size. Submitted only, then cancelled.
+    let default_work = tmp.path().join("default");
+    let submitted = Command::new(repo.join("tools/slurm/submit.sh"))
+        .args(["--work", default_work.to_str().unwrap(), "--femto", femto])
+        .env("SLURM_CONF", daemons.conf())
+        .output()
+        .unwrap();
+    assert!(
+        submitted.status.success(),
+        "submit.sh with its default --sim: {}",
+        String::from_utf8_lossy(&submitted.stderr)
+    );
     drop(daemons);
 
     // The same capture in one process, from a folder of its own with the same --out, so

@@ -76,8 +76,12 @@ pub fn read_values<'py>(
     path: PathBuf,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, Option<Bound<'py, PyAny>>)> {
-    let cube = run_stage(py, progress.as_ref(), |_| {
-        CubeReader::open(&path).and_then(|r| r.read_cube()).py_err()
+    let cube = run_stage(py, progress.as_ref(), |shared| {
+        let reader = CubeReader::open(&path).py_err()?;
+        femto::pipeline::Progress::start(shared, "reading", reader.meta().ny as u64);
+        reader
+            .read_cube_reporting(&|rows| shared.set(rows as u64))
+            .py_err()
     })?;
     let (ny, nx, nt) = cube.shape();
     let data = Array3::from_shape_vec((ny, nx, nt), cube.data)
@@ -195,9 +199,11 @@ pub fn read_pyramid(
 
 /// Write `array` (float32 `(ny, nx, nt)`, C order or not) as a cube file at `path`:
 /// bins of `dt_ps` from `t0_ps`, on `clock`, values in `units`, with `notes` as string
-/// attributes of `/cube`. Atomic: nothing is left at `path` on failure.
+/// attributes of `/cube`. The library's checks ([`femto::container::check_cube`]: a finite
+/// axis, finite values, a mask of 0 and 1) refuse it before anything is written; the write
+/// is atomic and Ctrl-C stops it between slabs, leaving nothing at `path`.
 #[pyfunction]
-#[pyo3(signature = (array, dt_ps, t0_ps, path, clock, units, notes, mask=None, force=false, compression=None))]
+#[pyo3(signature = (array, dt_ps, t0_ps, path, clock, units, notes, mask, force, compression, progress))]
 #[allow(clippy::too_many_arguments)]
 pub fn write_cube(
     py: Python<'_>,
@@ -211,35 +217,24 @@ pub fn write_cube(
     mask: Option<numpy::PyReadonlyArray2<'_, u8>>,
     force: bool,
     compression: Option<String>,
+    progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<()> {
     let compression = match compression.as_deref() {
         None => femto::container::CubeCompression::default(),
         Some(c) => femto::container::CubeCompression::parse(c)
-            .map_err(|e| value_error(format!("compression {c}: {e}")))?,
+            .map_err(|e| value_error(format!("compression={c}: {e}")))?,
     };
     let frame = TimeFrame::parse(clock)
-        .ok_or_else(|| value_error(format!("clock {clock:?}: must be \"camera\" or \"world\"")))?;
-    for (name, v) in [("dt_ps", dt_ps), ("t0_ps", t0_ps)] {
-        if !v.is_finite() {
-            return Err(value_error(format!("{name} {v}: must be a finite number")));
-        }
-    }
-    let range = femto::ranges::check("dt_ps", dt_ps, femto::ranges::INTERVAL_PS);
-    range.map_err(|e| value_error(e.to_string()))?;
+        .ok_or_else(|| value_error(format!("clock={clock:?}: expected \"camera\" or \"world\"")))?;
     let shape = array.as_array().shape().to_vec();
     let (ny, nx, nt) = (shape[0], shape[1], shape[2]);
-    if nx == 0 || ny == 0 || nt == 0 {
-        return Err(value_error(format!(
-            "array of shape {shape:?}: a cube needs at least one pixel and one bin"
-        )));
-    }
-    let data: Vec<f32> = array.as_array().iter().copied().collect();
     let mask = match mask {
         Some(m) => {
-            if m.as_array().shape() != [ny, nx] {
+            let shape = m.as_array().shape().to_vec();
+            if shape != [ny, nx] {
                 return Err(value_error(format!(
-                    "mask of shape {:?}: expected ({ny}, {nx})",
-                    m.as_array().shape()
+                    "mask of shape ({}, {}): expected (ny, nx) = ({ny}, {nx}), the array's first two",
+                    shape[0], shape[1]
                 )));
             }
             Some(m.as_array().iter().copied().collect())
@@ -248,7 +243,7 @@ pub fn write_cube(
     };
     if !force && path.exists() {
         return Err(value_error(format!(
-            "{}: exists; pass force=True to replace it",
+            "path={}: exists; pass force=True to replace it",
             path.display()
         )));
     }
@@ -257,33 +252,21 @@ pub fn write_cube(
         ny,
         axis: TimeAxis { t0_ps, dt_ps, nt },
         frame,
-        data,
+        data: array.as_array().iter().copied().collect(),
         mask,
     };
     let mut provenance = Provenance::new("python: femto.cube_from_array");
     provenance.notes = notes;
-    py.detach(|| {
-        let mut w = femto::container::CubeWriter::create_with(
+    run_stage(py, progress.as_ref(), |shared| {
+        femto::pipeline::Progress::start(shared, "writing", ny as u64);
+        femto::container::write_checked_cube(
             &path,
-            nx,
-            ny,
-            cube.axis,
-            cube.frame,
+            &cube,
             units,
             &provenance,
             compression,
-        )?;
-        // In slabs of about 32 MiB, as the library's own writers stream.
-        let row_len = nx * cube.axis.nt;
-        let slab = ((32usize << 20) / (4 * row_len)).max(1);
-        for y0 in (0..ny).step_by(slab) {
-            let y1 = (y0 + slab).min(ny);
-            w.write_rows(y0, &cube.data[y0 * row_len..y1 * row_len])?;
-        }
-        if let Some(m) = &cube.mask {
-            w.write_mask(m)?;
-        }
-        w.finish()
+            &|rows| shared.set(rows as u64),
+        )
+        .py_err()
     })
-    .py_err()
 }

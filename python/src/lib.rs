@@ -1,5 +1,5 @@
 //! The `femto` Python package's extension module (`femto._femto`): the library's stages and
-//! cube container called directly, numpy arrays in and out. `python/femto/__init__.py`
+//! cube container called directly, numpy arrays in and out. `python/python/femto/__init__.py`
 //! wraps these functions with keyword arguments named as the CLI's flags, docstrings, and
 //! progress bars.
 //!

@@ -63,12 +63,12 @@ fn open_inputs(
         (None, None) => SceneGeometry::Wall,
         (Some(_), None) => {
             return Err(value_error(
-                "--calibration needs --mesh (give mesh= with calibration=)",
+                "calibration= needs mesh= (both, or neither for a y-tal wall cube)",
             ))
         }
         (None, Some(_)) => {
             return Err(value_error(
-                "--mesh needs --calibration (give calibration= with mesh=)",
+                "mesh= needs calibration= (both, or neither for a y-tal wall cube)",
             ))
         }
     };
@@ -157,7 +157,7 @@ fn render_in_memory<'py>(
     Ok((array, figures))
 }
 
-/// `femto render`: see `femto.render` (python/femto/_render.py) for the arguments.
+/// `femto render`: see `femto.render` (python/python/femto/_render.py) for the arguments.
 #[pyfunction]
 #[pyo3(signature = (
     cube, calibration, mesh, path, pyramid, laser_nm, dolly, orbit, capture_view, size,

@@ -1,12 +1,13 @@
-//! `femto simulate` from Python: the keyword arguments fill the library's
-//! [`SimulateRequest`] (the command's flags, with its defaults), which
+//! `femto simulate` from Python: the keyword arguments (whole numbers checked exactly by
+//! `femto/_args.py`) fill the library's [`SimulateRequest`] (the command's flags, with its
+//! defaults), which
 //! [`femto::pipeline::simulate`] checks, plans and runs on a worker thread
 //! ([`run_stage`]); the figures the command prints come back as a dict.
 
-use crate::errors::{value_error, IntoPy};
+use crate::errors::IntoPy;
 use crate::runner::{run_stage, Shared};
 use femto::pipeline::simulate::{
-    parse_format, parse_time_filter, prepare, run, SimulateRequest, MAX_BOUNCES,
+    parse_format, parse_time_filter, prepare, run, SimulateRequest,
 };
 use femto::simulate::{Flaws, SimulateSummary, Stage};
 use pyo3::prelude::*;
@@ -32,16 +33,16 @@ pub fn simulate<'py>(
     scene: String,
     bunny: Option<PathBuf>,
     format: Vec<String>,
-    spp: i64,
-    seed: i64,
-    bounces: i64,
+    spp: u32,
+    seed: u64,
+    bounces: u32,
     size: Option<(usize, usize)>,
     nt: Option<usize>,
     dt_ps: Option<f64>,
     paper_size: bool,
     transient_only: bool,
     time_filter: &str,
-    rr_start_bounce: Option<i64>,
+    rr_start_bounce: Option<u32>,
     rows: Option<(usize, usize)>,
     marker_spacing_m: f64,
     realistic: bool,
@@ -66,18 +67,16 @@ pub fn simulate<'py>(
             .map(|f| parse_format(f))
             .collect::<Result<_, _>>()
             .py_err()?,
-        spp: count("spp", spp, 1, u32::MAX as i64)? as u32,
-        seed: count("seed", seed, 0, i64::MAX)? as u64,
-        bounces: count("bounces", bounces, 1, MAX_BOUNCES.into())? as u32,
+        spp,
+        seed,
+        bounces,
         size,
         nt,
         dt_ps,
         paper_size,
         transient_only,
         time_filter: parse_time_filter(time_filter).py_err()?,
-        rr_start_bounce: rr_start_bounce
-            .map(|b| count("rr-start-bounce", b, 1, u32::MAX as i64).map(|b| b as u32))
-            .transpose()?,
+        rr_start_bounce,
         rows: rows.map(|(a, b)| a..b),
         marker_spacing_m,
         realistic,
@@ -149,17 +148,6 @@ fn summary_figures(d: &Bound<'_, PyDict>, s: &SimulateSummary) -> PyResult<()> {
     d.set_item("fiducials", s.fiducials)?;
     d.set_item("values_at_top_count", s.values_at_top_count)?;
     Ok(())
-}
-
-/// An integer argument in `lo..=hi`, refused in the words of its flag.
-fn count(flag: &str, value: i64, lo: i64, hi: i64) -> PyResult<i64> {
-    if (lo..=hi).contains(&value) {
-        Ok(value)
-    } else {
-        Err(value_error(format!(
-            "--{flag}: {value} is not in {lo}..={hi}"
-        )))
-    }
 }
 
 /// The simulation's row counts as the runner's passes: "rendering" rows, then "writing"

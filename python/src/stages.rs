@@ -119,7 +119,7 @@ pub fn unwarp<'py>(
         (None, None) if dt_ps.is_none() => None,
         _ => {
             return Err(value_error(
-                "--t0-ps and --nt go together (with --dt-ps optional): give t0_ps= and nt=",
+                "t0_ps= and nt= go together (dt_ps= optional)",
             ))
         }
     };
@@ -200,6 +200,8 @@ pub fn calibrate<'py>(
     inputs.extend(intrinsics.as_deref());
     refuse_existing(&out, &inputs, force, "out").py_err()?;
     let meta = femto::container::read_meta(&cube).py_err()?;
+    // The input files before the values, as the command: a missing mesh is named as missing.
+    let bvh = py.detach(|| load_mesh(&mesh).map(Bvh::new)).py_err()?;
     let correspondences = femto::calibrate::load_points(&points).py_err()?;
     let (known, file_laser, file_eta) = match &intrinsics {
         Some(p) => {
@@ -231,7 +233,6 @@ pub fn calibrate<'py>(
             None => defaults.floor,
         },
     };
-    let bvh = py.detach(|| load_mesh(&mesh).map(Bvh::new)).py_err()?;
     let result = run_stage(py, progress.as_ref(), |shared| {
         let result = calibrate_cube(&cube, &bvh, &correspondences, laser_m, &options, shared)
             .map_err(|e| match e {

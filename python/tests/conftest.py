@@ -72,3 +72,25 @@ def world_copy(demo, tmp_path):
     p = tmp_path / "world.h5"
     shutil.copyfile(demo["world"], p)
     return p
+
+
+def _flagless(text):
+    """`text` with each flag (`--min-peak`, `--no-jitter`) or keyword (`min_peak=`,
+    `jitter=False`, `force=True`) reduced to its bare name and every space dropped: what the
+    CLI's line and the package's message must share word for word."""
+    import re
+
+    text = re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_"), text)
+    text = re.sub(r"\b([a-z][a-z0-9_]*)=False\b", r"no_\1", text)
+    text = re.sub(r"\b([a-z][a-z0-9_]*)=(True\b)?", r"\1", text)
+    return re.sub(r"\s+", "", text)
+
+
+def assert_same_refusal(message, cli_stderr):
+    """The package's FemtoError `message` says what `femto` printed (its last line, after
+    `femto: error: `), in the caller's spelling: keywords, not flags."""
+    line = cli_stderr.strip().splitlines()[-1]
+    prefix = "femto: error: "
+    assert line.startswith(prefix), line
+    assert "--" not in message, f"a flag in the package's message: {message}"
+    assert _flagless(message) == _flagless(line[len(prefix):]), (message, line)

@@ -6,7 +6,7 @@ import pytest
 from PIL import Image
 
 import femto
-from conftest import run_cli
+from conftest import assert_same_refusal, run_cli
 
 
 def cube_values(path):
@@ -57,7 +57,7 @@ def test_chain_equals_the_cli_chain(demo, femto_bin, tmp_path):
     assert k.valid_pixels == u.valid_pixels + u.mixed_pixels
     assert "none is masked (--mask-spread-bins inf)" in out, out
     for bad in (float("nan"), 0.0, -1.0):
-        with pytest.raises(femto.FemtoError, match="--mask-spread-bins"):
+        with pytest.raises(femto.FemtoError, match="mask_spread_bins="):
             femto.unwarp(py / "cube.h5", py / "bad.h5", mask_spread_bins=bad)
     assert not (py / "bad.h5").exists()
 
@@ -114,7 +114,7 @@ def test_bad_ingest_arguments_raise_the_cli_message(femto_bin, tmp_path, kwargs,
         # A value clap's parser refused: clap words the line, the library gives the reason.
         assert str(e.value).split(": ", 1)[1] in line, (str(e.value), line)
     else:
-        assert line == f"femto: error: {e.value}", (str(e.value), line)
+        assert_same_refusal(str(e.value), cli.stderr)
     assert not (tmp_path / "o.h5").exists()
 
 
@@ -145,7 +145,7 @@ def test_mitransient_array_in_memory(tmp_path):
     assert np.allclose(cube.data, h.mean(axis=3), rtol=1e-6)
     c_m_per_ps = 299792458e-12
     assert np.isclose(cube.dt_ps, 0.003 / c_m_per_ps) and np.isclose(cube.t0_ps, 0.3 / c_m_per_ps)
-    with pytest.raises(femto.FemtoError, match="--channels"):
+    with pytest.raises(femto.FemtoError, match="channels=x"):
         femto.ingest_mitransient(tmp_path / "render.npy", tmp_path / "n.h5", start_opl_m=0.3,
                                  bin_width_opl_m=0.003, channels="x")
 
@@ -164,6 +164,23 @@ def test_an_existing_output_is_refused_as_the_cli_refuses_it(femto_bin, tmp_path
     cli = run_cli(femto_bin, "ingest", pattern, "-o", out, "--dt-ps", "1", "--t0-ps", "0",
                   check=False)
     assert cli.returncode == 2
-    assert cli.stderr.strip() == f"femto: error: {e.value}", (str(e.value), cli.stderr)
-    assert "--force" in str(e.value) and out.read_bytes() == before
+    assert_same_refusal(str(e.value), cli.stderr)
+    assert "force=True" in str(e.value) and out.read_bytes() == before
     femto.ingest(pattern, out, dt_ps=1.0, t0_ps=0.0, force=True, progress=False)
+
+
+def test_a_missing_mesh_is_named_before_the_laser_is_asked_for(demo, femto_bin, tmp_path):
+    # docs/python.md: calibrate(mesh="missing.glb") raises FemtoFileNotFoundError, with or
+    # without laser=, as the command does.
+    with pytest.raises(femto.FemtoFileNotFoundError) as e:
+        femto.calibrate(demo["cube"], mesh=tmp_path / "missing.glb", points=demo["points"],
+                        out=tmp_path / "c.toml", progress=False)
+    assert "missing.glb" in str(e.value) and e.value.errno == 2
+    cli = run_cli(femto_bin, "calibrate", demo["cube"], "--mesh", tmp_path / "missing.glb",
+                  "--points", demo["points"], "--out", tmp_path / "c.toml", check=False)
+    assert cli.returncode == 2 and "missing.glb" in cli.stderr, cli.stderr
+
+
+def test_the_world_cube_says_world_time_in_its_content_note(demo):
+    assert femto.open_cube(demo["cube"]).attrs["content"] == "ingested capture, camera time"
+    assert femto.open_cube(demo["world"]).attrs["content"] == "ingested capture, world time"

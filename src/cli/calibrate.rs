@@ -92,6 +92,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     inputs.extend(args.intrinsics.as_deref());
     femto::pipeline::overwrite::refuse_existing(&out, &inputs, args.force, "out")?;
     let meta = femto::container::read_meta(&args.cube)?;
+    // The input files before the values: a missing mesh is named as missing, whatever
+    // else is wrong.
+    let bvh = Bvh::new(load_mesh(&args.mesh)?);
     let points = load_points(&args.points)?;
     let (intrinsics, file_laser, file_eta) = match &args.intrinsics {
         Some(p) => {
@@ -119,7 +122,6 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             None => CalibrateOptions::default().floor,
         },
     };
-    let bvh = Bvh::new(load_mesh(&args.mesh)?);
     let result = calibrate_cube(
         &args.cube,
         &bvh,

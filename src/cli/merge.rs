@@ -2,8 +2,8 @@
 //! folder one `femto simulate` writes, bit for bit (library: [`femto::simulate::band`]).
 //!
 //! The capture is re-planned from the first band's recorded command line, with its `--rows`
-//! dropped and its `--out` replaced by the merge's, so the capture records the command line
-//! that makes it in one process; bands whose settings differ from it or from each other,
+//! and `--threads` dropped and its `--out` replaced by the merge's, so the capture records
+//! the equivalent single command that makes it in one process; bands whose settings differ from it or from each other,
 //! rows in two bands and rows in none are refused before anything is written.
 
 use anyhow::Context;
@@ -28,17 +28,20 @@ pub struct MergeArgs {
     pub threads: super::threads::ThreadsArg,
 }
 
-/// `command` (a band's `femto simulate` command line) as the command line of the whole
-/// capture written to `out`: `--rows` dropped and the value of `--out` replaced.
+/// `command` (a band's `femto simulate` command line) as the equivalent single command
+/// that writes the whole capture to `out`: `--rows` dropped, `--threads` dropped (a thread
+/// count changes no byte of the capture, so a single run without it writes the same files)
+/// and the value of `--out` replaced.
 pub fn whole_command(command: &[String], out: &Path) -> Vec<String> {
     let out = out.display().to_string();
     let mut whole = Vec::with_capacity(command.len());
     let mut args = command.iter();
     while let Some(a) = args.next() {
         match a.as_str() {
-            "--rows" => {
+            "--rows" | "--threads" => {
                 args.next();
             }
+            _ if a.starts_with("--threads=") => {}
             "--out" => {
                 whole.push(a.clone());
                 args.next();
@@ -114,7 +117,8 @@ mod tests {
 
     #[test]
     fn whole_command_drops_rows_and_replaces_out() {
-        let band: Vec<String> = "femto simulate --rows 0..4 --out b0 --spp 2 --rows=1..2 --out=x"
+        let band: Vec<String> =
+            "femto simulate --rows 0..4 --threads 1 --out b0 --spp 2 --rows=1..2 --out=x --threads=2"
             .split(' ')
             .map(String::from)
             .collect();

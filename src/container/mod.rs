@@ -25,6 +25,7 @@
 //! | `schema` | names, chunk and slab sizes, types: [`CubeMeta`], [`DataBuf`], [`GroupData`] |
 //! | `open` | opening HDF5 files and datasets for reading ([`is_hdf5`]) |
 //! | `write` | the cube writer: [`write_cube`], [`CubeWriter`] and the sink under both |
+//! | `checked` | cubes made by a caller's own code, checked as the reader checks before writing ([`write_checked_cube`]) |
 //! | `compression` | the shuffle + deflate chunk compressor ([`RowCompressor`]) |
 //! | `read` | the cube reader with direct chunk reads ([`CubeReader`], [`read_cube`]) |
 //! | `attributes` | attributes of datasets and groups, and the JSON attribute index of groups |
@@ -37,6 +38,7 @@
 
 mod append;
 mod attributes;
+mod checked;
 mod compression;
 mod error;
 mod foreign;
@@ -52,6 +54,7 @@ mod write;
 #[cfg(doc)]
 use crate::cube::Cube;
 
+pub use checked::{check_cube, write_checked_cube};
 pub use compression::{CompressedRow, RowCompressor};
 pub use error::ContainerError;
 pub use groups::GroupReader;

@@ -336,7 +336,20 @@ impl CubeReader {
 
     /// The whole cube in memory.
     pub fn read_cube(&self) -> Result<Cube> {
-        let data = self.read_rows(0, self.meta.ny)?;
+        self.read_cube_reporting(&|_| {})
+    }
+
+    /// [`Self::read_cube`] by slabs of rows, calling `on_rows` with the rows read so far
+    /// after each: a caller that unwinds from it (the Python package on Ctrl-C) stops the
+    /// read within a slab's time.
+    pub fn read_cube_reporting(&self, on_rows: &dyn Fn(usize)) -> Result<Cube> {
+        let (ny, row_len) = (self.meta.ny, self.meta.row_len());
+        let mut data = vec![0.0f32; ny * row_len];
+        let rows = slab_rows(row_len * 4, ny);
+        for (k, slab) in data.chunks_mut(rows * row_len.max(1)).enumerate() {
+            self.read_rows_into(k * rows, slab)?;
+            on_rows((k * rows + rows).min(ny));
+        }
         Ok(Cube {
             nx: self.meta.nx,
             ny: self.meta.ny,

@@ -133,6 +133,7 @@ pub fn stage_truth(
             &srgb8,
             w,
             h,
+            None,
         )?;
         on_frame();
     }

@@ -542,8 +542,10 @@ fn widened_by(axis: TimeAxis, delays_ps: &[f64]) -> TimeAxis {
     }
 }
 
-/// The output's provenance notes: the input's, less its own `unwarp.*` notes, and this
-/// unwarp's direction, source and where its distances came from.
+/// The output's provenance notes: the input's, less its own `unwarp.*` notes, with a
+/// `content` note that ends with the input's clock (`"ingested capture, camera time"`, as
+/// the demo and the simulator write them) naming the output's, and this unwarp's direction,
+/// source and where its distances came from.
 fn unwarp_notes(
     input_notes: &[(String, String)],
     from: TimeFrame,
@@ -551,10 +553,17 @@ fn unwarp_notes(
     input: &Path,
     distances: &str,
 ) -> Vec<(String, String)> {
+    let (from_clock, to_clock) = (
+        format!("{from} time"),
+        format!("{} time", direction.target_frame()),
+    );
     let mut notes: Vec<(String, String)> = input_notes
         .iter()
         .filter(|(k, _)| !k.starts_with("unwarp."))
-        .cloned()
+        .map(|(k, v)| match v.strip_suffix(&from_clock) {
+            Some(what) if k == "content" => (k.clone(), format!("{what}{to_clock}")),
+            _ => (k.clone(), v.clone()),
+        })
         .collect();
     notes.push((
         "unwarp.direction".into(),
@@ -694,6 +703,10 @@ mod tests {
         let old = vec![
             ("laser_nm".to_string(), "532".to_string()),
             ("unwarp.source".to_string(), "older.h5".to_string()),
+            (
+                "content".to_string(),
+                "ingested capture, camera time".to_string(),
+            ),
         ];
         let n = unwarp_notes(
             &old,
@@ -707,14 +720,16 @@ mod tests {
             keys,
             [
                 "laser_nm",
+                "content",
                 "unwarp.direction",
                 "unwarp.source",
                 "unwarp.distances"
             ]
         );
-        assert_eq!(n[2].1, "cam.h5");
+        assert_eq!(n[1].1, "ingested capture, world time");
+        assert_eq!(n[3].1, "cam.h5");
         assert_eq!(
-            n[3].1,
+            n[4].1,
             format!("/{} group of the source", registration::GROUP)
         );
     }

@@ -268,6 +268,10 @@ fn row_slices(cube: &mut Option<Cube>, ny: usize) -> Vec<Option<&mut [f32]>> {
     }
 }
 
+/// Paths of a pixel between two polls of a render's progress ([`Tracer::render_rows`]):
+/// about a millisecond of paths in a release build.
+pub const POLL_PATHS: u32 = 1024;
+
 /// Render the transient cubes of `scene`. `bvh` must be built from `scene.mesh`.
 /// `progress` is called with 1 after each finished image row.
 pub fn trace(
@@ -360,7 +364,10 @@ impl<'a> Tracer<'a> {
     }
 
     /// Render image rows `rows` (clamped to the image): cubes of `rows.len()` rows holding
-    /// rows `rows.start ..` of the full image. `progress` is called with 1 after each row.
+    /// rows `rows.start ..` of the full image. `progress` is called with 1 after each row,
+    /// and with 0 after each pixel and every [`POLL_PATHS`] paths of a pixel: points at which
+    /// a caller may unwind the render to stop it (the Python package on Ctrl-C), a few
+    /// milliseconds of paths rather than a row's after the request.
     pub fn render_rows(
         &self,
         rows: Range<usize>,
@@ -411,7 +418,7 @@ impl<'a> Tracer<'a> {
             .into_par_iter()
             .enumerate()
             .map(|(dy, out)| {
-                let stats = self.render_row_dispatch(y0 + dy, out, &window, ps_per_m);
+                let stats = self.render_row_dispatch(y0 + dy, out, &window, ps_per_m, progress);
                 progress(1);
                 stats
             })
@@ -443,15 +450,18 @@ impl<'a> Tracer<'a> {
         out: RowOut,
         window: &PathWindow,
         ps_per_m: f64,
+        poll: &(dyn Fn(usize) + Sync),
     ) -> TraceStats {
         #[cfg(target_arch = "x86_64")]
         match self.row_isa {
             // SAFETY: `RowIsa::detect` found every feature each build enables on this CPU.
-            RowIsa::V3 => return unsafe { self.render_row_v3(y, out, window, ps_per_m) },
-            RowIsa::V3Gfni => return unsafe { self.render_row_v3_gfni(y, out, window, ps_per_m) },
+            RowIsa::V3 => return unsafe { self.render_row_v3(y, out, window, ps_per_m, poll) },
+            RowIsa::V3Gfni => {
+                return unsafe { self.render_row_v3_gfni(y, out, window, ps_per_m, poll) }
+            }
             RowIsa::Baseline => {}
         }
-        self.render_row::<0>(y, out, window, ps_per_m)
+        self.render_row::<0>(y, out, window, ps_per_m, poll)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -462,8 +472,9 @@ impl<'a> Tracer<'a> {
         out: RowOut,
         window: &PathWindow,
         ps_per_m: f64,
+        poll: &(dyn Fn(usize) + Sync),
     ) -> TraceStats {
-        self.render_row::<1>(y, out, window, ps_per_m)
+        self.render_row::<1>(y, out, window, ps_per_m, poll)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -474,13 +485,15 @@ impl<'a> Tracer<'a> {
         out: RowOut,
         window: &PathWindow,
         ps_per_m: f64,
+        poll: &(dyn Fn(usize) + Sync),
     ) -> TraceStats {
-        self.render_row::<2>(y, out, window, ps_per_m)
+        self.render_row::<2>(y, out, window, ps_per_m, poll)
     }
 
-    /// Render image row `y` (of the full image) into its output slices. `_BUILD` only tells
-    /// the compiled versions apart, so that each has its own copy of the per-sample closure
-    /// (one caller each, which the compiler then inlines).
+    /// Render image row `y` (of the full image) into its output slices, calling `poll(0)`
+    /// after each pixel ([`Tracer::render_rows`]). `_BUILD` only tells the compiled versions
+    /// apart, so that each has its own copy of the per-sample closure (one caller each, which
+    /// the compiler then inlines).
     #[inline(always)]
     fn render_row<const _BUILD: u8>(
         &self,
@@ -488,6 +501,7 @@ impl<'a> Tracer<'a> {
         mut out: RowOut,
         window: &PathWindow,
         ps_per_m: f64,
+        poll: &(dyn Fn(usize) + Sync),
     ) -> TraceStats {
         let scene = self.kernel.scene;
         let opts = &self.opts;
@@ -558,6 +572,9 @@ impl<'a> Tracer<'a> {
                 stats.rays += tally.rays;
                 stats.samples_outside_window += tally.skipped_early;
                 stats.paths_ended_late += tally.ended_late as u64;
+                if i % POLL_PATHS == POLL_PATHS - 1 {
+                    poll(0);
+                }
             }
             stats.energy_outside_window += lost;
             let store = |dst: &mut [f32], src: &mut [f64], (lo, hi): (usize, usize)| {
@@ -584,6 +601,7 @@ impl<'a> Tracer<'a> {
             }
             touched = (nt, 0);
             touched_world = (ntw, 0);
+            poll(0);
         }
         stats
     }

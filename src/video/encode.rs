@@ -4,8 +4,10 @@
 //! read, and they are pushed to one [`super::VideoWriter`] in frame order.
 //!
 //! The folders must together hold frames `A..B` once each (`frame_NNNNN.png`, their global
-//! numbers, [`super::sequence_file_name`]), all of one size; gaps, repeats and EXR frames
-//! (linear values, not the displayed ones) are refused before anything is written.
+//! numbers, [`super::sequence_file_name`]), all of one size, and, when the frames record the
+//! sequence their render planned ([`super::place`]), every frame of it; gaps, repeats, a
+//! short set and EXR frames (linear values, not the displayed ones) are refused before
+//! anything is written.
 
 use super::{VideoError, VideoFormat, VideoWriter};
 use std::path::{Path, PathBuf};
@@ -113,6 +115,56 @@ pub fn list_frames(dirs: &[PathBuf]) -> Result<(std::ops::Range<usize>, Vec<Path
     Ok((range, frames.into_iter().map(|f| f.1).collect()))
 }
 
+/// Refuse frames `range` (the files `files`, in order) when their render planned another
+/// sequence: each frame records its place, `frame K of N` ([`super::place`]); every frame
+/// must name the same N and the folders must hold frames 0..N, so a part left out (or not
+/// written yet) is refused rather than encoded into a shorter video. Frames that record no
+/// place (another tool's) are taken as they are.
+fn check_planned(range: &std::ops::Range<usize>, files: &[PathBuf]) -> Result<(), VideoError> {
+    let mut planned: Option<(usize, &PathBuf)> = None;
+    for file in files {
+        let Some(place) = super::place::read_place(file)? else {
+            continue;
+        };
+        match planned {
+            None => planned = Some((place.frames, file)),
+            Some((n, first)) if n != place.frames => {
+                return Err(refuse(format!(
+                    "{}: a frame of a {}-frame render, but {} is of a {n}-frame one: parts of \
+                     one video come from one render's --frame-count",
+                    file.display(),
+                    place.frames,
+                    first.display()
+                )))
+            }
+            Some(_) => {}
+        }
+    }
+    let Some((n, _)) = planned else {
+        return Ok(());
+    };
+    let folder = |f: &PathBuf| f.parent().unwrap_or(Path::new(".")).display().to_string();
+    if range.start > 0 {
+        return Err(refuse(format!(
+            "frames 0..{} of the {n} the render planned are in no folder ({} starts at frame \
+             {}): give every part",
+            range.start,
+            folder(&files[0]),
+            range.start
+        )));
+    }
+    if range.end < n {
+        return Err(refuse(format!(
+            "frames {}..{n} of the {n} the render planned are in no folder ({} ends at frame \
+             {}): give every part, once each has been written",
+            range.end,
+            folder(&files[files.len() - 1]),
+            range.end - 1
+        )));
+    }
+    Ok(())
+}
+
 /// Read one PNG frame as 8-bit sRGB RGB.
 fn read_frame(path: &Path) -> Result<super::Frame, VideoError> {
     let image = image::open(path).map_err(|source| VideoError::Image {
@@ -153,6 +205,7 @@ pub fn encode_sequences(
         )));
     }
     let (range, files) = list_frames(dirs)?;
+    check_planned(&range, &files)?;
     let first = read_frame(&files[0])?;
     let (width, height) = (first.width, first.height);
     let mut writer = VideoWriter::create(out, format, width, height, fps)?;

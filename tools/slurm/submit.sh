@@ -11,8 +11,10 @@
 #            [--fps F] [--cpus N] [--femto PATH] [--wait] [-- SBATCH_FLAGS...]
 #   --work     a folder every node sees (created; must be empty)
 #   --bands    simulate tasks (default 4); --parts: render tasks (default 4)
-#   --sim      femto simulate flags (default "--scene cube --spp 64"), without --out/--rows
-#   --rows     image rows (default: from --size WxH or --paper-size in --sim)
+#   --sim      femto simulate flags (default "--scene cube --size 64x48 --spp 64", the cube
+#              scene at its own size), without --out/--rows
+#   --rows     image rows (default: from --size WxH or --paper-size in --sim; needed when
+#              --sim has neither: the scene's own image height)
 #   --capture  start from this capture folder instead of simulating one
 #   --render   femto render flags (default "--dolly 0.5"), without --out/--frames/--format
 #   --frames   frames of the video (default 100); --video: default video.mp4; --fps: 30
@@ -23,7 +25,7 @@
 # Anything after -- goes to every sbatch (e.g. --partition=... --time=...).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-work="" bands=4 parts=4 sim="--scene cube --spp 64" ny="" capture="" render="--dolly 0.5"
+work="" bands=4 parts=4 sim="--scene cube --size 64x48 --spp 64" ny="" capture="" render="--dolly 0.5"
 frames=100 video=video.mp4 fps=30 cpus=1 femto="" wait=""
 while [ $# -gt 0 ]; do
     case $1 in
@@ -52,9 +54,10 @@ for n in bands parts frames cpus; do
     [[ ${!n} =~ ^[1-9][0-9]*$ ]] || die "--$n ${!n}: expected a whole number >= 1"
 done
 if [ -z "$ny" ]; then
-    if [[ " $sim " =~ \ --(paper|seed)-size\  ]]; then ny=600
+    if [[ " $sim " =~ \ --paper-size\  ]]; then ny=600
     elif [[ " $sim " =~ \ --size[\ =][0-9]+x([0-9]+)\  ]]; then ny=${BASH_REMATCH[1]}
-    elif [ -z "$capture" ]; then die "--rows NY is needed (no --size or --paper-size in --sim)"
+    elif [ -z "$capture" ]; then
+        die "--rows NY is needed: --sim has no --size WxH or --paper-size (give one of them, or --rows with the scene's image height)"
     fi
 fi
 [ -n "$capture" ] || [ "$bands" -le "$ny" ] || die "--bands $bands: more bands than the $ny rows"
@@ -94,5 +97,9 @@ if [ -n "$wait" ] && [ "$status" = 0 ] && [ ! -s "$work/$video" ]; then
     echo "submit.sh: no $work/$video: a job failed or was cancelled (see $work/logs)" >&2
     status=1
 fi
-echo "encode: job ${encode_job%%;*}${wait:+, exit status $status}; video: $work/$video"
+if [ "$status" = 0 ]; then
+    echo "encode: job ${encode_job%%;*}${wait:+, exit status 0}; video: $work/$video"
+else
+    echo "encode: job ${encode_job%%;*}, exit status $status (no video)"
+fi
 exit "$status"

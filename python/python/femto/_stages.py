@@ -9,8 +9,10 @@ import warnings
 from typing import Any, Dict, Optional, Sequence, Union
 
 from . import _femto
-from ._progress import progress_callback
-from ._render import FemtoWarning, _path
+from . import _args as A
+from ._errors import keyword_errors
+from ._progress import reporting
+from ._render import FemtoWarning
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -23,20 +25,29 @@ class StageResult:
         figures.setdefault("warnings", [])
         self.__dict__.update(figures)
         for w in figures["warnings"]:
-            warnings.warn(w, FemtoWarning, stacklevel=3)
+            warnings.warn(w, FemtoWarning, stacklevel=4)
 
     def __repr__(self) -> str:
         return f"StageResult({self.__dict__!r})"
 
 
-def _compression(value: Any) -> Optional[str]:
-    return None if value is None else str(value)
+def _dark(value: Any) -> Any:
+    """A dark level (a number) or a dark-frame file."""
+    if value is None:
+        return None
+    if isinstance(value, (str, os.PathLike)):
+        return os.fspath(value)
+    return A.number("dark", value)
 
 
-def _point(p: Optional[Sequence[float]]):
-    return None if p is None else [float(v) for v in p]
+def _saturation(value: Any) -> Any:
+    """A saturation level (a number) or ``"auto"``."""
+    if value is None or isinstance(value, str):
+        return value
+    return A.number("saturation", value)
 
 
+@keyword_errors
 def ingest(
     source: PathLike,
     out: PathLike,
@@ -80,18 +91,23 @@ def ingest(
     ``force``: replace ``out`` if it exists (``--force``; without it an existing cube is
     refused, docs/faults.md "Overwriting").
     """
-    return StageResult(
-        _femto.ingest(
-            os.fspath(source), _path(out), rows, dataset, dt_ps, t0_ps, bool(resample_time),
-            laser_nm, bool(transpose),
-            None if dark is None else (float(dark) if isinstance(dark, (int, float)) else os.fspath(dark)),
-            _path(flat), _path(sweep_table), bool(no_manifest_corrections), bool(jitter),
-            power_ref, saturation, bool(allow_missing), value_scale, _compression(compression),
-            bool(force), progress_callback(progress),
+    with reporting(progress) as callback:
+        figures = _femto.ingest(
+            A.path("source", source), A.path("out", out), A.opt_whole("rows", rows, 1),
+            A.opt_text("dataset", dataset), A.opt_number("dt_ps", dt_ps),
+            A.opt_number("t0_ps", t0_ps), A.switch("resample_time", resample_time),
+            A.opt_number("laser_nm", laser_nm), A.switch("transpose", transpose), _dark(dark),
+            A.path("flat", flat), A.path("sweep_table", sweep_table),
+            A.switch("no_manifest_corrections", no_manifest_corrections),
+            A.switch("jitter", jitter), A.opt_text("power_ref", power_ref),
+            _saturation(saturation), A.switch("allow_missing", allow_missing),
+            A.opt_number("value_scale", value_scale), A.compression("compression", compression),
+            A.switch("force", force), callback,
         )
-    )
+    return StageResult(figures)
 
 
+@keyword_errors
 def calibrate(
     cube: Any,
     *,
@@ -131,16 +147,22 @@ def calibrate(
     ``force``: replace the TOML if it exists (``--force``; without it, refused). The cube's
     registration group follows the calibration written last.
     """
-    return StageResult(
-        _femto.calibrate(
-            _path(cube), _path(mesh), _path(points), _point(laser), _path(intrinsics), eta,
-            bool(square_pixels), bool(centred_principal_point), bool(fit_distortion),
-            bool(fit_time_scale), bool(keep_outliers), threshold, min_peak, _path(out),
-            bool(force), progress_callback(progress),
+    with reporting(progress) as callback:
+        figures = _femto.calibrate(
+            A.path("cube", cube), A.path("mesh", mesh), A.path("points", points),
+            A.point("laser", laser), A.path("intrinsics", intrinsics), A.opt_number("eta", eta),
+            A.switch("square_pixels", square_pixels),
+            A.switch("centred_principal_point", centred_principal_point),
+            A.switch("fit_distortion", fit_distortion),
+            A.switch("fit_time_scale", fit_time_scale),
+            A.switch("keep_outliers", keep_outliers), A.opt_number("threshold", threshold),
+            A.opt_number("min_peak", min_peak), A.path("out", out), A.switch("force", force),
+            callback,
         )
-    )
+    return StageResult(figures)
 
 
+@keyword_errors
 def unwarp(
     cube: Any,
     out: PathLike,
@@ -156,7 +178,7 @@ def unwarp(
     force: bool = False,
     progress: Any = None,
 ) -> StageResult:
-    """Convert a cube between camera and world time (``femto unwarp``, seed Eq. 2:
+    """Convert a cube between camera and world time (``femto unwarp``; Jarabo et al. 2013, Eq. 2:
     ``t_world = t_camera - eta |p - o| / c``) with its registration's distances (or rays cast
     through ``calibration`` into ``mesh``). ``to``: ``"world"`` or ``"camera"``; ``t0_ps``,
     ``nt``, ``dt_ps``: the output axis (default: covering every shifted sample, the input's
@@ -172,15 +194,18 @@ def unwarp(
     ``force``: replace ``out`` whole if it exists (``--force``; without it, refused); groups
     the old file held (a pyramid) go with it.
     """
-    return StageResult(
-        _femto.unwarp(
-            _path(cube), _path(out), to, t0_ps, nt, dt_ps, _path(calibration), _path(mesh),
-            _compression(compression), None if mask_spread_bins is None else float(mask_spread_bins),
-            bool(force), progress_callback(progress),
+    with reporting(progress) as callback:
+        figures = _femto.unwarp(
+            A.path("cube", cube), A.path("out", out), A.text("to", to),
+            A.opt_number("t0_ps", t0_ps), A.opt_whole("nt", nt), A.opt_number("dt_ps", dt_ps),
+            A.path("calibration", calibration), A.path("mesh", mesh),
+            A.compression("compression", compression), A.opt_number("mask_spread_bins", mask_spread_bins),
+            A.switch("force", force), callback,
         )
-    )
+    return StageResult(figures)
 
 
+@keyword_errors
 def pyramid(
     cube: Any,
     *,
@@ -198,32 +223,37 @@ def pyramid(
     ``force``: replace ``side_file`` if it exists (``--force``; without it, refused). A
     pyramid group in the cube itself is replaced by each run.
     """
-    return StageResult(
-        _femto.pyramid(
-            _path(cube), levels, _path(side_file), _compression(compression), bool(force),
-            progress_callback(progress),
+    with reporting(progress) as callback:
+        figures = _femto.pyramid(
+            A.path("cube", cube), A.opt_whole("levels", levels), A.path("side_file", side_file),
+            A.compression("compression", compression), A.switch("force", force), callback,
         )
-    )
+    return StageResult(figures)
 
 
+@keyword_errors
 def export_tal(
     cube: Any, out: PathLike, *, laser_origin_m: Optional[Sequence[float]] = None
 ) -> StageResult:
     """Write a cube with a registration (or tal) group as a y-tal capture (HDF5,
     ``femto export --to tal``). Returns ``path``, ``H_shape`` (nt, sx, sy), ``delta_t_m``,
     ``t_start_m``, ``t_accounts_first_and_last_bounces``, ``unseen_points``."""
-    return StageResult(_femto.export_tal(_path(cube), _path(out), _point(laser_origin_m)))
+    return StageResult(_femto.export_tal(
+        A.path("cube", cube), A.path("out", out), A.point("laser_origin_m", laser_origin_m)))
 
 
+@keyword_errors
 def ingest_tal(
     source: PathLike, out: PathLike, *, saturation: Optional[float] = None
 ) -> StageResult:
     """Ingest a y-tal capture (HDF5 with ``H`` and ``H_format``) into a cube
     (``femto ingest CAPTURE.hdf5``). Returns ``path``, ``shape``, ``t0_ps``, ``dt_ps``,
     ``clock``."""
-    return StageResult(_femto.ingest_tal(_path(source), _path(out), saturation))
+    return StageResult(_femto.ingest_tal(
+        A.path("source", source), A.path("out", out), A.opt_number("saturation", saturation)))
 
 
+@keyword_errors
 def ingest_mitransient(
     source: PathLike,
     out: PathLike,
@@ -241,7 +271,8 @@ def ingest_mitransient(
     ``dt_ps``, ``clock``."""
     return StageResult(
         _femto.ingest_mitransient(
-            _path(source), _path(out), float(start_opl_m), float(bin_width_opl_m), channels,
-            opl_clock,
+            A.path("source", source), A.path("out", out), A.number("start_opl_m", start_opl_m),
+            A.number("bin_width_opl_m", bin_width_opl_m), A.text("channels", channels),
+            A.text("opl_clock", opl_clock),
         )
     )

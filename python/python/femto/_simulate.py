@@ -6,22 +6,30 @@ import os
 from typing import Any, Optional, Sequence, Tuple, Union
 
 from . import _femto
-from ._progress import progress_callback
-from ._render import _path, _range, _size
+from . import _args as A
+from ._errors import FemtoError, keyword_errors
+from ._progress import reporting
 from ._stages import PathLike, StageResult
 
-
-def _rows(rows: Any) -> Optional[Tuple[int, int]]:
-    """``rows`` as (A, B): from ``"A..B"``, ``range(A, B)`` or a pair."""
-    return _range("rows", rows, "row B excluded, e.g. 0..100")
+# The largest seed (the command's --seed is a u64 below 2**63) and bounce count.
+_MAX_SEED = 2**63 - 1
+_MAX_COUNT = 2**32 - 1
 
 
 def _formats(format: Union[str, Sequence[str]]) -> list:
     if isinstance(format, str):
         return format.split(",")
-    return [str(f) for f in format]
+    try:
+        names = list(format)
+    except TypeError:
+        names = None
+    if not names or not all(isinstance(f, str) for f in names):
+        raise FemtoError(f"format={format!r}: expected a format name, a list of them or a "
+                         "comma-separated string, e.g. \"png16,exr\"")
+    return names
 
 
+@keyword_errors
 def simulate(
     out: PathLike,
     *,
@@ -99,13 +107,22 @@ def simulate(
     command's message (:class:`FemtoFileNotFoundError` for a missing scene or mesh file).
     The GIL is released while it runs; Ctrl-C stops it and leaves nothing written.
     """
-    return StageResult(
-        _femto.simulate(
-            _path(out), os.fspath(scene), _path(bunny), _formats(format), int(spp), int(seed),
-            int(bounces), _size(size), nt, dt_ps, bool(paper_size), bool(transient_only),
-            str(time_filter), None if rr_start_bounce is None else int(rr_start_bounce), _rows(rows), float(marker_spacing_m), bool(realistic),
-            photon_noise, None if dark is None else (float(dark[0]), float(dark[1])),
-            vignetting, jitter_ps, power_sigma, sweep, saturation, fiducial_photo_px,
-            bool(force), progress_callback(progress),
+    with reporting(progress) as callback:
+        figures = _femto.simulate(
+            A.path("out", out), A.path("scene", scene), A.path("bunny", bunny),
+            _formats(format), A.whole("spp", spp, 0, _MAX_COUNT),
+            A.whole("seed", seed, 0, _MAX_SEED), A.whole("bounces", bounces, 0, _MAX_COUNT),
+            A.size("size", size), A.opt_whole("nt", nt), A.opt_number("dt_ps", dt_ps),
+            A.switch("paper_size", paper_size), A.switch("transient_only", transient_only),
+            A.text("time_filter", time_filter),
+            A.opt_whole("rr_start_bounce", rr_start_bounce, 0, _MAX_COUNT),
+            A.span("rows", rows, "row B excluded, e.g. 0..100"),
+            A.number("marker_spacing_m", marker_spacing_m), A.switch("realistic", realistic),
+            A.opt_number("photon_noise", photon_noise), A.pair("dark", dark),
+            A.opt_number("vignetting", vignetting), A.opt_number("jitter_ps", jitter_ps),
+            A.opt_number("power_sigma", power_sigma), A.opt_number("sweep", sweep),
+            A.opt_number("saturation", saturation),
+            A.opt_number("fiducial_photo_px", fiducial_photo_px),
+            A.switch("force", force), callback,
         )
-    )
+    return StageResult(figures)

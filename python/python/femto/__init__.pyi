@@ -75,6 +75,7 @@ def cube_from_array(
     mask: Optional[npt.ArrayLike] = ...,
     force: bool = ...,
     compression: Union[int, str, None] = ...,
+    progress: Progress = ...,
     **attrs: Any,
 ) -> Cube: ...
 def render(

@@ -8,7 +8,9 @@ from typing import Any, Dict, Optional, Union
 import numpy as np
 
 from . import _femto
-from ._progress import progress_callback
+from . import _args as A
+from ._errors import FemtoError, keyword_errors
+from ._progress import reporting
 
 
 class Registration:
@@ -75,9 +77,8 @@ class Cube:
         self._pyramid: Any = ...
 
     def _load(self) -> None:
-        self._data, self._mask = _femto.read_values(
-            self.path, progress_callback(self._progress)
-        )
+        with reporting(self._progress) as callback:
+            self._data, self._mask = _femto.read_values(self.path, callback)
 
     @property
     def data(self) -> np.ndarray:
@@ -121,6 +122,7 @@ class Cube:
         )
 
 
+@keyword_errors
 def open_cube(path: "os.PathLike[str] | str", progress=None) -> Cube:
     """Open the cube file at ``path`` (HDF5, docs/cube-format.md).
 
@@ -129,9 +131,10 @@ def open_cube(path: "os.PathLike[str] | str", progress=None) -> Cube:
     Raises :class:`FemtoError` (``FemtoFileNotFoundError`` for a missing file) with the
     message ``femto info`` would print.
     """
-    return Cube(path, progress)
+    return Cube(A.path("path", path), progress)
 
 
+@keyword_errors
 def cube_from_array(
     array: np.ndarray,
     dt_ps: float,
@@ -143,33 +146,40 @@ def cube_from_array(
     mask: Optional[np.ndarray] = None,
     force: bool = False,
     compression: Union[int, str, None] = None,
+    progress: Any = None,
     **attrs: Any,
 ) -> Cube:
-    """Write ``array`` (``(ny, nx, nt)``, converted to float32) as a cube file at ``path``.
+    """Write ``array`` (``(ny, nx, nt)`` real numbers, converted to float32) as a cube file
+    at ``path``.
 
     ``dt_ps``: bin width, ps; ``t0_ps``: start of bin 0, ps; ``clock``: ``"camera"`` or
     ``"world"``; ``units``: units of the values (signal integrated over a bin); ``mask``:
-    optional ``(ny, nx)`` validity mask; further keyword arguments become string attributes
-    of ``/cube`` (e.g. ``laser_nm=532``, read by ``femto render``). The file is written
-    atomically, shuffle + deflate compressed (``compression``: ``"none"`` or a level 0-9,
-    default the library's); an existing file is refused unless ``force=True``. Returns the
-    written cube, opened.
+    optional ``(ny, nx)`` validity mask (booleans, or 0 and 1; 1 = valid); further keyword
+    arguments become string attributes of ``/cube`` (e.g. ``laser_nm=532``, read by
+    ``femto render``). The file is written atomically, shuffle + deflate compressed
+    (``compression``: ``"none"`` or a level 0-9, default the library's); an existing file is
+    refused unless ``force=True``. Returns the written cube, opened.
+
+    Refused with :class:`FemtoError` before anything is written, by the checks the library
+    applies to every cube it reads: a NaN or infinite value (named by its pixel and bin), a
+    value beyond float32's range, an array that is not 3-dimensional or not of real numbers
+    (booleans, complex numbers, strings and objects are refused, never converted), a mask
+    of another shape or other values, a non-finite ``t0_ps`` or a ``dt_ps`` out of range.
+    Ctrl-C stops the write and leaves nothing at ``path``.
     """
-    a = np.asarray(array, dtype=np.float32)
+    a = A.array_values("array", array)
     if a.ndim != 3:
-        raise _errors_mod().FemtoError(
-            f"array of shape {a.shape}: a cube is (ny, nx, nt), 3 dimensions"
-        )
-    m = None if mask is None else np.asarray(mask, dtype=np.uint8)
+        raise FemtoError(f"array of shape {a.shape}: a cube is (ny, nx, nt), 3 dimensions")
+    m = A.mask_values("mask", mask)
+    if m is not None and m.ndim != 2:
+        raise FemtoError(f"mask of shape {m.shape}: expected (ny, nx) = {a.shape[:2]}")
     notes = [(str(k), str(v)) for k, v in attrs.items()]
-    _femto.write_cube(
-        a, float(dt_ps), float(t0_ps), os.fspath(path), clock, units, notes, m, force,
-        None if compression is None else str(compression),
-    )
-    return Cube(path)
-
-
-def _errors_mod():
-    from . import _errors
-
-    return _errors
+    target = A.path("path", path)
+    with reporting(progress) as callback:
+        _femto.write_cube(
+            a, A.number("dt_ps", dt_ps), A.number("t0_ps", t0_ps), target,
+            A.text("clock", clock), A.text("units", units), notes, m, A.switch("force", force),
+            A.compression("compression", compression),
+            callback,
+        )
+    return Cube(target)

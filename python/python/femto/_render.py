@@ -11,8 +11,9 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from . import _femto
-from ._errors import FemtoError
-from ._progress import progress_callback
+from . import _args as A
+from ._errors import keyword_errors
+from ._progress import reporting
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -34,63 +35,12 @@ class RenderResult:
         return f"RenderResult({self.__dict__!r})"
 
 
-def _path(p: Any) -> Optional[str]:
-    if p is None:
-        return None
-    if hasattr(p, "path") and not isinstance(p, (str, bytes, os.PathLike)):
-        return os.fspath(p.path)  # a femto.Cube
-    return os.fspath(p)
-
-
-def _size(size: Any) -> Optional[Tuple[int, int]]:
-    if size is None:
-        return None
-    if isinstance(size, str):
-        w, sep, h = size.lower().partition("x")
-        try:
-            pair = (int(w), int(h)) if sep else None
-        except ValueError:
-            pair = None
-        if pair is None or pair[0] < 1 or pair[1] < 1:
-            raise FemtoError(
-                f"--size {size}: expected WIDTHxHEIGHT with both at least 1, e.g. 640x480"
-            )
-        return pair
-    w, h = size
-    if int(w) < 1 or int(h) < 1:
-        raise FemtoError(f"--size {w}x{h}: expected WIDTHxHEIGHT with both at least 1, e.g. 640x480")
-    return int(w), int(h)
-
-
-def _range(flag: str, value: Any, example: str) -> Optional[Tuple[int, int]]:
-    """``value`` as (A, B): from ``"A..B"``, ``range(A, B)`` or a pair; a string that is not
-    ``A..B`` is refused in the words of ``--flag`` (``example``: e.g. ``"frame B excluded,
-    e.g. 0..50"``)."""
-    if value is None:
-        return None
-    if isinstance(value, range):
-        return value.start, value.stop
-    if isinstance(value, str):
-        a, sep, b = value.partition("..")
-        try:
-            return int(a), int(b)
-        except ValueError:
-            raise FemtoError(
-                f"--{flag} {value}: expected A..B with A < B, {example}"
-            ) from None
-    a, b = value
-    return int(a), int(b)
-
-
-def _frames(frames: Any) -> Optional[Tuple[int, int]]:
-    return _range("frames", frames, "frame B excluded, e.g. 0..50")
-
-
 def _warn(figures: Dict[str, Any]) -> None:
     for w in figures.get("warnings", []):
-        warnings.warn(w, FemtoWarning, stacklevel=3)
+        warnings.warn(w, FemtoWarning, stacklevel=4)
 
 
+@keyword_errors
 def render(
     cube: Any,
     calibration: Optional[PathLike] = None,
@@ -161,42 +111,45 @@ def render(
     progress: ``callback(what, done, total)``, ``False`` for none; default a tqdm bar when
     tqdm is installed. force: replace an existing ``out`` (``--force``): the video file,
     or the frame files this render writes; without it they are refused.
-    Raises :class:`FemtoError` with ``femto render``'s message for a bad argument or input.
+    Raises :class:`FemtoError` with ``femto render``'s message, naming the keyword, for a bad
+    argument or input.
     Releases the GIL; Ctrl-C stops it with nothing written.
     """
-    array, figures = _femto.render(
-        _path(cube),
-        _path(calibration),
-        _path(mesh),
-        _path(path),
-        _path(pyramid),
-        None if laser_nm is None else float(laser_nm),
-        None if dolly is None else float(dolly),
-        None if orbit is None else float(orbit),
-        bool(capture_view),
-        _size(size),
-        _frames(frames),
-        None if frame_count is None else int(frame_count),
-        None if dtau_ps is None else float(dtau_ps),
-        None if time_offset_ps is None else float(time_offset_ps),
-        str(effects),
-        str(radiometry),
-        str(view),
-        float(exposure),
-        None if contour_ps is None else float(contour_ps),
-        bool(linear),
-        _path(out),
-        format,
-        float(fps),
-        bool(force),
-        progress_callback(progress),
-    )
+    with reporting(progress) as callback:
+        array, figures = _femto.render(
+            A.path("cube", cube),
+            A.path("calibration", calibration),
+            A.path("mesh", mesh),
+            A.path("path", path),
+            A.path("pyramid", pyramid),
+            A.opt_number("laser_nm", laser_nm),
+            A.opt_number("dolly", dolly),
+            A.opt_number("orbit", orbit),
+            A.switch("capture_view", capture_view),
+            A.size("size", size),
+            A.span("frames", frames, "frame B excluded, e.g. 0..50"),
+            A.opt_whole("frame_count", frame_count),
+            A.opt_number("dtau_ps", dtau_ps),
+            A.opt_number("time_offset_ps", time_offset_ps),
+            A.text("effects", effects),
+            A.text("radiometry", radiometry),
+            A.text("view", view),
+            A.number("exposure", exposure),
+            A.opt_number("contour_ps", contour_ps),
+            A.switch("linear", linear),
+            A.path("out", out),
+            A.opt_text("format", format),
+            A.number("fps", fps),
+            A.switch("force", force),
+            callback,
+        )
     _warn(figures)
     if out is not None:
         return RenderResult(figures)
     return array
 
 
+@keyword_errors
 def render_still(
     cube: Any,
     calibration: Optional[PathLike],
@@ -218,19 +171,21 @@ def render_still(
     state's one-frame camera path, byte for byte.
     """
     text = state if isinstance(state, str) else json.dumps(state)
-    frame, figures = _femto.render_still(
-        _path(cube),
-        _path(calibration),
-        _path(mesh),
-        text,
-        _path(pyramid),
-        bool(linear),
-        progress_callback(progress),
-    )
+    with reporting(progress) as callback:
+        frame, figures = _femto.render_still(
+            A.path("cube", cube),
+            A.path("calibration", calibration),
+            A.path("mesh", mesh),
+            text,
+            A.path("pyramid", pyramid),
+            A.switch("linear", linear),
+            callback,
+        )
     _warn(figures)
     return frame
 
 
+@keyword_errors
 def state_path_toml(state: Union[Dict[str, Any], str], inputs: str = "") -> str:
     """The one-frame camera path TOML of a viewer state (what ``femto view`` exports);
     ``inputs``: the ``femto render`` flags to quote in its comment."""

@@ -1,0 +1,173 @@
+//! Cubes made by a caller's own code (the Python package's `cube_from_array`), checked as
+//! the reader checks every cube it reads before anything is written: a time axis of finite
+//! picoseconds with a bin width in range, values that are all finite (the first NaN or
+//! infinity named by its pixel and bin, in the words of [`ContainerError::NonFinite`]), a
+//! mask of 0 and 1 over the cube's pixels. Then written in slabs, atomically.
+
+use super::error::{invalid, ContainerError, Result};
+use super::schema::{CubeCompression, Provenance, CUBE_DATASET};
+use super::write::CubeWriter;
+use crate::cube::{first_non_finite, Cube};
+use std::path::Path;
+
+/// Rows per slab: about 8 MiB of values, so that a caller polling `on_rows` between slabs
+/// (the Python package's Ctrl-C) waits for one slab's compression only.
+fn slab_rows(nx: usize, nt: usize, ny: usize) -> usize {
+    ((8usize << 20) / (4 * nx * nt).max(1)).clamp(1, ny.max(1))
+}
+
+/// Refuse `cube` (to be written to `dest`, which errors name) unless the reader would read
+/// it back: see the module doc.
+pub fn check_cube(dest: &Path, cube: &Cube) -> Result<()> {
+    let (ny, nx, nt) = cube.shape();
+    if nx == 0 || ny == 0 || nt == 0 {
+        return Err(invalid(
+            dest,
+            format!("a cube of {ny} x {nx} x {nt}: it needs at least one pixel and one bin"),
+        ));
+    }
+    if cube.data.len() != nx * ny * nt {
+        return Err(invalid(
+            dest,
+            format!(
+                "{} values for a cube of {ny} x {nx} x {nt}",
+                cube.data.len()
+            ),
+        ));
+    }
+    let axis = cube.axis;
+    if !axis.t0_ps.is_finite() {
+        return Err(invalid(dest, format!("t0_ps {}: must be finite", axis.t0_ps)));
+    }
+    crate::ranges::check("dt_ps", axis.dt_ps, crate::ranges::INTERVAL_PS)
+        .map_err(|e| invalid(dest, e.to_string()))?;
+    if let Some(at) = first_non_finite(&cube.data, nx, nt) {
+        return Err(ContainerError::NonFinite {
+            path: dest.to_path_buf(),
+            dataset: CUBE_DATASET.into(),
+            at,
+        });
+    }
+    if let Some(mask) = &cube.mask {
+        if mask.len() != nx * ny {
+            return Err(invalid(
+                dest,
+                format!("a mask of {} values for {ny} x {nx} pixels", mask.len()),
+            ));
+        }
+        if let Some(i) = mask.iter().position(|&m| m > 1) {
+            return Err(invalid(
+                dest,
+                format!(
+                    "mask value {} at x {}, y {}: 1 marks a valid pixel, 0 another",
+                    mask[i],
+                    i % nx,
+                    i / nx
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Write `cube` to `path` with `units`, `provenance` and `compression` after [`check_cube`]:
+/// refused before anything is written, else written whole or not at all. `on_rows(n)` is
+/// called after each slab with the rows written so far; a caller that unwinds from it
+/// (the Python package on Ctrl-C) leaves nothing behind.
+pub fn write_checked_cube(
+    path: &Path,
+    cube: &Cube,
+    units: &str,
+    provenance: &Provenance,
+    compression: CubeCompression,
+    on_rows: &dyn Fn(usize),
+) -> Result<()> {
+    check_cube(path, cube)?;
+    let (ny, nx, nt) = cube.shape();
+    let mut w = CubeWriter::create_with(
+        path,
+        nx,
+        ny,
+        cube.axis,
+        cube.frame,
+        units,
+        provenance,
+        compression,
+    )?;
+    let row_len = nx * nt;
+    let slab = slab_rows(nx, nt, ny);
+    for y0 in (0..ny).step_by(slab) {
+        let y1 = (y0 + slab).min(ny);
+        w.write_rows(y0, &cube.data[y0 * row_len..y1 * row_len])?;
+        on_rows(y1);
+    }
+    if let Some(m) = &cube.mask {
+        w.write_mask(m)?;
+    }
+    w.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cube::{TimeAxis, TimeFrame};
+
+    fn cube() -> Cube {
+        let axis = TimeAxis {
+            t0_ps: -10.0,
+            dt_ps: 2.0,
+            nt: 6,
+        };
+        let mut c = Cube::zeros(4, 3, axis, TimeFrame::World);
+        for (i, v) in c.data.iter_mut().enumerate() {
+            *v = i as f32 * 0.25;
+        }
+        c
+    }
+
+    #[test]
+    fn a_non_finite_value_or_a_bad_mask_is_refused_before_anything_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("c.h5");
+        let write = |c: &Cube| {
+            write_checked_cube(
+                &dest,
+                c,
+                "arbitrary",
+                &Provenance::new("test"),
+                CubeCompression::default(),
+                &|_| {},
+            )
+        };
+        let mut nan = cube();
+        nan.profile_mut(3, 2)[4] = f32::NAN;
+        let e = write(&nan).unwrap_err().to_string();
+        assert!(e.ends_with("c.h5: cube has NaN at x 3, y 2, bin 4"), "{e}");
+        let mut inf = cube();
+        inf.profile_mut(1, 0)[0] = f32::NEG_INFINITY;
+        let e = write(&inf).unwrap_err().to_string();
+        assert!(e.ends_with("cube has -inf at x 1, y 0, bin 0"), "{e}");
+        let mut masked = cube();
+        masked.mask = Some(vec![0, 1, 1, 1, 1, 1, 1, 1, 1, 2, 1, 1]);
+        let e = write(&masked).unwrap_err().to_string();
+        assert!(e.contains("mask value 2 at x 1, y 2"), "{e}");
+        let mut axis = cube();
+        axis.axis.dt_ps = f64::NAN;
+        assert!(write(&axis).unwrap_err().to_string().contains("dt_ps"));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+
+        let rows = std::cell::RefCell::new(Vec::new());
+        let good = cube();
+        write_checked_cube(
+            &dest,
+            &good,
+            "arbitrary",
+            &Provenance::new("test"),
+            CubeCompression::default(),
+            &|n| rows.borrow_mut().push(n),
+        )
+        .unwrap();
+        assert_eq!(rows.into_inner().last(), Some(&3));
+        assert_eq!(super::super::read_cube(&dest).unwrap().data, good.data);
+    }
+}
