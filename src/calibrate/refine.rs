@@ -41,7 +41,8 @@
 //! poorly determined by a few dozen points.
 
 use super::dlt::{self, raw_project, require_in_front};
-use super::{median, CalibrateError, Correspondence};
+use super::{CalibrateError, Correspondence};
+use crate::stats::median_of;
 use crate::camera::{Calibration, Intrinsics, Pose};
 use nalgebra::{DMatrix, DVector, Point3, Rotation3, Vector3};
 
@@ -174,7 +175,7 @@ fn outlier_threshold(errors: &[f64], used: &[bool]) -> (f64, f64) {
         .filter(|(_, &u)| u)
         .map(|(e, _)| *e)
         .collect();
-    let m = median(&e);
+    let m = median_of(&e);
     (
         (OUTLIER_MEDIAN_FACTOR * m).clamp(OUTLIER_MIN_PX, OUTLIER_MAX_PX),
         m,
