@@ -67,7 +67,10 @@ pub fn mad(values: &[f64], centre: f64) -> f64 {
 pub fn median_and_variance(values: &mut [f64]) -> (f64, f64) {
     let m = median(values);
     let sigma = MAD_TO_SIGMA * mad(values, m);
-    (m, (MEDIAN_SE_PER_SIGMA * sigma).powi(2) / values.len() as f64)
+    (
+        m,
+        (MEDIAN_SE_PER_SIGMA * sigma).powi(2) / values.len() as f64,
+    )
 }
 
 #[cfg(test)]
@@ -140,7 +143,14 @@ mod tests {
     #[test]
     fn quantiles_are_nearest_rank() {
         let v: Vec<f64> = (0..11).rev().map(f64::from).collect();
-        for (q, want) in [(0.0, 0.0), (0.5, 5.0), (0.9, 9.0), (0.94, 9.0), (0.96, 10.0), (1.0, 10.0)] {
+        for (q, want) in [
+            (0.0, 0.0),
+            (0.5, 5.0),
+            (0.9, 9.0),
+            (0.94, 9.0),
+            (0.96, 10.0),
+            (1.0, 10.0),
+        ] {
             assert_eq!(quantile(&mut v.clone(), q), want, "q {q}");
         }
         // Even count: the upper middle value.
@@ -173,7 +183,10 @@ mod tests {
         let (measured, stated) = (sq_err / draws as f64, stated / draws as f64);
         // Asymptotic: pi/2 sigma^2 / n.
         let theory = std::f64::consts::FRAC_PI_2 * sigma * sigma / n as f64;
-        assert!((measured / theory - 1.0).abs() < 0.1, "{measured} vs {theory}");
+        assert!(
+            (measured / theory - 1.0).abs() < 0.1,
+            "{measured} vs {theory}"
+        );
         assert!((stated / theory - 1.0).abs() < 0.1, "{stated} vs {theory}");
     }
 }

@@ -141,4 +141,3 @@ pub(crate) fn label(points: &[Correspondence], i: usize) -> String {
         _ => format!("point #{}", i + 1),
     }
 }
-

@@ -42,8 +42,8 @@
 
 use super::dlt::{self, raw_project, require_in_front};
 use super::{CalibrateError, Correspondence};
-use crate::stats::median_of;
 use crate::camera::{Calibration, Intrinsics, Pose};
+use crate::stats::median_of;
 use nalgebra::{DMatrix, DVector, Point3, Rotation3, Vector3};
 
 /// Fewest points with which `k1, k2` are fitted (otherwise they stay fixed).

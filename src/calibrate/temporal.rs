@@ -78,8 +78,8 @@
 //! least-squares fit over the inliers, the samples within `3 sigma` (at least 0.5 ps).
 
 use super::{CalibrateError, Registration};
-use crate::stats::{mad, median, median_of, MAD_TO_SIGMA};
 use crate::cube::{Cube, TimeFrame};
+use crate::stats::{mad, median, median_of, MAD_TO_SIGMA};
 use crate::units::flight_time_ps;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, SeedableRng};

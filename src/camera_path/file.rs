@@ -11,9 +11,9 @@ use super::{
 };
 use crate::camera::one_line_toml_error;
 use crate::relativity::{RotationAxis, SensorRotation};
-use std::path::Path;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// On-disk camera path TOML. Either `[[keyframe]]` tables (with `clock`) or one `[orbit]`.
 ///

@@ -276,7 +276,6 @@ pub fn refuse_same_file(
     Ok(())
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

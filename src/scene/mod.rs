@@ -91,8 +91,8 @@ use crate::camera::{Calibration, Intrinsics, Pose};
 use crate::cube::TimeAxis;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::{Ray, TriangleMesh};
-use nalgebra::{Point3, Unit, Vector3};
 use checks::Resolver;
+use nalgebra::{Point3, Unit, Vector3};
 use serde::Deserialize;
 use std::path::Path;
 

@@ -5,8 +5,8 @@
 //! spot outside closed meshes). Each error names the key and its line.
 
 use super::checks::{
-    Resolver, CAMERA_CLEARANCE_M, DT_PS_RANGE, ETA_RANGE, MAX_ENERGY, MAX_NT, MAX_PULSE_WIDTH_FS, MAX_SIDE,
-    WAVELENGTH_NM_RANGE,
+    Resolver, CAMERA_CLEARANCE_M, DT_PS_RANGE, ETA_RANGE, MAX_ENERGY, MAX_NT, MAX_PULSE_WIDTH_FS,
+    MAX_SIDE, WAVELENGTH_NM_RANGE,
 };
 use super::entry::PlacedMesh;
 use super::schema::{self, CameraEntry, Kind, LaserEntry, MeshEntry, SceneFile};

@@ -24,10 +24,10 @@ use super::capture::{
     capture_shape, finish_capture, provenance, render_truths, set_folder_permissions,
     stage_and_install, trace_options, SimulateSummary,
 };
+use super::flaws::Peaks;
 use super::options::{
     SimulateError, SimulateOptions, Stage, TRUTH_CAMERA_FILE, TRUTH_DIRECT_FILE, TRUTH_WORLD_FILE,
 };
-use super::flaws::Peaks;
 use crate::container::{CubeReader, CubeWriter, DEFAULT_UNITS};
 use crate::geometry::bvh::Bvh;
 use crate::scene::Scene;

@@ -261,10 +261,14 @@ mod tests {
         let ok = budget(&scene, spp, DEFAULT_MARKER_SPACING_M).unwrap();
         assert_eq!((ok.nx, ok.ny), (64, 48));
         let wide = scene.with_resolution(100_000, 100_000, 256, 4.0);
-        let e = budget(&wide, spp, DEFAULT_MARKER_SPACING_M).unwrap_err().to_string();
+        let e = budget(&wide, spp, DEFAULT_MARKER_SPACING_M)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--size") && e.contains("100000"), "{e}");
         let fine = scene.with_resolution(64, 48, 256, 1e-300);
-        let e = budget(&fine, spp, DEFAULT_MARKER_SPACING_M).unwrap_err().to_string();
+        let e = budget(&fine, spp, DEFAULT_MARKER_SPACING_M)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--dt-ps"), "{e}");
         let e = budget(&scene, spp, 1e-9).unwrap_err().to_string();
         assert!(e.contains("--marker-spacing-m"), "{e}");

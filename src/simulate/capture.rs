@@ -10,9 +10,8 @@ use super::budget::BAND_TARGET_BYTES;
 use super::fiducials::fiducials;
 use super::flaws::{CaptureModel, Peaks, MAX_COUNT};
 use super::options::{
-    SimulateError, SimulateOptions, Stage, CALIBRATION_FILE, DARK_FILE, FIDUCIALS_FILE,
-    FLAT_FILE, GEOMETRY_FILE, MANIFEST_FILE, TRUTH_CAMERA_FILE, TRUTH_DIRECT_FILE,
-    TRUTH_WORLD_FILE,
+    SimulateError, SimulateOptions, Stage, CALIBRATION_FILE, DARK_FILE, FIDUCIALS_FILE, FLAT_FILE,
+    GEOMETRY_FILE, MANIFEST_FILE, TRUTH_CAMERA_FILE, TRUTH_DIRECT_FILE, TRUTH_WORLD_FILE,
 };
 use crate::atomic::write_atomically;
 use crate::calibrate::points::save_points_toml;

@@ -41,5 +41,5 @@ pub mod options;
 pub mod transient;
 
 pub use capture::{simulate_capture, SimulateSummary};
-pub use options::{SimulateError, SimulateOption, SimulateOptions, Stage};
 pub use flaws::{CaptureModel, Flaw, FlawError, Flaws};
+pub use options::{SimulateError, SimulateOption, SimulateOptions, Stage};

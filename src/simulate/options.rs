@@ -255,4 +255,3 @@ pub const TRUTH_WORLD_FILE: &str = "truth_world.h5";
 pub const TRUTH_DIRECT_FILE: &str = "truth_direct.h5";
 pub const FLAT_FILE: &str = "flat.exr";
 pub const DARK_FILE: &str = "dark.exr";
-

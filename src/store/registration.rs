@@ -157,10 +157,7 @@ pub const SCANLINE_OFFSETS: &str = "scanline_offset_ps";
 
 /// Add `offsets` (one per row) to `group` as [`SCANLINE_OFFSETS`], with the count of rows
 /// estimated and shifted as attributes (`scanlines_estimated`, `scanlines_shifted`).
-pub fn add_scanline_offsets(
-    group: &mut GroupData,
-    offsets: &[Option<RowOffset>],
-) {
+pub fn add_scanline_offsets(group: &mut GroupData, offsets: &[Option<RowOffset>]) {
     let applied = applied_ps(offsets);
     let estimated = offsets.iter().flatten().count();
     let shifted = applied
