@@ -349,6 +349,41 @@ fn exchange(a: &Path, b: &Path) -> io::Result<bool> {
     }
 }
 
+/// Whether writing `out` would overwrite or delete `input`: the same file through any path
+/// (symbolic links, `..`, hard links: device and inode are compared where both exist), or an
+/// input inside the output folder. The stages refuse such an output before writing
+/// ([`crate::pipeline::refuse_same_file`], ingest's own check).
+pub fn output_holds(out: &Path, input: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(a), Ok(b)) = (std::fs::metadata(out), std::fs::metadata(input)) {
+            if (a.dev(), a.ino()) == (b.dev(), b.ino()) {
+                return true;
+            }
+        }
+    }
+    let (Some(out_c), Some(in_c)) = (resolved(out), resolved(input)) else {
+        return out == input;
+    };
+    // The same path, or an input inside the output folder.
+    in_c.starts_with(&out_c)
+}
+
+/// `path` made absolute with every link and `..` resolved; for a path that does not exist
+/// yet, its folder resolved and its name appended.
+fn resolved(path: &Path) -> Option<PathBuf> {
+    if let Ok(c) = std::fs::canonicalize(path) {
+        return Some(c);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(parent).ok()?.join(name))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

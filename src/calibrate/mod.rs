@@ -141,20 +141,3 @@ pub(crate) fn label(points: &[Correspondence], i: usize) -> String {
         _ => format!("point #{}", i + 1),
     }
 }
-
-/// Median of a slice of finite values (NaN-free); 0 for an empty slice.
-pub(crate) fn median(values: &[f64]) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    let mut v = values.to_vec();
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-    let m = *m;
-    if v.len() % 2 == 1 {
-        m
-    } else {
-        let lower = v[..mid].iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        0.5 * (lower + m)
-    }
-}

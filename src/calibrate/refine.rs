@@ -41,8 +41,9 @@
 //! poorly determined by a few dozen points.
 
 use super::dlt::{self, raw_project, require_in_front};
-use super::{median, CalibrateError, Correspondence};
+use super::{CalibrateError, Correspondence};
 use crate::camera::{Calibration, Intrinsics, Pose};
+use crate::stats::median_of;
 use nalgebra::{DMatrix, DVector, Point3, Rotation3, Vector3};
 
 /// Fewest points with which `k1, k2` are fitted (otherwise they stay fixed).
@@ -174,7 +175,7 @@ fn outlier_threshold(errors: &[f64], used: &[bool]) -> (f64, f64) {
         .filter(|(_, &u)| u)
         .map(|(e, _)| *e)
         .collect();
-    let m = median(&e);
+    let m = median_of(&e);
     (
         (OUTLIER_MEDIAN_FACTOR * m).clamp(OUTLIER_MIN_PX, OUTLIER_MAX_PX),
         m,

@@ -32,8 +32,10 @@
 //! laser's shadow) get no estimate and keep ingest's.
 
 use super::temporal::ArrivalSample;
-use crate::ingest::corrections::median_f64 as median;
-use crate::ingest::row_offsets::{RowOffset, SIGNIFICANCE};
+use crate::row_offset::RowOffset;
+#[cfg(doc)]
+use crate::row_offset::SIGNIFICANCE;
+use crate::stats::{mad, median, MAD_TO_SIGMA, MEDIAN_SE_PER_SIGMA};
 use crate::units::flight_time_ps;
 
 /// Fewest direct-light pixels for a row to get an estimate.
@@ -82,20 +84,11 @@ pub fn scanline_offsets(
                 return None;
             }
             let estimate = median(&mut r);
-            let mut dev: Vec<f64> = r.iter().map(|v| (v - estimate).abs()).collect();
             // Standard error of a median of normal samples: 1.2533 sigma / sqrt(n), with sigma
             // from the MAD.
-            let std_error = 1.2533 * 1.4826 * median(&mut dev) / (r.len() as f64).sqrt();
-            let applied = if estimate.abs() > SIGNIFICANCE * std_error {
-                estimate
-            } else {
-                0.0
-            };
-            Some(RowOffset {
-                estimate,
-                std_error,
-                applied,
-            })
+            let std_error =
+                MEDIAN_SE_PER_SIGMA * MAD_TO_SIGMA * mad(&r, estimate) / (r.len() as f64).sqrt();
+            Some(RowOffset::gated(estimate, std_error))
         })
         .collect()
 }
@@ -150,17 +143,10 @@ pub fn fill_missing(offsets: &mut [Option<RowOffset>], dim: &[Option<RowOffset>]
     }
 }
 
-/// The applied offsets of `offsets` as stored (`NaN`: not estimated).
-pub fn applied_ps(offsets: &[Option<RowOffset>]) -> Vec<f64> {
-    offsets
-        .iter()
-        .map(|o| o.map_or(f64::NAN, |o| o.applied))
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::row_offset::applied_ps;
 
     const MODEL: DirectTime = DirectTime {
         t0_ps: 10.0,

@@ -77,8 +77,9 @@
 //! Huber weight (`k = 1.345 sigma`, `sigma = 1.4826 MAD` of the residuals), and a final
 //! least-squares fit over the inliers, the samples within `3 sigma` (at least 0.5 ps).
 
-use super::{median, CalibrateError, Registration};
+use super::{CalibrateError, Registration};
 use crate::cube::{Cube, TimeFrame};
+use crate::stats::{mad, median, median_of, MAD_TO_SIGMA};
 use crate::units::flight_time_ps;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -584,11 +585,10 @@ pub fn fit_time_offset(
     let n = t.len();
     let residuals =
         |t0: f64, s: f64| -> Vec<f64> { (0..n).map(|i| t[i] - t0 - s * tau[i]).collect() };
-    let abs_median = |r: &[f64]| median(&r.iter().map(|v| v.abs()).collect::<Vec<_>>());
 
     // Robust start.
     let diff: Vec<f64> = (0..n).map(|i| t[i] - tau[i]).collect();
-    let mut t0 = median(&diff);
+    let mut t0 = median_of(&diff);
     let mut s = 1.0;
     if fit_scale {
         (t0, s) = least_median_start(&t, &tau, t0)?;
@@ -598,7 +598,7 @@ pub fn fit_time_offset(
     let mut w = vec![1.0; n];
     for _ in 0..50 {
         let r = residuals(t0, s);
-        let sigma = (1.4826 * abs_median(&r)).max(1e-9);
+        let sigma = (MAD_TO_SIGMA * mad(&r, 0.0)).max(1e-9);
         let k = 1.345 * sigma;
         for i in 0..n {
             let a = r[i].abs();
@@ -617,7 +617,7 @@ pub fn fit_time_offset(
 
     // Final least squares over the inliers.
     let r = residuals(t0, s);
-    let sigma = 1.4826 * abs_median(&r);
+    let sigma = MAD_TO_SIGMA * mad(&r, 0.0);
     let band = (INLIER_SIGMAS * sigma).max(MIN_INLIER_BAND_PS);
     let inliers: Vec<bool> = r.iter().map(|v| v.abs() <= band).collect();
     let w: Vec<f64> = inliers.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
@@ -636,7 +636,7 @@ pub fn fit_time_offset(
         )));
     }
     let residuals_ps = residuals(t0, s);
-    let sigma_ps = 1.4826 * abs_median(&residuals_ps);
+    let sigma_ps = MAD_TO_SIGMA * mad(&residuals_ps, 0.0);
     let (sum_sq, count) = residuals_ps
         .iter()
         .zip(&inliers)
@@ -676,11 +676,11 @@ fn least_median_start(t: &[f64], tau: &[f64], t0: f64) -> Result<(f64, f64), Cal
     let stride = (n / 4000).max(1);
     let subset: Vec<usize> = (0..n).step_by(stride).collect();
     let score = |t0: f64, s: f64| -> f64 {
-        let r: Vec<f64> = subset
+        let mut r: Vec<f64> = subset
             .iter()
             .map(|&i| (t[i] - t0 - s * tau[i]).abs())
             .collect();
-        median(&r)
+        median(&mut r)
     };
     let mut best = score(t0, s);
     for _ in 0..500 {

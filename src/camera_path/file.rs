@@ -1,15 +1,19 @@
 //! The camera path file format: the TOML schema ([`CameraPathFile`]), its conversion from a
-//! [`CameraPath`] (what `to_toml` writes) and its resolution into one (the shape of the file:
-//! keyframes or an orbit, orientations, rotation matrices).
+//! [`CameraPath`] (what [`CameraPath::to_toml`] writes) and its resolution into one (the shape
+//! of the file: keyframes or an orbit, orientations, rotation matrices), and the reading and
+//! writing of the file ([`CameraPath::load`], [`CameraPath::from_toml`]). The path itself
+//! ([`super::path`]) knows nothing of the format.
 
 use super::keyframes::ordinal;
 use super::{
     CameraPath, CameraPathError, Clock, FrameSpec, Interpolation, Keyframe, Motion, Orbit,
     Orientation,
 };
+use crate::camera::one_line_toml_error;
 use crate::relativity::{RotationAxis, SensorRotation};
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// On-disk camera path TOML. Either `[[keyframe]]` tables (with `clock`) or one `[orbit]`.
 ///
@@ -281,6 +285,35 @@ impl CameraPathFile {
             beta_edge: r.beta_edge,
         });
         CameraPath::new(spec, self.tau0_ps, rotation, motion, origin)
+    }
+}
+
+/// Reading and writing the file format.
+impl CameraPath {
+    /// Read a camera path TOML file (format in [`CameraPathFile`]).
+    pub fn load(path: &Path) -> Result<CameraPath, CameraPathError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CameraPathError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        CameraPath::from_toml(&text, &name)
+    }
+
+    /// Parse camera path TOML; `origin` names the source in error messages.
+    pub fn from_toml(text: &str, origin: &str) -> Result<CameraPath, CameraPathError> {
+        let file: CameraPathFile = toml::from_str(text).map_err(|e| CameraPathError::Parse {
+            path: origin.to_string(),
+            message: one_line_toml_error(&e, text),
+        })?;
+        file.resolve(origin)
+    }
+
+    /// The path as TOML text (reads back to the same path).
+    pub fn to_toml(&self) -> String {
+        let file = CameraPathFile::from(self);
+        let body = toml::to_string(&file).expect("camera path serialises");
+        format!("# femto camera path (metres, picoseconds; frames at proper time tau0_ps + k * dtau_ps)\n{body}")
     }
 }
 

@@ -3,19 +3,17 @@
 //! or a proper time. Reading and writing the file format is in [`super::file`].
 
 use super::checks::{finite3, MAX_FRAMES};
-use super::file::CameraPathFile;
 use super::keyframes::{resolve_keyframes, KeyTrack};
 use super::orbit::{resolve_orbit, OrbitTrack};
 use super::{
     CameraPathError, Clock, FrameSpec, FrameState, Interpolation, Keyframe, Motion, Orbit,
     Orientation,
 };
-use crate::camera::{one_line_toml_error, Pose};
+use crate::camera::Pose;
 use crate::ranges;
 use crate::relativity::SensorRotation;
 use crate::units::C_M_PER_PS;
 use nalgebra::{Point3, Rotation3, Vector3};
-use std::path::Path;
 
 /// A validated camera path with its precomputed clock table.
 #[derive(Clone, Debug)]
@@ -361,31 +359,5 @@ impl CameraPath {
                 self.at_proper_time(t0 + (t1 - t0) * f).position_m
             })
             .collect()
-    }
-
-    /// Read a camera path TOML file (format in [`CameraPathFile`]).
-    pub fn load(path: &Path) -> Result<CameraPath, CameraPathError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| CameraPathError::Io {
-            path: name.clone(),
-            source,
-        })?;
-        CameraPath::from_toml(&text, &name)
-    }
-
-    /// Parse camera path TOML; `origin` names the source in error messages.
-    pub fn from_toml(text: &str, origin: &str) -> Result<CameraPath, CameraPathError> {
-        let file: CameraPathFile = toml::from_str(text).map_err(|e| CameraPathError::Parse {
-            path: origin.to_string(),
-            message: one_line_toml_error(&e, text),
-        })?;
-        file.resolve(origin)
-    }
-
-    /// The path as TOML text (reads back to the same path).
-    pub fn to_toml(&self) -> String {
-        let file = CameraPathFile::from(self);
-        let body = toml::to_string(&file).expect("camera path serialises");
-        format!("# femto camera path (metres, picoseconds; frames at proper time tau0_ps + k * dtau_ps)\n{body}")
     }
 }

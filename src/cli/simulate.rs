@@ -350,7 +350,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             "transient cube written to {}",
             summary
                 .out_dir
-                .join(femto::simulate::capture::TRUTH_CAMERA_FILE)
+                .join(femto::simulate::options::TRUTH_CAMERA_FILE)
                 .display()
         );
         println!(

@@ -246,8 +246,8 @@ pub(crate) fn run_chain(
 
     // 3. Calibrate: the calibrate stage, as `femto calibrate` runs it, on the markers
     //    "detected" in the high-resolution image (module doc), written in capture pixels.
-    let truth = Calibration::load(&capture_dir.join(crate::simulate::capture::CALIBRATION_FILE))?;
-    let mesh_path = capture_dir.join(crate::simulate::capture::GEOMETRY_FILE);
+    let truth = Calibration::load(&capture_dir.join(crate::simulate::options::CALIBRATION_FILE))?;
+    let mesh_path = capture_dir.join(crate::simulate::options::GEOMETRY_FILE);
     let bvh = Bvh::new(load_mesh(&mesh_path)?);
     let calib_path = data_dir.join(CALIBRATION_FILE);
     let points_path = data_dir.join(POINTS_FILE);
@@ -344,8 +344,8 @@ fn simulate_stage(
             // Rows rendered so far; a line at every tenth of the capture (the slow stage).
             let rows = std::sync::atomic::AtomicUsize::new(0);
             let ny = sizes.capture_ny;
-            let tick = |stage: crate::simulate::capture::Stage, n: usize| {
-                if stage != crate::simulate::capture::Stage::Render {
+            let tick = |stage: crate::simulate::Stage, n: usize| {
+                if stage != crate::simulate::Stage::Render {
                     return;
                 }
                 let before = rows.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
@@ -577,7 +577,7 @@ pub const INGEST_POWER_AUTO: bool = true;
 /// the flags of [`ingest_flags`]: the manifest's own corrections (dark frame, flat field,
 /// sweep bin times) by default, plus jitter, laser power and saturation.
 fn ingest_capture(capture_dir: &Path, cube_path: &Path) -> Result<(), DemoError> {
-    let manifest_path = capture_dir.join(crate::simulate::capture::MANIFEST_FILE);
+    let manifest_path = capture_dir.join(crate::simulate::options::MANIFEST_FILE);
     let options = IngestOptions {
         jitter: INGEST_JITTER,
         power_ref: INGEST_POWER_AUTO.then_some(PowerRef::Auto),

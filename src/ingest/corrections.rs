@@ -20,7 +20,7 @@
 //!   the row and [`power_gains`] normalises the rows to their median (without a reference in
 //!   view, see [`super::row_offsets`]);
 //! - saturation: [`saturation_mask`] flags pixels whose raw profile reaches the saturation
-//!   level.
+//!   level (it lives in [`crate::saturation`], which the interop ingests share).
 //!
 //! Kernels take validated values and cannot fail; the `check_*` functions and
 //! [`RefRegion::check`] validate the inputs once, with messages that name what is wrong.
@@ -30,6 +30,8 @@ use thiserror::Error;
 use crate::cube::TimeAxis;
 use crate::formats::PixelType;
 use crate::resample::{rebin_add, shift_into};
+pub use crate::saturation::saturation_mask;
+use crate::stats::median;
 use std::path::{Path, PathBuf};
 
 /// Invalid correction inputs.
@@ -264,17 +266,6 @@ pub fn resample_sweep(
 // ---------------------------------------------------------------------------------------------
 // Jitter.
 
-/// Median of `values` (sorted in place; the mean of the middle two for an even count).
-pub(crate) fn median_f64(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    values.sort_by(f64::total_cmp);
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
-    }
-}
-
 /// Move a scanline back by `shift_ps` (the row was recorded `shift_ps` late; positive = earlier
 /// output), rebinning each pixel with [`shift_into`] onto the same axis. `out` has the row's
 /// shape and is overwritten. Signal shifted past either end of the axis is lost.
@@ -343,7 +334,7 @@ pub fn power_gains(factors: &[f64]) -> Vec<Option<f64>> {
     if good.is_empty() {
         return vec![None; factors.len()];
     }
-    let median = median_f64(&mut good);
+    let median = median(&mut good);
     factors
         .iter()
         .map(|&f| usable(f).then(|| median / f))
@@ -353,22 +344,6 @@ pub fn power_gains(factors: &[f64]) -> Vec<Option<f64>> {
 /// Multiply a scanline by a gain (from [`power_gains`]).
 pub fn apply_gain(row: &mut [f32], gain: f64) {
     row.iter_mut().for_each(|v| *v = (*v as f64 * gain) as f32);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Saturation.
-
-/// Validity mask of a raw scanline (before any correction): 1 for a valid pixel, 0 for a pixel
-/// with any bin at or above `level` (or not finite), whose profile is clipped.
-pub fn saturation_mask(row_raw: &[f32], nx: usize, nt: usize, level: f32) -> Vec<u8> {
-    debug_assert_eq!(row_raw.len(), nx * nt);
-    if nt == 0 {
-        return vec![1; nx];
-    }
-    row_raw
-        .chunks_exact(nt)
-        .map(|p| u8::from(p.iter().all(|v| v.is_finite() && *v < level)))
-        .collect()
 }
 
 #[cfg(test)]
@@ -716,19 +691,6 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("0..9"));
-    }
-
-    #[test]
-    fn saturation_mask_flags_exactly_the_clipped_pixels() {
-        let (nx, nt, level) = (10usize, 8usize, 4095.0f32);
-        let mut row: Vec<f32> = (0..nx * nt).map(|i| (i % 50) as f32 * 10.0).collect();
-        row[2 * nt + 3] = 4095.0; // reaches the level
-        row[5 * nt + 7] = 5000.0; // above
-        row[7 * nt] = 4094.9; // just below: valid
-        row[9 * nt + 1] = f32::NAN; // unreadable
-        let mask = saturation_mask(&row, nx, nt, level);
-        let want: Vec<u8> = (0..nx).map(|x| u8::from(![2, 5, 9].contains(&x))).collect();
-        assert_eq!(mask, want);
     }
 
     /// Grey stored as colour reads like grey of its depth; any other difference of depth or

@@ -8,8 +8,7 @@ use super::tal_file::{geometry_from_group, geometry_group, read_tal, write_tal};
 use super::InteropError;
 use crate::container::{self, Provenance};
 use crate::cube::{Cube, TimeFrame};
-use crate::ingest::corrections::saturation_mask;
-use crate::ingest::plan::SaturationInput;
+use crate::saturation::{saturation_mask, SaturationInput};
 use crate::store::registration;
 use std::path::Path;
 

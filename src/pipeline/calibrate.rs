@@ -36,7 +36,9 @@ use crate::container::{CubeReader, GroupUpdate};
 use crate::cube::{row_slabs, Cube, TimeFrame};
 use crate::geometry::bvh::Bvh;
 use crate::ingest::assemble::{JITTER_SHIFTS_NOTE, TRUE_JITTER_NOTE};
-use crate::ingest::row_offsets::{scanline_report, OffsetReport, RowOffset};
+use crate::ingest::row_offsets::{scanline_report, OffsetReport};
+use crate::row_offset::RowOffset;
+use crate::stats::{quantile, MAD_TO_SIGMA};
 use crate::store::registration::{self, FitSummary};
 use nalgebra::Point3;
 use std::path::{Path, PathBuf};
@@ -194,7 +196,8 @@ impl Calibrated {
 }
 
 /// Robust standard deviation of a set of cube values: 1.4826 times the median absolute
-/// deviation from their median. Light fills few of the bins of a transient cube, so this
+/// deviation from their median, both medians nearest-rank ([`quantile`] at 0.5: the upper
+/// middle value of an even count). Light fills few of the bins of a transient cube, so this
 /// measures the noise of the empty ones. 0 for no finite value.
 pub fn noise_sigma(values: &[f32]) -> f64 {
     let mut v: Vec<f64> = values
@@ -205,10 +208,9 @@ pub fn noise_sigma(values: &[f32]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
-    let mid = v.len() / 2;
-    let median = *v.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let median = quantile(&mut v, 0.5);
     let mut dev: Vec<f64> = v.iter().map(|x| (x - median).abs()).collect();
-    1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1
+    MAD_TO_SIGMA * quantile(&mut dev, 0.5)
 }
 
 /// [`noise_sigma`] of a cube file, over about 2^20 values taken from rows spread over it.

@@ -4,7 +4,7 @@
 //! within [`MAX_EXTENT_M`] of the origin; with the entry's fiducial candidates
 //! ([`crate::geometry::fiducials`]) carried along.
 
-use super::resolve::{Resolver, MAX_EXTENT_M, MAX_SUBDIVISIONS};
+use super::checks::{Resolver, MAX_EXTENT_M, MAX_SUBDIVISIONS};
 use super::schema::{MeshEntry, Placement, Shape};
 use super::SceneError;
 use crate::geometry::fiducials::{box_candidates, quad_candidates, Candidate};

@@ -74,6 +74,7 @@
 //! fitting, and fiducial candidates live in [`crate::geometry`].
 
 mod builtin;
+mod checks;
 mod entry;
 mod resolve;
 mod schema;
@@ -81,7 +82,7 @@ mod schema;
 mod tests;
 
 pub use builtin::BUILTIN_NAMES;
-pub use resolve::{
+pub use checks::{
     DT_PS_RANGE, ETA_RANGE, MAX_ENERGY, MAX_EXTENT_M, MAX_NT, MAX_PULSE_WIDTH_FS, MAX_SIDE,
     WAVELENGTH_NM_RANGE,
 };
@@ -90,8 +91,8 @@ use crate::camera::{Calibration, Intrinsics, Pose};
 use crate::cube::TimeAxis;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::{Ray, TriangleMesh};
+use checks::Resolver;
 use nalgebra::{Point3, Unit, Vector3};
-use resolve::Resolver;
 use serde::Deserialize;
 use std::path::Path;
 

@@ -19,12 +19,15 @@
 //! scanline's imperfections from one keyed by the seed and the scanline, so neither the rows
 //! a process renders nor its thread count change a value.
 
+use super::budget::BAND_TARGET_BYTES;
 use super::capture::{
     capture_shape, finish_capture, provenance, render_truths, set_folder_permissions,
-    stage_and_install, trace_options, SimulateError, SimulateOptions, SimulateSummary, Stage,
-    BAND_TARGET_BYTES, TRUTH_CAMERA_FILE, TRUTH_DIRECT_FILE, TRUTH_WORLD_FILE,
+    stage_and_install, trace_options, SimulateSummary,
 };
 use super::flaws::Peaks;
+use super::options::{
+    SimulateError, SimulateOptions, Stage, TRUTH_CAMERA_FILE, TRUTH_DIRECT_FILE, TRUTH_WORLD_FILE,
+};
 use crate::container::{CubeReader, CubeWriter, DEFAULT_UNITS};
 use crate::geometry::bvh::Bvh;
 use crate::scene::Scene;

@@ -10,12 +10,14 @@
 //! per thread; the fiducial pass every grid node as a named point; the flat field, the
 //! per-scanline values and the manifest are held throughout.
 
-use super::capture::{SimulateOptions, BAND_TARGET_BYTES};
 use super::fiducials::marker_candidates;
 use crate::limits::{bounded_count, check_memory, short_number, LimitError, MAX_COUNT};
 use crate::scene::Scene;
 use crate::tracer::binning::ResponseTable;
 use crate::units::flight_time_ps;
+
+/// Bytes of tracer output a band of rows may hold while the truth cubes are rendered.
+pub(crate) const BAND_TARGET_BYTES: usize = 64 << 20;
 
 /// Most pixels along either side of a simulated image (the seed's capture is 672 x 600).
 pub const MAX_SIDE: u64 = 1 << 15;
@@ -59,9 +61,10 @@ pub struct Budget {
     pub bytes: f64,
 }
 
-/// Cap every count of the capture of `scene` with `opts` and estimate its peak memory (module
-/// doc); refuse a count beyond its cap. Does not look at the memory available.
-pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitError> {
+/// Cap every count of the capture of `scene` at `spp` camera paths per pixel with fiducial
+/// markers `marker_spacing_m` apart, and estimate its peak memory (module doc); refuse a
+/// count beyond its cap. Does not look at the memory available.
+pub fn budget(scene: &Scene, spp: u32, marker_spacing_m: f64) -> Result<Budget, LimitError> {
     let cam = &scene.camera;
     let nx = bounded_count(
         cam.intrinsics.width as f64,
@@ -76,11 +79,11 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
         "lower --size",
     )?;
     bounded_count(
-        nx as f64 * ny as f64 * opts.spp as f64,
+        nx as f64 * ny as f64 * spp as f64,
         MAX_COUNT,
         format_args!(
             "the camera paths of {nx} x {ny} pixels at {} per pixel",
-            opts.spp
+            spp
         ),
         "lower --spp or --size",
     )?;
@@ -107,11 +110,11 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
         "raise --dt-ps",
     )?;
     let marker_candidates = bounded_count(
-        marker_candidates(scene, opts.marker_spacing_m),
+        marker_candidates(scene, marker_spacing_m),
         MAX_MARKER_CANDIDATES,
         format!(
             "the fiducial grid at {} m spacing (nodes)",
-            short_number(opts.marker_spacing_m)
+            short_number(marker_spacing_m)
         ),
         "raise --marker-spacing-m",
     )?;
@@ -153,8 +156,8 @@ pub fn budget(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitErro
 
 /// Refuse a capture whose counts exceed their caps or whose peak memory ([`budget`]) exceeds
 /// what the machine has available.
-pub fn check(scene: &Scene, opts: &SimulateOptions) -> Result<Budget, LimitError> {
-    let b = budget(scene, opts)?;
+pub fn check(scene: &Scene, spp: u32, marker_spacing_m: f64) -> Result<Budget, LimitError> {
+    let b = budget(scene, spp, marker_spacing_m)?;
     check_memory(
         b.bytes,
         format!(
@@ -197,6 +200,7 @@ fn world_bins_bound(scene: &Scene) -> f64 {
 mod tests {
     use super::*;
     use crate::geometry::bvh::Bvh;
+    use crate::simulate::fiducials::DEFAULT_MARKER_SPACING_M;
 
     #[test]
     fn the_world_axis_bound_holds_the_render_s_axis_within_a_factor_two() {
@@ -218,11 +222,7 @@ mod tests {
         let scene = Scene::builtin("cube", None)
             .unwrap()
             .with_resolution(48, 32, 512, 2.0);
-        let opts = SimulateOptions {
-            spp: 1,
-            ..SimulateOptions::default()
-        };
-        let b = budget(&scene, &opts).unwrap();
+        let b = budget(&scene, 1, DEFAULT_MARKER_SPACING_M).unwrap();
         let bvh = Bvh::new(scene.mesh.clone());
         let trace = TraceOptions {
             spp: 1,
@@ -257,20 +257,20 @@ mod tests {
     #[test]
     fn counts_beyond_their_caps_are_refused_with_the_flag() {
         let scene = Scene::builtin("cube", None).unwrap();
-        let opts = SimulateOptions::default();
-        let ok = budget(&scene, &opts).unwrap();
+        let spp = crate::simulate::SimulateOptions::default().spp;
+        let ok = budget(&scene, spp, DEFAULT_MARKER_SPACING_M).unwrap();
         assert_eq!((ok.nx, ok.ny), (64, 48));
         let wide = scene.with_resolution(100_000, 100_000, 256, 4.0);
-        let e = budget(&wide, &opts).unwrap_err().to_string();
+        let e = budget(&wide, spp, DEFAULT_MARKER_SPACING_M)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--size") && e.contains("100000"), "{e}");
         let fine = scene.with_resolution(64, 48, 256, 1e-300);
-        let e = budget(&fine, &opts).unwrap_err().to_string();
+        let e = budget(&fine, spp, DEFAULT_MARKER_SPACING_M)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--dt-ps"), "{e}");
-        let dense = SimulateOptions {
-            marker_spacing_m: 1e-9,
-            ..SimulateOptions::default()
-        };
-        let e = budget(&scene, &dense).unwrap_err().to_string();
+        let e = budget(&scene, spp, 1e-9).unwrap_err().to_string();
         assert!(e.contains("--marker-spacing-m"), "{e}");
     }
 }

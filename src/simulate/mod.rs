@@ -37,9 +37,9 @@ pub mod budget;
 pub mod capture;
 pub mod fiducials;
 pub mod flaws;
+pub mod options;
 pub mod transient;
 
-pub use capture::{
-    simulate_capture, SimulateError, SimulateOption, SimulateOptions, SimulateSummary, Stage,
-};
+pub use capture::{simulate_capture, SimulateSummary};
 pub use flaws::{CaptureModel, Flaw, FlawError, Flaws};
+pub use options::{SimulateError, SimulateOption, SimulateOptions, Stage};

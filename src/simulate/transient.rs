@@ -10,7 +10,8 @@
 //! | `truth_camera.h5`  | the true cube, camera time, all light (the capture's file of the same name) |
 //! | `render.json`      | [`RenderCounters`]: settings, paths, rays, wall and CPU seconds of the render |
 
-use super::capture::{SimulateError, SimulateOptions, Stage, BAND_TARGET_BYTES, TRUTH_CAMERA_FILE};
+use super::budget::BAND_TARGET_BYTES;
+use super::options::{SimulateError, SimulateOptions, Stage, TRUTH_CAMERA_FILE};
 use crate::container::{CubeWriter, Provenance, DEFAULT_UNITS};
 use crate::cube::TimeFrame;
 use crate::geometry::bvh::Bvh;

@@ -26,6 +26,7 @@ use super::{attr, GroupView, StoreError};
 use crate::calibrate::Registration;
 use crate::camera::Calibration;
 use crate::container::{AttrValue, DataBuf, GroupData};
+use crate::row_offset::{applied_ps, RowOffset};
 use nalgebra::Point3;
 use std::path::Path;
 
@@ -156,11 +157,8 @@ pub const SCANLINE_OFFSETS: &str = "scanline_offset_ps";
 
 /// Add `offsets` (one per row) to `group` as [`SCANLINE_OFFSETS`], with the count of rows
 /// estimated and shifted as attributes (`scanlines_estimated`, `scanlines_shifted`).
-pub fn add_scanline_offsets(
-    group: &mut GroupData,
-    offsets: &[Option<crate::ingest::row_offsets::RowOffset>],
-) {
-    let applied = crate::calibrate::scanline_time::applied_ps(offsets);
+pub fn add_scanline_offsets(group: &mut GroupData, offsets: &[Option<RowOffset>]) {
+    let applied = applied_ps(offsets);
     let estimated = offsets.iter().flatten().count();
     let shifted = applied
         .iter()
@@ -426,7 +424,7 @@ mod tests {
         let path = Path::new("c.h5");
         assert_eq!(scanline_offsets(path, &g, ny).unwrap(), None);
         let row = |e: f64, applied: f64| {
-            Some(crate::ingest::row_offsets::RowOffset {
+            Some(crate::row_offset::RowOffset {
                 estimate: e,
                 std_error: 0.1,
                 applied,

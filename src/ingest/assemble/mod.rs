@@ -171,7 +171,7 @@ pub fn input_files(plan: &IngestPlan) -> Vec<PathBuf> {
 fn refuse_output_over_inputs(plan: &IngestPlan, out: &Path) -> Result<(), IngestError> {
     match input_files(plan)
         .into_iter()
-        .find(|input| crate::pipeline::output_holds(out, input))
+        .find(|input| crate::atomic::output_holds(out, input))
     {
         Some(input) => Err(IngestError::OutputIsInput {
             out: out.to_path_buf(),

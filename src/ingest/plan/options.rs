@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use super::super::corrections::RefRegion;
 use crate::ingest::{IngestError, IngestValue};
 use crate::ranges;
+pub use crate::saturation::SaturationInput;
 
 /// The dark signal asked for.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,28 +27,6 @@ pub enum PowerRef {
     /// No reference in view: each row's pixel integrals against the same pixels in the
     /// neighbouring rows ([`crate::ingest::row_offsets`]).
     Auto,
-}
-
-/// The saturation level asked for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SaturationInput {
-    /// A level in scaled value units.
-    Level(f64),
-    /// The largest value the files' integer sample type can store, times the value scale.
-    Auto,
-}
-
-impl SaturationInput {
-    /// Parse `auto` or a level in value units (the value of `--saturation`; the range is
-    /// checked with the other values).
-    pub fn parse(s: &str) -> Result<SaturationInput, String> {
-        if s == "auto" {
-            return Ok(SaturationInput::Auto);
-        }
-        s.parse()
-            .map(SaturationInput::Level)
-            .map_err(|e| format!("expected a level or 'auto': {e}"))
-    }
 }
 
 impl PowerRef {

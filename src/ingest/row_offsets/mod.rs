@@ -63,25 +63,11 @@
 mod report;
 mod robust;
 
-use super::corrections::median_f64 as median;
 use crate::cube::TimeAxis;
+pub use crate::row_offset::{RowOffset, SIGNIFICANCE};
+use crate::stats::{median, median_and_variance, quantile};
 pub use report::{jitter_report, power_report, scanline_report, OffsetReport, RowTruth};
-pub use robust::SIGNIFICANCE;
 use robust::{solve_robust, Equation};
-
-/// One row's offset: what the data give, its standard error, and what is removed.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RowOffset {
-    /// The row's offset as solved for.
-    pub estimate: f64,
-    /// Standard error of `estimate` with the neighbouring rows' offsets at theirs: from the
-    /// pixels' spread and the disagreement of the row's prediction windows (the scene model's
-    /// error there); the slow offsets that no row tells from the scene are not in it.
-    pub std_error: f64,
-    /// The offset to remove: `estimate` where it exceeds [`SIGNIFICANCE`] standard errors,
-    /// else 0.
-    pub applied: f64,
-}
 
 /// Fraction of the row's reference (90th-percentile) pulse height, or integral, below which a
 /// pixel is not measured.
@@ -145,13 +131,6 @@ impl Default for RowOffsetFit {
             prior_dof: 2.0,
         }
     }
-}
-
-/// The value at `q` (0..=1) of `values` (reordered), nearest rank.
-fn quantile(values: &mut [f64], q: f64) -> f64 {
-    let k = ((values.len() - 1) as f64 * q).round() as usize;
-    let (_, v, _) = values.select_nth_unstable_by(k, f64::total_cmp);
-    *v
 }
 
 /// Each pixel's baseline (the median of its profile), pulse height above it and highest bin,
@@ -398,15 +377,6 @@ impl Window {
     }
 }
 
-/// Median and squared standard error of the median of `residuals` (reordered).
-fn median_and_error(residuals: &mut [f64]) -> (f64, f64) {
-    let m = median(residuals);
-    let mut dev: Vec<f64> = residuals.iter().map(|e| (e - m).abs()).collect();
-    // Standard error of a median: 1.2533 sigma / sqrt(n), with sigma = 1.4826 MAD.
-    let sigma = 1.4826 * median(&mut dev);
-    (m, (1.2533 * sigma).powi(2) / residuals.len() as f64)
-}
-
 /// Coefficients of the third divided difference at the offsets `d` (normalised to unit
 /// length): zero on any quadratic, so `|c . v|` is how far four values are from lying on one.
 fn cubic_misfit_coeffs(d: &[f64; 4]) -> [f64; 4] {
@@ -520,7 +490,7 @@ pub fn estimate_row_offsets(
                     .map(|(e, _)| e),
             );
             row.push(if residuals.len() >= min {
-                let (r, s2) = median_and_error(&mut residuals);
+                let (r, s2) = median_and_variance(&mut residuals);
                 (r, s2, residuals.len())
             } else {
                 (0.0, f64::INFINITY, 0)
@@ -529,7 +499,7 @@ pub fn estimate_row_offsets(
         fitted.push(row);
         residuals.clear();
         residuals.extend((0..nx).map(|x| pixel(y, x, 0).0).filter(|e| e.is_finite()));
-        centred_all.push((residuals.len() >= min).then(|| median_and_error(&mut residuals)));
+        centred_all.push((residuals.len() >= min).then(|| median_and_variance(&mut residuals)));
     }
     // One window per row: the centred one where it is clean for at least half of the row's
     // measured pixels; else (a horizontal edge next to the row, where every pixel jumps at
@@ -610,11 +580,7 @@ pub fn estimate_row_offsets(
     (0..ny)
         .map(|y| {
             let (o, se) = (solution.offsets[y], solution.std_errors[y]);
-            (chosen[y].is_some() && se.is_finite()).then(|| RowOffset {
-                estimate: o,
-                std_error: se,
-                applied: if o.abs() > SIGNIFICANCE * se { o } else { 0.0 },
-            })
+            (chosen[y].is_some() && se.is_finite()).then(|| RowOffset::gated(o, se))
         })
         .collect()
 }

@@ -3,7 +3,8 @@
 //! manifest records the true jitter or laser power) how far the result is from the truth.
 //! `femto ingest` prints these lines and the cube keeps them as provenance notes.
 
-use super::RowOffset;
+use crate::row_offset::{RowOffset, SIGNIFICANCE};
+use crate::stats::median;
 
 /// Most scanlines named one per line as not estimated; the rest are counted.
 const MOST_NAMED: usize = 8;
@@ -34,10 +35,6 @@ impl OffsetReport {
         v.extend(self.not_estimated.iter().cloned());
         v
     }
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    super::median(v)
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -151,7 +148,7 @@ pub fn jitter_report(offsets: &[Option<RowOffset>], truth: Option<&[f64]>) -> Of
         format!(
             "jitter: {applied} of {ny} scanlines shifted{largest}; {estimated} estimated, median \
              standard error {se:.2} ps; a shift is applied above {} standard errors",
-            super::SIGNIFICANCE
+            SIGNIFICANCE
         )
     };
     let truth = truth.filter(|t| t.len() == ny).map(|t| {
@@ -224,7 +221,7 @@ pub fn scanline_report(
             "scanline times against the geometry: {applied} of {ny} scanlines late or early \
              beyond {} standard errors{largest}; {estimated} estimated, median standard error \
              {se:.2} ps; femto unwarp removes them",
-            super::SIGNIFICANCE
+            SIGNIFICANCE
         )
     };
     let truth = truth
@@ -267,7 +264,7 @@ pub fn power_report(offsets: &[Option<RowOffset>], truth: Option<&[f64]>) -> Off
             "power: {applied} of {ny} scanlines normalised{largest}; {estimated} estimated, \
              median standard error {:.2} %; a gain is applied above {} standard errors",
             100.0 * se,
-            super::SIGNIFICANCE
+            SIGNIFICANCE
         )
     };
     let truth = truth

@@ -19,13 +19,11 @@
 //!
 //! Each row's standard error is that of its offset with its neighbours' at their estimates:
 //! `1 / sqrt(H_yy)`, `H = A^T W A` (it leaves out the slow offsets no row tells from the
-//! scene, see [`super`]). An offset is applied only where it exceeds [`SIGNIFICANCE`] of
+//! scene, see [`super`]). An offset is applied only where it exceeds [`SIGNIFICANCE`](crate::row_offset::SIGNIFICANCE) of
 //! them. The normal equations are banded and solved in `O(ny)` ([`super::solve_banded`]).
 
 use super::{solve_banded, RowOffsetFit, BAND};
-
-/// An offset is applied when it exceeds this many standard errors.
-pub const SIGNIFICANCE: f64 = 4.0;
+use crate::stats::median;
 
 /// Median of `|z|` for a standard normal `z`, squared: the median of a chi-square with one
 /// degree of freedom (0.4549), for the moment estimate of `sigma`.
@@ -111,7 +109,7 @@ pub fn solve_robust(eqs: &[Equation], ny: usize, fit: &RowOffsetFit) -> Solution
     let median_se2 = if finite.is_empty() {
         0.0
     } else {
-        super::median(&mut finite).powi(2)
+        median(&mut finite).powi(2)
     };
     let mut moments: Vec<f64> = eqs
         .iter()
@@ -120,7 +118,7 @@ pub fn solve_robust(eqs: &[Equation], ny: usize, fit: &RowOffsetFit) -> Solution
             (e.r * e.r - e.variance()) / gain
         })
         .collect();
-    let sigma2 = (super::median(&mut moments) / MEDIAN_CHI2_1)
+    let sigma2 = (median(&mut moments) / MEDIAN_CHI2_1)
         .max(median_se2)
         .max(f64::MIN_POSITIVE);
     let largest = eqs.iter().fold(sigma2, |m, e| m.max(e.r * e.r));
