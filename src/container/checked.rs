@@ -37,7 +37,10 @@ pub fn check_cube(dest: &Path, cube: &Cube) -> Result<()> {
     }
     let axis = cube.axis;
     if !axis.t0_ps.is_finite() {
-        return Err(invalid(dest, format!("t0_ps {}: must be finite", axis.t0_ps)));
+        return Err(invalid(
+            dest,
+            format!("t0_ps {}: must be finite", axis.t0_ps),
+        ));
     }
     crate::ranges::check("dt_ps", axis.dt_ps, crate::ranges::INTERVAL_PS)
         .map_err(|e| invalid(dest, e.to_string()))?;

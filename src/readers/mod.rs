@@ -102,7 +102,12 @@ pub fn check_decode(
     stored: Dtype,
     raw_held: bool,
 ) -> Result<(), ReaderError> {
-    let copies = F32_COPIES + if raw_held { stored.size().div_ceil(4) } else { 0 };
+    let copies = F32_COPIES
+        + if raw_held {
+            stored.size().div_ceil(4)
+        } else {
+            0
+        };
     let shape: Vec<String> = dims.iter().map(|d| d.to_string()).collect();
     crate::limits::check_decoded(
         dims,

@@ -178,6 +178,120 @@ fn keyframes_of_json(body: &[u8]) -> Result<Vec<ViewState>, BadState> {
         .collect()
 }
 
+/// A route's answer: a reply, or a refusal (also a reply), so that routes use `?`.
+type Routed = Result<Reply, Reply>;
+
+/// A route: method, path, and the function that answers it from the session, the query and
+/// the body.
+type Route = (
+    &'static str,
+    &'static str,
+    fn(&ViewSession, &str, &[u8]) -> Routed,
+);
+
+/// Every route of the API (docs/view.md, "HTTP API"), the one table that both dispatch and
+/// the 404/405 refusals read. `DELETE /api/keyframes/N` is matched by its prefix.
+const ROUTES: &[Route] = &[
+    ("GET", "/api/info", |s, _, _| Ok(Reply::json(s.info()))),
+    ("GET", "/api/state", |s, _, _| {
+        Ok(Reply::json(&s.latest_state()))
+    }),
+    ("POST", "/api/still", still),
+    ("POST", "/api/frame", frame),
+    ("POST", "/api/hud", |s, _, body| {
+        let state = ViewState::from_json(body)?;
+        Ok(Reply::json(&s.render_srgb8(&state)?.1))
+    }),
+    ("POST", "/api/state.toml", |s, _, body| {
+        let state = ViewState::from_json(body)?;
+        state.path()?;
+        let text = state.path_toml(&s.info().render_inputs);
+        Ok(Reply::ok("application/toml", text.into_bytes()))
+    }),
+    ("GET", "/api/keyframes", |s, _, _| {
+        Ok(Reply::json(&s.keyframes()))
+    }),
+    ("POST", "/api/keyframes", |s, _, body| {
+        Ok(Reply::json(&s.add_keyframe(ViewState::from_json(body)?)?))
+    }),
+    ("DELETE", "/api/keyframes", |s, _, _| {
+        s.clear_keyframes();
+        Ok(Reply::json(&s.keyframes()))
+    }),
+    ("GET", "/api/path.toml", |s, _, _| {
+        Ok(Reply::ok("application/toml", s.path_toml()?.into_bytes()))
+    }),
+    ("POST", "/api/path.toml", |s, _, body| {
+        let states = keyframes_of_json(body)?;
+        let text = super::keyframes::export_path(&states, &s.info().render_inputs)?;
+        Ok(Reply::ok("application/toml", text.into_bytes()))
+    }),
+    ("POST", "/api/path", |s, _, body| {
+        let text = std::str::from_utf8(body)
+            .map_err(|_| Reply::error(400, "path: the body is not UTF-8 text"))?;
+        Ok(Reply::json(&ViewSession::load_path(
+            text,
+            &s.latest_state(),
+        )?))
+    }),
+    ("POST", "/api/curve", |s, _, body| {
+        Ok(Reply::json(&s.light_curve(&ViewState::from_json(body)?)?))
+    }),
+    ("POST", "/api/probe", |s, query, body| {
+        let (x, y, range) = parse_probe_query(query).map_err(|e| Reply::error(400, e))?;
+        let state = ViewState::from_json(body)?;
+        Ok(Reply::json(&s.probe(&state, x, y, range)?))
+    }),
+    ("GET", "/api/video", |s, _, _| {
+        Ok(Reply::json(&s.video_progress().status()))
+    }),
+    ("POST", "/api/video", video),
+];
+
+fn still(session: &ViewSession, _: &str, body: &[u8]) -> Routed {
+    let state = ViewState::from_json(body)?;
+    Ok(Reply::ok("image/png", session.still_png(&state)?))
+}
+
+fn frame(session: &ViewSession, query: &str, body: &[u8]) -> Routed {
+    let q = parse_frame_query(query).map_err(|e| Reply::error(400, e))?;
+    let state = ViewState::from_json(body)?;
+    let (jpeg, hud) = session.frame_jpeg(&state, q)?;
+    let mut r = Reply::ok("image/jpeg", jpeg);
+    r.headers.push((
+        "X-Femto-Hud",
+        serde_json::to_string(&hud).expect("a hud serialises"),
+    ));
+    Ok(r)
+}
+
+fn video(session: &ViewSession, query: &str, body: &[u8]) -> Routed {
+    let format = parse_video_query(query).map_err(|e| Reply::error(400, e))?;
+    let states = keyframes_of_json(body)?;
+    let bytes = session.video(&states, format)?;
+    let (kind, name) = match format {
+        crate::video::VideoFormat::Gif => ("image/gif", "femto-path.gif"),
+        _ => ("video/mp4", "femto-path.mp4"),
+    };
+    let mut r = Reply::ok(kind, bytes);
+    r.headers.push((
+        "Content-Disposition",
+        format!("attachment; filename=\"{name}\""),
+    ));
+    Ok(r)
+}
+
+/// `DELETE /api/keyframes/N`.
+fn delete_keyframe(session: &ViewSession, method: &str, path: &str, index: &str) -> Routed {
+    if method != "DELETE" {
+        return Err(Reply::error(405, format!("{method} {path}: only DELETE")));
+    }
+    let i = index
+        .parse::<usize>()
+        .map_err(|_| Reply::error(400, format!("{path}: not a keyframe number")))?;
+    Ok(Reply::json(&session.delete_keyframe(i)?))
+}
+
 /// Answer one request. `url` is the request target (path and query), `body` its body.
 pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Reply {
     if body.len() > MAX_BODY_BYTES {
@@ -193,167 +307,20 @@ pub fn handle(session: &ViewSession, method: &str, url: &str, body: &[u8]) -> Re
             _ => Reply::error(405, format!("{method} {path}: only GET")),
         };
     }
-    let route = (method, path);
-    match route {
-        ("GET", "/api/info") => Reply::json(session.info()),
-        ("GET", "/api/state") => Reply::json(&session.latest_state()),
-        ("POST", "/api/still") => match ViewState::from_json(body) {
-            Ok(state) => match session.still_png(&state) {
-                Ok(png) => Reply::ok("image/png", png),
-                Err(e) => e.into(),
-            },
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/frame") => {
-            let q = match parse_frame_query(query) {
-                Ok(q) => q,
-                Err(e) => return Reply::error(400, e),
-            };
-            match ViewState::from_json(body) {
-                Ok(state) => match session.frame_jpeg(&state, q) {
-                    Ok((jpeg, hud)) => {
-                        let mut r = Reply::ok("image/jpeg", jpeg);
-                        r.headers.push((
-                            "X-Femto-Hud",
-                            serde_json::to_string(&hud).expect("a hud serialises"),
-                        ));
-                        r
-                    }
-                    Err(e) => e.into(),
-                },
-                Err(e) => e.into(),
-            }
-        }
-        ("POST", "/api/hud") => match ViewState::from_json(body) {
-            Ok(state) => match session.render_srgb8(&state) {
-                Ok((_, hud)) => Reply::json(&hud),
-                Err(e) => e.into(),
-            },
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/state.toml") => match ViewState::from_json(body) {
-            Ok(state) => match state.path() {
-                Ok(_) => Reply::ok(
-                    "application/toml",
-                    state.path_toml(&session.info().render_inputs).into_bytes(),
-                ),
-                Err(e) => e.into(),
-            },
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/curve") => match ViewState::from_json(body) {
-            Ok(state) => match session.light_curve(&state) {
-                Ok(curve) => Reply::json(&curve),
-                Err(e) => e.into(),
-            },
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/probe") => {
-            let (x, y, range) = match parse_probe_query(query) {
-                Ok(q) => q,
-                Err(e) => return Reply::error(400, e),
-            };
-            match ViewState::from_json(body) {
-                Ok(state) => match session.probe(&state, x, y, range) {
-                    Ok(probe) => Reply::json(&probe),
-                    Err(e) => e.into(),
-                },
-                Err(e) => e.into(),
-            }
-        }
-        ("GET", "/api/video") => Reply::json(&session.video_progress().status()),
-        ("POST", "/api/video") => {
-            let format = match parse_video_query(query) {
-                Ok(f) => f,
-                Err(e) => return Reply::error(400, e),
-            };
-            match keyframes_of_json(body) {
-                Ok(states) => match session.video(&states, format) {
-                    Ok(bytes) => {
-                        let (kind, name) = match format {
-                            crate::video::VideoFormat::Gif => ("image/gif", "femto-path.gif"),
-                            _ => ("video/mp4", "femto-path.mp4"),
-                        };
-                        let mut r = Reply::ok(kind, bytes);
-                        r.headers.push((
-                            "Content-Disposition",
-                            format!("attachment; filename=\"{name}\""),
-                        ));
-                        r
-                    }
-                    Err(e) => e.into(),
-                },
-                Err(e) => e.into(),
-            }
-        }
-        ("GET", "/api/keyframes") => Reply::json(&session.keyframes()),
-        ("POST", "/api/keyframes") => match ViewState::from_json(body) {
-            Ok(state) => match session.add_keyframe(state) {
-                Ok(k) => Reply::json(&k),
-                Err(e) => e.into(),
-            },
-            Err(e) => e.into(),
-        },
-        ("DELETE", "/api/keyframes") => {
-            session.clear_keyframes();
-            Reply::json(&session.keyframes())
-        }
-        ("GET", "/api/path.toml") => match session.path_toml() {
-            Ok(text) => Reply::ok("application/toml", text.into_bytes()),
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/path.toml") => match keyframes_of_json(body) {
-            Ok(states) => {
-                match super::keyframes::export_path(&states, &session.info().render_inputs) {
-                    Ok(text) => Reply::ok("application/toml", text.into_bytes()),
-                    Err(e) => e.into(),
-                }
-            }
-            Err(e) => e.into(),
-        },
-        ("POST", "/api/path") => {
-            let Ok(text) = std::str::from_utf8(body) else {
-                return Reply::error(400, "path: the body is not UTF-8 text");
-            };
-            match ViewSession::load_path(text, &session.latest_state()) {
-                Ok(loaded) => Reply::json(&loaded),
-                Err(e) => e.into(),
-            }
-        }
-        _ => {
-            if let Some(index) = path.strip_prefix("/api/keyframes/") {
-                if method != "DELETE" {
-                    return Reply::error(405, format!("{method} {path}: only DELETE"));
-                }
-                return match index.parse::<usize>() {
-                    Ok(i) => match session.delete_keyframe(i) {
-                        Ok(k) => Reply::json(&k),
-                        Err(e) => e.into(),
-                    },
-                    Err(_) => Reply::error(400, format!("{path}: not a keyframe number")),
-                };
-            }
-            let known = [
-                "/api/info",
-                "/api/state",
-                "/api/still",
-                "/api/frame",
-                "/api/hud",
-                "/api/state.toml",
-                "/api/keyframes",
-                "/api/path.toml",
-                "/api/path",
-                "/api/curve",
-                "/api/probe",
-                "/api/video",
-            ];
-            if known.contains(&path) {
-                Reply::error(405, format!("{method} {path}: not allowed (docs/view.md)"))
-            } else {
-                Reply::error(404, format!("{path}: no such page"))
-            }
-        }
-    }
+    let answered =
+        if let Some((_, _, answer)) = ROUTES.iter().find(|(m, p, _)| *m == method && *p == path) {
+            answer(session, query, body)
+        } else if let Some(index) = path.strip_prefix("/api/keyframes/") {
+            delete_keyframe(session, method, path, index)
+        } else if ROUTES.iter().any(|(_, p, _)| *p == path) {
+            Err(Reply::error(
+                405,
+                format!("{method} {path}: not allowed (docs/view.md)"),
+            ))
+        } else {
+            Err(Reply::error(404, format!("{path}: no such page")))
+        };
+    answered.unwrap_or_else(|refusal| refusal)
 }
 
 #[cfg(test)]

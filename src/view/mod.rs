@@ -14,9 +14,10 @@
 //!
 //! - `state`: the camera state (JSON) and its one-frame path and render options;
 //! - `session`: the opened scene, the keyframes, stills, frames and heads-up numbers;
-//! - `curve`: the light curve of the current view, its lit range and the room to travel;
+//! - `light`, `curve`: the light curve of the current view, its lit range and the room to
+//!   travel (what the page is told; how it is measured);
 //! - `probe`: what one pixel shows and why;
-//! - `video_export`: the keyframes' path saved as MP4 or GIF;
+//! - `video_export`, `progress`: the keyframes' path saved as MP4 or GIF, and its progress;
 //! - `keyframes`: keyframes to a camera path, a camera path to states;
 //! - `api`: the HTTP API as a function from request to reply (docs/view.md);
 //! - `access`: who is answered (token, `Host`, `Origin`, content type);
@@ -30,7 +31,9 @@ pub mod api;
 pub mod assets;
 pub mod curve;
 pub mod keyframes;
+pub mod light;
 pub mod probe;
+pub mod progress;
 pub mod server;
 pub mod session;
 pub mod state;

@@ -5,8 +5,8 @@
 //! defaults of `femto render`.
 
 use super::admission::{self, Admission, Permit, Refusal};
-use super::curve::LightCurve;
 use super::keyframes::{export_path, frames_of_path, LoadedPath};
+use super::light::LightCurve;
 use super::state::{BadState, FrameOptions, ViewName, ViewState};
 use crate::camera_path::CameraPath;
 use crate::pipeline::render::{plan, Camera, Plan, RenderInputs};
@@ -152,7 +152,7 @@ pub struct ViewSession<'a> {
     /// The opened inputs (for videos, which the render stage renders from them).
     inputs: &'a RenderInputs,
     /// The video being saved, if any ([`super::video_export`]).
-    video: super::video_export::VideoProgress,
+    video: super::progress::VideoProgress,
     /// The renderer's scene. Its laser wavelength is the one state field that lives in the
     /// scene: a state with another one takes the write lock and renders alone.
     scene: RwLock<RenderScene<'a>>,
@@ -291,7 +291,7 @@ impl<'a> ViewSession<'a> {
     }
 
     /// The progress of the video being saved.
-    pub fn video_progress(&self) -> &super::video_export::VideoProgress {
+    pub fn video_progress(&self) -> &super::progress::VideoProgress {
         &self.video
     }
 

@@ -7,60 +7,12 @@
 //! is still open.
 
 use super::keyframes::export_path;
+use super::progress::Running;
 use super::session::{ViewError, ViewSession};
 use super::state::{bad, ViewState};
 use crate::camera_path::CameraPath;
 use crate::pipeline::render::{plan, render_planned, Camera};
-use crate::pipeline::Progress;
 use crate::video::{Frame, VideoError, VideoFormat, VideoWriter};
-use serde::Serialize;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-/// Progress of the video being rendered, as `GET /api/video` reports it.
-#[derive(Debug, Default)]
-pub struct VideoProgress {
-    running: AtomicBool,
-    done: AtomicU64,
-    total: AtomicU64,
-}
-
-/// What `GET /api/video` answers.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct VideoStatus {
-    pub running: bool,
-    pub frames_done: u64,
-    pub frames: u64,
-}
-
-impl VideoProgress {
-    pub fn status(&self) -> VideoStatus {
-        VideoStatus {
-            running: self.running.load(Ordering::SeqCst),
-            frames_done: self.done.load(Ordering::SeqCst),
-            frames: self.total.load(Ordering::SeqCst),
-        }
-    }
-}
-
-impl Progress for VideoProgress {
-    fn start(&self, _what: &str, len: u64) {
-        self.total.store(len, Ordering::SeqCst);
-        self.done.store(0, Ordering::SeqCst);
-    }
-
-    fn set(&self, done: u64) {
-        self.done.store(done, Ordering::SeqCst);
-    }
-}
-
-/// Clears the running flag however the render ends.
-struct Running<'p>(&'p VideoProgress);
-
-impl Drop for Running<'_> {
-    fn drop(&mut self) {
-        self.0.running.store(false, Ordering::SeqCst);
-    }
-}
 
 /// The video formats the page saves: MP4 and GIF.
 pub fn parse_video_format(name: &str) -> Result<VideoFormat, String> {
@@ -80,15 +32,13 @@ impl ViewSession<'_> {
         format: VideoFormat,
     ) -> Result<Vec<u8>, ViewError> {
         let progress = self.video_progress();
-        if progress.running.swap(true, Ordering::SeqCst) {
+        let Some(_running) = Running::start(progress) else {
             return Err(bad(
                 "video",
                 "a video is being rendered already; wait for it".into(),
             )
             .into());
-        }
-        let _running = Running(progress);
-        progress.start("video", 0);
+        };
         for (i, k) in keyframes.iter().enumerate() {
             k.check()
                 .map_err(|e| bad(&format!("keyframes[{i}].{}", e.field), e.message))?;
