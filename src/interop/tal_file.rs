@@ -304,11 +304,17 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
         let ds = open(k)?;
         let shape = ds.shape();
         // The stored values and their f64 copy, before either is read.
-        crate::limits::check_decoded(&shape, 8, 2, format_args!("{k} of {shape:?} values"), "is the file damaged?")
-            .map_err(|source| InteropError::Limit {
-                path: path.to_path_buf(),
-                source,
-            })?;
+        crate::limits::check_decoded(
+            &shape,
+            8,
+            2,
+            format_args!("{k} of {shape:?} values"),
+            "is the file damaged?",
+        )
+        .map_err(|source| InteropError::Limit {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Ok((shape, numbers(&ds, path, k)?))
     };
     let scalar = |k: &str| -> Result<f64, InteropError> {

@@ -372,7 +372,10 @@ mod tests {
         ] {
             let e = check_decoded(&dims, 4, 3, "variable a of [..] uint8", "crop it").unwrap_err();
             let msg = e.to_string();
-            assert!(msg.starts_with("variable a of [..] uint8 needs about "), "{msg}");
+            assert!(
+                msg.starts_with("variable a of [..] uint8 needs about "),
+                "{msg}"
+            );
             assert!(msg.ends_with("; crop it"), "{msg}");
             assert!(!msg.contains('\n'), "{msg}");
         }

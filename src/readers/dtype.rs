@@ -252,11 +252,16 @@ mod tests {
     fn decoding_from_a_reader_in_chunks_matches_decoding_the_bytes() {
         // More than one chunk of u16, big-endian, with a remainder.
         let n = DECODE_CHUNK_BYTES / 2 + 7;
-        let bytes: Vec<u8> = (0..n).flat_map(|i| ((i * 31) as u16).to_be_bytes()).collect();
+        let bytes: Vec<u8> = (0..n)
+            .flat_map(|i| ((i * 31) as u16).to_be_bytes())
+            .collect();
         let whole = decode(&bytes, Dtype::U16, true);
         let streamed = decode_from(&mut &bytes[..], n, Dtype::U16, true).unwrap();
         assert_eq!(streamed, whole);
-        assert!(decode_from(&mut &bytes[..], 0, Dtype::U16, true).unwrap().values.is_empty());
+        assert!(decode_from(&mut &bytes[..], 0, Dtype::U16, true)
+            .unwrap()
+            .values
+            .is_empty());
         let short = decode_from(&mut &bytes[..3], 2, Dtype::U16, true).unwrap_err();
         assert_eq!(short.kind(), std::io::ErrorKind::UnexpectedEof);
     }

@@ -204,7 +204,11 @@ pub(super) fn read_f64s(file: &H5File, path: &Path, name: &str) -> Result<Vec<f6
         &ds.shape(),
         8,
         copies,
-        format_args!("the axis /{name} of {:?} {} values", ds.shape(), dtype.name()),
+        format_args!(
+            "the axis /{name} of {:?} {} values",
+            ds.shape(),
+            dtype.name()
+        ),
         "crop it first",
     )
     .map_err(|source| ReaderError::Limit {

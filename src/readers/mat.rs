@@ -79,10 +79,7 @@ pub fn read_mat(
     let mut file = std::fs::File::open(path).map_err(io)?;
     let file_bytes = file.metadata().map_err(io)?.len();
     let mut head = Vec::with_capacity(128);
-    (&mut file)
-        .take(128)
-        .read_to_end(&mut head)
-        .map_err(io)?;
+    (&mut file).take(128).read_to_end(&mut head).map_err(io)?;
     if is_v73_header(&head) {
         drop(file);
         return read_v73(path, read_values);

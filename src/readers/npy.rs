@@ -96,9 +96,8 @@ fn read_npy_from(
     let h = parse_header(path, &head)?;
     let count = data_length(path, &h, file_bytes.saturating_sub(h.data_start as u64))?;
     super::check_decode(path, "the array", &h.shape, h.dtype, false)?;
-    let decoded = decode_from(&mut reader, count, h.dtype, h.big_endian).map_err(|e| {
-        ReaderError::invalid(path, "npy data", format!("reading the values: {e}"))
-    })?;
+    let decoded = decode_from(&mut reader, count, h.dtype, h.big_endian)
+        .map_err(|e| ReaderError::invalid(path, "npy data", format!("reading the values: {e}")))?;
     Ok(Array::new(h.shape, h.dtype, decoded, h.fortran_order))
 }
 

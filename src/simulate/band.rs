@@ -245,8 +245,8 @@ pub fn simulate_band(
         let bvh = Bvh::new(scene.mesh.clone());
         let shape = capture_shape(scene, opts)?;
         // Each truth file records its rows, which the merge checks with the seed.
-        let band_provenance = provenance(scene, opts)
-            .with_note(ROWS_NOTE, format!("{}..{}", rows.start, rows.end));
+        let band_provenance =
+            provenance(scene, opts).with_note(ROWS_NOTE, format!("{}..{}", rows.start, rows.end));
         let (peaks, stats) = render_truths(
             scene,
             &bvh,
@@ -459,7 +459,12 @@ fn check_band_truth(
     notes: &[(String, String)],
     band: &BandInfo,
 ) -> Result<(), SimulateError> {
-    let note = |key: &str| notes.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str());
+    let note = |key: &str| {
+        notes
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    };
     let rows = format!("{}..{}", band.rows_start, band.rows_end);
     let seed = band.settings.seed.to_string();
     let refuse = |what: String| {
@@ -474,7 +479,9 @@ fn check_band_truth(
     match (note(ROWS_NOTE), note("seed")) {
         (Some(r), Some(s)) if r == rows && s == seed => Ok(()),
         (Some(r), Some(s)) => refuse(format!("rows {r}, seed {s}")),
-        (None, _) => refuse(format!("no '{ROWS_NOTE}' note (not written by simulate --rows)")),
+        (None, _) => refuse(format!(
+            "no '{ROWS_NOTE}' note (not written by simulate --rows)"
+        )),
         (_, None) => refuse("no 'seed' note".into()),
     }
 }

@@ -282,10 +282,9 @@ fn check_arrays(
                 continue;
             }
             let p = p.map(f64::from);
-            ranges::check_point(format_args!("dataset '{name}' at {}", at(i)), &p, range)
-                .map_err(|e| {
-                    v.schema(format!("{e} (a pixel that sees nothing has all three NaN)"))
-                })?;
+            ranges::check_point(format_args!("dataset '{name}' at {}", at(i)), &p, range).map_err(
+                |e| v.schema(format!("{e} (a pixel that sees nothing has all three NaN)")),
+            )?;
         }
         Ok(())
     };

@@ -54,12 +54,24 @@ fn refused_under_ulimit(dir: &Path, args: &[&str], names: &[&str], within: Durat
     let took = started.elapsed();
     let shown = format!("femto {}", args.join(" "));
     let err = String::from_utf8_lossy(&out.stderr).trim_end().to_string();
-    assert_eq!(out.status.code(), Some(2), "{shown}: {:?}: {err}", out.status);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{shown}: {:?}: {err}",
+        out.status
+    );
     assert_eq!(err.lines().count(), 1, "{shown}: one line: {err}");
     for name in names {
-        assert!(err.contains(name), "{shown}: the message names {name}: {err}");
+        assert!(
+            err.contains(name),
+            "{shown}: the message names {name}: {err}"
+        );
     }
-    assert_eq!(listing(dir), before, "{shown}: refused but changed the folder");
+    assert_eq!(
+        listing(dir),
+        before,
+        "{shown}: refused but changed the folder"
+    );
     assert!(took < within, "{shown}: refused after {took:?}");
     eprintln!("{shown}: {took:.2?}: {err}");
     err
@@ -118,7 +130,12 @@ fn a_compressed_matlab_bomb_is_refused_before_it_is_inflated() {
     assert!(size < 2_000_000, "the bomb is small on disk: {size} bytes");
     let names = ["bomb.mat", "1000 x 1000 x 1200 uint8"];
     let fast = Duration::from_secs(10);
-    refused_under_ulimit(dir.path(), &["ingest", "bomb.mat", "-o", "c.h5"], &names, fast);
+    refused_under_ulimit(
+        dir.path(),
+        &["ingest", "bomb.mat", "-o", "c.h5"],
+        &names,
+        fast,
+    );
     refused_under_ulimit(dir.path(), &["info", "bomb.mat"], &names, fast);
 }
 
@@ -141,7 +158,12 @@ fn sparse_npy(path: &Path, shape: &str, descr: &str, data_bytes: u64) {
 fn a_3_gb_npy_is_refused_before_it_is_read() {
     // Read whole before any check: "memory allocation of 3000000000 bytes failed", SIGABRT.
     let dir = case(&[]);
-    sparse_npy(&dir.path().join("big.npy"), "(3000000000,)", "|u1", 3_000_000_000);
+    sparse_npy(
+        &dir.path().join("big.npy"),
+        "(3000000000,)",
+        "|u1",
+        3_000_000_000,
+    );
     sparse_npy(
         &dir.path().join("big3d.npy"),
         "(1000, 1000, 750)",
@@ -149,7 +171,10 @@ fn a_3_gb_npy_is_refused_before_it_is_read() {
         3_000_000_000,
     );
     let fast = Duration::from_secs(10);
-    for (file, value) in [("big.npy", "3000000000 uint8"), ("big3d.npy", "1000 x 1000 x 750 float32")] {
+    for (file, value) in [
+        ("big.npy", "3000000000 uint8"),
+        ("big3d.npy", "1000 x 1000 x 750 float32"),
+    ] {
         let names = [file, value];
         refused_under_ulimit(dir.path(), &["ingest", file, "-o", "c.h5"], &names, fast);
         refused_under_ulimit(dir.path(), &["info", file], &names, fast);
@@ -234,7 +259,11 @@ fn hpd_ta_table_offsets_and_counts_near_2_pow_64_are_refused() {
     std::fs::write(d.join("good.img"), hpd_img(&comment, w, h, &table)).unwrap();
     let img = femto::formats::read_streak(&d.join("good.img"), false).unwrap();
     let t = img.time_axis_ps.expect("a time axis from the table");
-    assert_eq!((t[0], t[h - 1]), (108.0, 122.0), "entries 4..12 of the table");
+    assert_eq!(
+        (t[0], t[h - 1]),
+        (108.0, 122.0),
+        "entries 4..12 of the table"
+    );
 }
 
 #[test]
@@ -253,7 +282,10 @@ fn a_matlab_matrix_of_2_pow_62_values_without_values_is_refused() {
         &names,
         fast,
     );
-    assert!(!err.contains(".tmp"), "names the input, not a temporary file: {err}");
+    assert!(
+        !err.contains(".tmp"),
+        "names the input, not a temporary file: {err}"
+    );
     refused_under_ulimit(dir.path(), &["info", "huge.mat"], &names, fast);
     // Compressed, the same.
     let bytes = femto::readers::mat::v5_bytes(&[("huge", &dims, 7, 7, &[])], true);
@@ -314,7 +346,15 @@ fn an_mp4_under_16_pixels_is_refused_naming_the_size_and_the_limit() {
     let d = dir.path();
     let args = render_args(
         "cube.calibration.toml",
-        &["--capture-view", "--frames", "0..2", "--size", "16x12", "--out", "v.mp4"],
+        &[
+            "--capture-view",
+            "--frames",
+            "0..2",
+            "--size",
+            "16x12",
+            "--out",
+            "v.mp4",
+        ],
     );
     let names = ["16x12", "16x16"];
     refused_under_ulimit(d, &args, &names, Duration::from_secs(20));
@@ -338,14 +378,21 @@ fn encode_refuses_a_frame_name_it_cannot_order() {
     let dir = case(&[]);
     let d = dir.path();
     std::fs::create_dir(d.join("frames")).unwrap();
-    for name in ["frame_00000.png", "frame_00001.png", "frame_12345678901234567890123.png"] {
+    for name in [
+        "frame_00000.png",
+        "frame_00001.png",
+        "frame_12345678901234567890123.png",
+    ] {
         femto::video::write_png(&d.join("frames").join(name), &[90u8; 16 * 16 * 3], 16, 16)
             .unwrap();
     }
     refused_under_ulimit(
         d,
         &["encode", "frames", "--out", "v.gif"],
-        &["frame_12345678901234567890123.png", "12345678901234567890123"],
+        &[
+            "frame_12345678901234567890123.png",
+            "12345678901234567890123",
+        ],
         Duration::from_secs(10),
     );
 }
@@ -380,7 +427,10 @@ fn a_ytal_capture_with_no_known_sensor_point_is_refused() {
     // A sensor grid of NaN at every point was ingested (exit 0) and exported again.
     let dir = case(&["cube.h5"]);
     let d = dir.path();
-    let run = cli::femto_in(Some(d), &["export", "--to", "tal", "cube.h5", "-o", "t.hdf5"]);
+    let run = cli::femto_in(
+        Some(d),
+        &["export", "--to", "tal", "cube.h5", "-o", "t.hdf5"],
+    );
     assert_eq!(run.code, Some(0), "{}", run.stderr);
     let mut cap = femto::interop::read_tal(&d.join("t.hdf5")).unwrap();
     std::fs::remove_file(d.join("t.hdf5")).unwrap();

@@ -25,7 +25,12 @@ fn read_array(path: &Path, format: Format) -> Result<(), String> {
             transpose,
         };
         let c = femto::readers::open(path, format, &options).map_err(s)?;
-        assert_eq!(c.samples.len(), c.ny * c.nx * c.nt, "samples of {:?}", c.stored_shape);
+        assert_eq!(
+            c.samples.len(),
+            c.ny * c.nx * c.nt,
+            "samples of {:?}",
+            c.stored_shape
+        );
         assert!(c.ny * c.nx * c.nt > 0, "an empty capture was read");
         Ok::<(), String>(())
     };
@@ -64,7 +69,9 @@ pub fn npy_file(shape: &[usize], descr: &str, fortran: bool, version: u8, raw: &
 }
 
 fn npy_seeds() -> Vec<Vec<u8>> {
-    let f4: Vec<u8> = (0..60).flat_map(|i| (i as f32 * 0.5).to_le_bytes()).collect();
+    let f4: Vec<u8> = (0..60)
+        .flat_map(|i| (i as f32 * 0.5).to_le_bytes())
+        .collect();
     let u2: Vec<u8> = (0..15u16).flat_map(|i| (i * 300).to_be_bytes()).collect();
     let u1: Vec<u8> = (0..16u8).collect();
     let f8: Vec<u8> = (0..24).flat_map(|i| (i as f64).to_le_bytes()).collect();
@@ -95,12 +102,17 @@ fn npy() {
 fn mat_seeds(compress: bool) -> Vec<Vec<u8>> {
     use femto::readers::mat::v5_bytes;
     let u2: Vec<u8> = (0..24u16).flat_map(|i| (i * 7).to_le_bytes()).collect();
-    let f8: Vec<u8> = (0..30).flat_map(|i| (i as f64 * 0.25).to_le_bytes()).collect();
+    let f8: Vec<u8> = (0..30)
+        .flat_map(|i| (i as f64 * 0.25).to_le_bytes())
+        .collect();
     let width = 0.35f64.to_le_bytes();
     let small: Vec<u8> = (0..12u8).collect();
     vec![
         v5_bytes(
-            &[("width", &[1, 1], 6, 9, &width), ("rect", &[2, 3, 4], 11, 4, &u2)],
+            &[
+                ("width", &[1, 1], 6, 9, &width),
+                ("rect", &[2, 3, 4], 11, 4, &u2),
+            ],
             compress,
         ),
         v5_bytes(&[("d", &[5, 6], 6, 9, &f8)], compress),
@@ -157,7 +169,11 @@ fn mat_v73_file() -> Vec<u8> {
         .unwrap()
         .write_string("uint16")
         .unwrap();
-    let w = f.new_dataset::<f64>().shape([1, 1]).create("width").unwrap();
+    let w = f
+        .new_dataset::<f64>()
+        .shape([1, 1])
+        .create("width")
+        .unwrap();
     w.write_raw(&[0.35f64]).unwrap();
     w.new_attr::<rust_hdf5::VarLenUnicode>()
         .shape(())
@@ -207,7 +223,10 @@ fn hspy(explicit: bool) -> Vec<u8> {
         .unwrap()
         .write_raw(&(0..24u16).collect::<Vec<_>>())
         .unwrap();
-    for (i, (name, units)) in [("Y", "um"), ("X", "um"), ("Time", "ns")].iter().enumerate() {
+    for (i, (name, units)) in [("Y", "um"), ("X", "um"), ("Time", "ns")]
+        .iter()
+        .enumerate()
+    {
         let a = g.create_group(&format!("axis-{i}")).unwrap();
         a.set_attr_string("name", name).unwrap();
         a.set_attr_string("units", units).unwrap();
@@ -407,7 +426,7 @@ fn read_band(path: &Path) -> Result<(), String> {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(path, dir.path().join(femto::simulate::band::BAND_FILE)).unwrap();
     let info = femto::simulate::band::BandInfo::load(dir.path()).map_err(s)?;
-    assert!(info.rows().len() > 0 && info.rows().end <= info.settings.ny);
+    assert!(!info.rows().is_empty() && info.rows().end <= info.settings.ny);
     Ok(())
 }
 

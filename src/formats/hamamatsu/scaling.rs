@@ -201,10 +201,12 @@ pub(super) fn parse_axis_scaling(
             }
             // Inside the file, so below 2^64: `first_entry + len <= table_len` (table_part).
             let start = byte_offset + 4 * first_entry as u64;
-            let table_bytes = file.read(start, 4 * len).map_err(|source| FormatError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
+            let table_bytes = file
+                .read(start, 4 * len)
+                .map_err(|source| FormatError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
             let values: Vec<f64> = table_bytes
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)

@@ -66,8 +66,7 @@ pub fn read_hpd_tiff(path: &Path, transpose: bool) -> Result<TiffImage, FormatEr
     };
     let file = std::fs::File::open(path).map_err(io)?;
     let regions = FileRegions::new(&file).map_err(io)?;
-    let (raster, description) =
-        read_tiff_from(path, std::io::BufReader::new(&file), regions.len)?;
+    let (raster, description) = read_tiff_from(path, std::io::BufReader::new(&file), regions.len)?;
     let header = match description {
         Some(d) => hpd_tiff_header(path, &d)?,
         None => None,
