@@ -155,6 +155,15 @@ pub enum VideoError {
         path: PathBuf,
         source: exr::error::Error,
     },
+    /// A frame file could not be opened or read.
+    #[error("cannot read {path}: {source}")]
+    Read { path: PathBuf, source: io::Error },
+    /// A PNG frame could not be decoded (`femto encode`'s input).
+    #[error("cannot read {path}: {source}")]
+    Decode {
+        path: PathBuf,
+        source: image::ImageError,
+    },
     /// An EXR frame could not be read (not an EXR file, damaged, missing).
     #[error("cannot read {path}: {source}")]
     ExrRead {

@@ -25,9 +25,9 @@ start=$(date +%s)
 set +e
 FEMTO_FUZZ_CASES=$CASES FEMTO_FUZZ_SEED=$SEED cargo test "${flag[@]}" --test fuzz -- \
     --test-threads=1 --nocapture --skip regressions --skip mutations --skip base64 ${SKIP:+--skip $SKIP} $FILTER \
-    2>&1 | tee "$log" | grep --line-buffered -oE 'fuzz [a-z_]+ .*|^test .*FAILED|panicked.*|refused;.*|hang.*'
+    2>&1 | tee "$log" | grep -a --line-buffered -oE 'fuzz [a-z0-9_]+ .*|^test .*FAILED|panicked.*|refused;.*|hang.*'
 status=${PIPESTATUS[0]}
 set -e
 echo "fuzz: $(( $(date +%s) - start )) s in all, exit $status"
-grep -oE 'fuzz [a-z_]+ +[0-9]+ executions.*' "$log" | awk '{n += $3; f += $6} END {printf "fuzz: %d executions, %d failures\n", n, f}'
+grep -a -oE 'fuzz [a-z0-9_]+ +[0-9]+ executions.*' "$log" | awk '{n += $3; f += $6} END {printf "fuzz: %d executions, %d failures\n", n, f}'
 exit "$status"

@@ -76,12 +76,32 @@ pub enum ReaderError {
 }
 
 impl ReaderError {
+    /// A value, key or flag that does not fit. Names and values read from the file (a
+    /// variable's name, a dataset's) may hold control characters: they are escaped, so that
+    /// the message stays one line.
     pub(crate) fn invalid(path: &Path, key: &str, message: impl Into<String>) -> ReaderError {
         ReaderError::Invalid {
             path: path.to_path_buf(),
-            key: key.to_string(),
-            message: message.into(),
+            key: one_line(key),
+            message: one_line(&message.into()),
         }
+    }
+}
+
+/// `text` with its control characters (a newline, a NUL) escaped as `\n`, `\0`.
+fn one_line(text: &str) -> String {
+    if text.chars().any(char::is_control) {
+        text.chars()
+            .map(|c| {
+                if c.is_control() {
+                    c.escape_default().to_string()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect()
+    } else {
+        text.to_string()
     }
 }
 

@@ -165,12 +165,32 @@ fn check_planned(range: &std::ops::Range<usize>, files: &[PathBuf]) -> Result<()
     Ok(())
 }
 
-/// Read one PNG frame as 8-bit sRGB RGB.
+/// Read one PNG frame as 8-bit sRGB RGB, its decoded size checked against the memory
+/// budget from its header first (RGBA and the RGB copy: 7 bytes a pixel).
 fn read_frame(path: &Path) -> Result<super::Frame, VideoError> {
-    let image = image::open(path).map_err(|source| VideoError::Image {
+    let image_err = |source| VideoError::Decode {
+        path: path.to_path_buf(),
+        source,
+    };
+    let (w, h) = image::ImageReader::open(path)
+        .map_err(|source| VideoError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .into_dimensions()
+        .map_err(image_err)?;
+    crate::limits::check_decoded(
+        &[h as usize, w as usize],
+        7,
+        1,
+        format_args!("a frame of {w} x {h} pixels"),
+        "is the file damaged?",
+    )
+    .map_err(|source| VideoError::Limit {
         path: path.to_path_buf(),
         source,
     })?;
+    let image = image::open(path).map_err(image_err)?;
     if !matches!(
         image.color(),
         image::ColorType::Rgb8 | image::ColorType::Rgba8

@@ -426,7 +426,7 @@ fn read_band(path: &Path) -> Result<(), String> {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(path, dir.path().join(femto::simulate::band::BAND_FILE)).unwrap();
     let info = femto::simulate::band::BandInfo::load(dir.path()).map_err(s)?;
-    assert!(info.rows().len() > 0 && info.rows().end <= info.settings.ny);
+    assert!(!info.rows().is_empty() && info.rows().end <= info.settings.ny);
     Ok(())
 }
 

@@ -127,3 +127,15 @@ def exr(w, h, claim=None):
 put('exr_frame', 'issue45-valid-8x6.exr', exr(8, 6))
 put('exr_frame', 'issue45-window-16777216x1048576.exr', exr(8, 6, (16777216, 1048576)))
 put('exr_frame', 'issue45-window-2pow31.exr', exr(8, 6, (2**31 - 1, 2**31 - 1)))
+
+# The other values of the issue's list (0, 2^31, 2^32) where a header count meets `*`.
+put('npy', 'issue45-shape-0.npy', npy([0, 4], '<f4', b''))
+put('npy', 'issue45-shape-2pow31.npy', npy([2**31], '<f4', bytes(16)))
+put('npy', 'issue45-shape-2pow32.npy', npy([2**32, 2], '<f8', bytes(16)))
+put('mat', 'issue45-dims-0.mat', mat([matrix('z', [0, 4, 3], 6, 9, b'')]))
+put('mat', 'issue45-dims-2pow31-1.mat', mat([matrix('m', [2**31 - 1, 2**31 - 1, 2], 6, 9, bytes(64))]))
+for count, tag in [('0', '0'), ('2147483648', '2pow31'), ('4294967296', '2pow32')]:
+    data, c = img2('0', count, '600')
+    put('img', 'issue45-table-count-%s.img' % tag, data)
+    put('hpd_tiff', 'issue45-table-count-%s.tif' % tag, tif(c))
+put('exr_frame', 'issue45-window-2pow32.exr', exr(8, 6, (65536, 65536)))
