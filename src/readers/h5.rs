@@ -206,6 +206,15 @@ pub(super) fn read_f64s(file: &H5File, path: &Path, name: &str) -> Result<Vec<f6
     let dt = ds.datatype().map_err(h5err(path))?;
     let (dtype, big) = dtype_of(&dt)
         .ok_or_else(|| ReaderError::invalid(path, name, format!("not numeric ({dt:?})")))?;
+    let count = ds
+        .shape()
+        .iter()
+        .try_fold(1u128, |a, &n| a.checked_mul(n as u128));
+    super::check_bytes(
+        path,
+        count.and_then(|c| c.checked_mul(dtype.size() as u128 + 8)),
+        &format!("the axis /{name} of {:?} values", ds.shape()),
+    )?;
     let bytes = ds.read_raw_bytes().map_err(h5err(path))?;
     Ok(bytes
         .chunks_exact(dtype.size())
