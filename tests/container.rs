@@ -734,7 +734,10 @@ fn info_rejects_other_files_in_one_line() {
     std::fs::write(&txt, "hello").unwrap();
     let missing = dir.path().join("missing.h5");
     for (p, what) in [
-        (&txt, "not a femto cube (HDF5) file"),
+        (
+            &txt,
+            "not a file femto reads; femto reads femto cubes (.h5)",
+        ),
         (&missing, "No such file"),
     ] {
         let out = FemtoCmd::new().args(["info", p.to_str().unwrap()]).output();

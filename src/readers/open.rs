@@ -36,6 +36,13 @@ fn no_axis(what: &str) -> TimeSpec {
 pub fn open(path: &Path, format: Format, options: &ReadOptions) -> Result<Capture, ReaderError> {
     let dataset = options.dataset.as_deref();
     let stored = match format {
+        Format::Ptu if dataset.is_some() => {
+            return Err(ReaderError::invalid(
+                path,
+                "--dataset",
+                "a PTU file holds one measurement (frames and channels: --select)",
+            ))
+        }
         Format::Ptu => return ptu::read(path, &options.layout),
         Format::Npy => {
             if dataset.is_some() {
