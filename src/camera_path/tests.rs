@@ -527,129 +527,10 @@ vfov_deg = 40.0
 /// Every number of both path kinds, made non-finite (or too far), is refused naming the
 /// keyframe and the key (issue 16: `look_at_m = [0, -inf, 0]` reached the BVH).
 /// Long (132 lines) because it is one table: a row per number of the file format.
-#[test]
-fn every_number_must_be_finite_and_the_message_names_its_key() {
-    let key = example_toml();
-    let orbit = orbit_toml();
-    assert!(CameraPath::from_toml(&orbit, "o.toml").is_ok());
-    let cases: &[(&String, &str, &str, &str)] = &[
-        (
-            &key,
-            "look_at_m = [0.0, 0.3, 0.0]",
-            "look_at_m = [0.0, -inf, 0.0]",
-            "keyframe 1 of 3: look_at_m[1] must be finite, got -inf",
-        ),
-        (
-            &key,
-            "position_m = [0.01, 0.5, 2.97]",
-            "position_m = [0.01, nan, 2.97]",
-            "keyframe 2 of 3: position_m[1] must be finite, got NaN",
-        ),
-        (
-            &key,
-            "position_m = [0.0, 0.5, 3.0]",
-            "position_m = [1e39, 0.5, 3.0]",
-            "keyframe 1 of 3: position_m[0] = 1e39 m is beyond",
-        ),
-        (
-            &key,
-            "up = [0.0, 1.0, 0.1]",
-            "up = [0.0, inf, 0.1]",
-            "keyframe 3 of 3: up[1] must be finite, got inf",
-        ),
-        (
-            &key,
-            "time_ps = 300.0",
-            "time_ps = nan",
-            "keyframe 2 of 3: time_ps must be finite, got NaN",
-        ),
-        (
-            &key,
-            "vfov_deg = 40.0",
-            "vfov_deg = inf",
-            "keyframe 1 of 3: vfov_deg must be finite, got inf",
-        ),
-        (
-            &key,
-            "beta = [0.0, 0.0, -0.4]",
-            "beta = [0.0, 0.0, -inf]",
-            "keyframe 1 of 3: beta[2] must be finite, got -inf",
-        ),
-        (
-            &key,
-            "[[1.0, 0.0, 0.0], [0.0, -1.0",
-            "[[1.0, 0.0, 0.0], [0.0, nan",
-            "keyframe 2 of 3: world_from_camera[1][1] must be finite, got NaN",
-        ),
-        (&key, "dtau_ps = 40.0", "dtau_ps = inf", "dtau_ps = inf"),
-        (
-            &key,
-            "beta_edge = 0.3",
-            "beta_edge = nan",
-            "rotation.beta_edge = NaN",
-        ),
-        (
-            &key,
-            "dtau_ps = 40.0",
-            "dtau_ps = 40.0\ntau0_ps = -inf",
-            "tau0_ps = -inf",
-        ),
-        (
-            &orbit,
-            "centre_m = [0.0, 0.03, 0.0]",
-            "centre_m = [0.0, 0.03, nan]",
-            "orbit.centre_m[2] must be finite, got NaN",
-        ),
-        (
-            &orbit,
-            "look_at_m = [0.16, 0.05, 0.07]",
-            "look_at_m = [0.0, -inf, 0.0]",
-            "orbit.look_at_m[1] must be finite, got -inf",
-        ),
-        (
-            &orbit,
-            "axis = [0.0, 1.0, 0.0]",
-            "axis = [0.0, inf, 0.0]",
-            "orbit.axis[1] must be finite, got inf",
-        ),
-        (
-            &orbit,
-            "height_m = 0.2",
-            "height_m = -inf",
-            "orbit.height_m must be finite",
-        ),
-        (
-            &orbit,
-            "radius_m = 0.5",
-            "radius_m = 1e300",
-            "orbit.radius_m = 1e300 m is beyond",
-        ),
-        (
-            &orbit,
-            "start_angle_deg = -41.8",
-            "start_angle_deg = nan",
-            "orbit.start_angle_deg must be finite, got NaN",
-        ),
-        (
-            &orbit,
-            "beta = 0.3",
-            "beta = inf",
-            "orbit.beta must be finite, got inf",
-        ),
-        (
-            &orbit,
-            "vfov_deg = 40.0",
-            "vfov_deg = -inf",
-            "orbit.vfov_deg must be finite",
-        ),
-        (
-            &orbit,
-            "tau0_ps = 2000.0",
-            "tau0_ps = nan",
-            "tau0_ps = NaN is not a finite",
-        ),
-    ];
-    for (text, from, to, want) in cases {
+/// Each edit of `text` (`from` replaced by `to`) is refused with one line that starts with
+/// the file's name and contains `want`.
+fn assert_refused_naming_the_key(text: &str, cases: &[(&str, &str, &str)]) {
+    for (from, to, want) in cases {
         assert!(text.contains(from), "{from}");
         let edited = text.replacen(from, to, 1);
         let e = CameraPath::from_toml(&edited, "p.toml")
@@ -659,6 +540,122 @@ fn every_number_must_be_finite_and_the_message_names_its_key() {
         assert!(e.starts_with("p.toml: ") && e.contains(want), "{to}: {e}");
         assert_eq!(e.lines().count(), 1, "{e}");
     }
+}
+
+#[test]
+fn every_number_of_a_keyframe_path_must_be_finite_and_the_message_names_its_key() {
+    assert_refused_naming_the_key(
+        &example_toml(),
+        &[
+            (
+                "look_at_m = [0.0, 0.3, 0.0]",
+                "look_at_m = [0.0, -inf, 0.0]",
+                "keyframe 1 of 3: look_at_m[1] must be finite, got -inf",
+            ),
+            (
+                "position_m = [0.01, 0.5, 2.97]",
+                "position_m = [0.01, nan, 2.97]",
+                "keyframe 2 of 3: position_m[1] must be finite, got NaN",
+            ),
+            (
+                "position_m = [0.0, 0.5, 3.0]",
+                "position_m = [1e39, 0.5, 3.0]",
+                "keyframe 1 of 3: position_m[0] = 1e39 m is beyond",
+            ),
+            (
+                "up = [0.0, 1.0, 0.1]",
+                "up = [0.0, inf, 0.1]",
+                "keyframe 3 of 3: up[1] must be finite, got inf",
+            ),
+            (
+                "time_ps = 300.0",
+                "time_ps = nan",
+                "keyframe 2 of 3: time_ps must be finite, got NaN",
+            ),
+            (
+                "vfov_deg = 40.0",
+                "vfov_deg = inf",
+                "keyframe 1 of 3: vfov_deg must be finite, got inf",
+            ),
+            (
+                "beta = [0.0, 0.0, -0.4]",
+                "beta = [0.0, 0.0, -inf]",
+                "keyframe 1 of 3: beta[2] must be finite, got -inf",
+            ),
+            (
+                "[[1.0, 0.0, 0.0], [0.0, -1.0",
+                "[[1.0, 0.0, 0.0], [0.0, nan",
+                "keyframe 2 of 3: world_from_camera[1][1] must be finite, got NaN",
+            ),
+            ("dtau_ps = 40.0", "dtau_ps = inf", "dtau_ps = inf"),
+            (
+                "beta_edge = 0.3",
+                "beta_edge = nan",
+                "rotation.beta_edge = NaN",
+            ),
+            (
+                "dtau_ps = 40.0",
+                "dtau_ps = 40.0\ntau0_ps = -inf",
+                "tau0_ps = -inf",
+            ),
+        ],
+    );
+}
+
+#[test]
+fn every_number_of_an_orbit_must_be_finite_and_the_message_names_its_key() {
+    let orbit = orbit_toml();
+    assert!(CameraPath::from_toml(&orbit, "o.toml").is_ok());
+    assert_refused_naming_the_key(
+        &orbit,
+        &[
+            (
+                "centre_m = [0.0, 0.03, 0.0]",
+                "centre_m = [0.0, 0.03, nan]",
+                "orbit.centre_m[2] must be finite, got NaN",
+            ),
+            (
+                "look_at_m = [0.16, 0.05, 0.07]",
+                "look_at_m = [0.0, -inf, 0.0]",
+                "orbit.look_at_m[1] must be finite, got -inf",
+            ),
+            (
+                "axis = [0.0, 1.0, 0.0]",
+                "axis = [0.0, inf, 0.0]",
+                "orbit.axis[1] must be finite, got inf",
+            ),
+            (
+                "height_m = 0.2",
+                "height_m = -inf",
+                "orbit.height_m must be finite",
+            ),
+            (
+                "radius_m = 0.5",
+                "radius_m = 1e300",
+                "orbit.radius_m = 1e300 m is beyond",
+            ),
+            (
+                "start_angle_deg = -41.8",
+                "start_angle_deg = nan",
+                "orbit.start_angle_deg must be finite, got NaN",
+            ),
+            (
+                "beta = 0.3",
+                "beta = inf",
+                "orbit.beta must be finite, got inf",
+            ),
+            (
+                "vfov_deg = 40.0",
+                "vfov_deg = -inf",
+                "orbit.vfov_deg must be finite",
+            ),
+            (
+                "tau0_ps = 2000.0",
+                "tau0_ps = nan",
+                "tau0_ps = NaN is not a finite",
+            ),
+        ],
+    );
 }
 
 /// The frame count is capped before the frames are walked: a count of 2^64 - 1 is refused

@@ -157,10 +157,8 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The report printed after a calibration.
-///
-/// Long (about 140 lines) on purpose: the report's lines one after another in print order,
-/// with no logic beyond choosing which points to list.
+/// The report printed after a calibration: the inputs, the camera fit, the registration and
+/// the time fit, each in print order.
 fn report(
     args: &CalibrateArgs,
     meta: &femto::container::CubeMeta,
@@ -169,52 +167,64 @@ fn report(
     result: &Calibrated,
     out: &Path,
 ) -> String {
-    let fit = &result.spatial;
-    let cal = &result.calibration;
-    let reg = &result.registration;
-    let tfit = &result.time.fit;
-    let mut r = String::new();
-    let mut line = |s: String| {
-        r.push_str(&s);
-        r.push('\n');
-    };
-    line(format!(
-        "calibration of {} ({} x {} pixels) against {} ({} triangles)",
-        args.cube.display(),
-        meta.nx,
-        meta.ny,
-        args.mesh.display(),
-        bvh.mesh().triangle_count()
+    let mut lines = vec![
+        format!(
+            "calibration of {} ({} x {} pixels) against {} ({} triangles)",
+            args.cube.display(),
+            meta.nx,
+            meta.ny,
+            args.mesh.display(),
+            bvh.mesh().triangle_count()
+        ),
+        format!(
+            "{} points from {}; intrinsics {}{}",
+            points.len(),
+            args.points.display(),
+            if result.spatial.intrinsics_fitted {
+                "fitted"
+            } else {
+                "known"
+            },
+            match (args.fit_distortion, result.spatial.distortion_fitted) {
+                (_, true) => ", distortion fitted",
+                (true, false) => ", distortion not fitted (needs 10 points or more)",
+                _ => "",
+            }
+        ),
+    ];
+    lines.extend(point_lines(args, points, &result.spatial));
+    lines.extend(camera_lines(meta, result));
+    lines.extend(time_lines(args, meta, result));
+    lines.push(format!(
+        "wrote {} and the /{} group of {}",
+        out.display(),
+        registration::GROUP,
+        args.cube.display()
     ));
-    line(format!(
-        "{} points from {}; intrinsics {}{}",
-        points.len(),
-        args.points.display(),
-        if fit.intrinsics_fitted {
-            "fitted"
-        } else {
-            "known"
-        },
-        match (args.fit_distortion, fit.distortion_fitted) {
-            (_, true) => ", distortion fitted",
-            (true, false) => ", distortion not fitted (needs 10 points or more)",
-            _ => "",
-        }
-    ));
-    // Every point when there are few; else the outliers and the worst of the others.
+    lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+/// The correspondences' reprojection errors (every point when there are few; else the
+/// outliers and the worst of the others) and their summary.
+fn point_lines(
+    args: &CalibrateArgs,
+    points: &[femto::calibrate::Correspondence],
+    fit: &femto::calibrate::SpatialFit,
+) -> Vec<String> {
+    let mut lines = Vec::new();
     let mut shown: Vec<usize> = (0..points.len()).collect();
     if points.len() > MAX_POINTS_LISTED {
         shown.sort_by(|&a, &b| fit.per_point_px[b].total_cmp(&fit.per_point_px[a]));
         let keep = fit.outliers.len().max(MAX_POINTS_LISTED / 2);
         shown.truncate(keep);
         shown.sort_unstable();
-        line(format!(
+        lines.push(format!(
             "{} points; the {} with the largest errors:",
             points.len(),
             shown.len()
         ));
     }
-    line(format!(
+    lines.push(format!(
         "{:>5}  {:<24} {:>10} {:>10} {:>10}",
         "#", "point", "x_px", "y_px", "error_px"
     ));
@@ -225,7 +235,7 @@ fn report(
         } else {
             ""
         };
-        line(format!(
+        lines.push(format!(
             "{:>5}  {:<24} {:>10.2} {:>10.2} {:>10.3}{flag}",
             i + 1,
             p.name.as_deref().unwrap_or("-"),
@@ -234,7 +244,7 @@ fn report(
             e
         ));
     }
-    line(format!(
+    lines.push(format!(
         "reprojection: rms {:.3} px, median {:.3} px over the points used; outlier threshold {:.2} px; {} outlier(s){}",
         fit.rms_px,
         fit.median_px,
@@ -246,48 +256,67 @@ fn report(
             " (left out of the fit)"
         }
     ));
+    lines
+}
+
+/// The camera found and the pixels it registers to the mesh.
+fn camera_lines(meta: &femto::container::CubeMeta, result: &Calibrated) -> Vec<String> {
+    let cal = &result.calibration;
+    let reg = &result.registration;
     let k = &cal.intrinsics;
     let o = cal.pose.position_m;
     let f = cal.pose.forward();
-    line(format!(
-        "camera: centre ({:.4}, {:.4}, {:.4}) m, looking along ({:.4}, {:.4}, {:.4})",
-        o.x, o.y, o.z, f.x, f.y, f.z
-    ));
-    line(format!(
-        "intrinsics: fx {:.3} fy {:.3} cx {:.3} cy {:.3} px, k1 {:.5} k2 {:.5}",
-        k.fx, k.fy, k.cx, k.cy, k.k1, k.k2
-    ));
     let hits = reg.hit_count();
     let (dmin, dmax) = registration::dist_range_m(reg).unwrap_or((f32::NAN, f32::NAN));
-    line(format!(
-        "registration: {hits} of {} pixels see the mesh ({:.1} %), distance {dmin:.4} .. {dmax:.4} m",
-        meta.nx * meta.ny,
-        100.0 * hits as f64 / (meta.nx * meta.ny) as f64
-    ));
-    line(format!(
-        "time: t0 {:.3} +- {:.3} ps (bin coordinate {:.4} on the cube's axis of {} ps bins), time scale {}{}",
-        tfit.t0_ps,
-        result.time.t0_std_error_ps,
-        meta.axis.bin_coord(tfit.t0_ps),
-        meta.axis.dt_ps,
-        tfit.time_scale,
-        if args.fit_time_scale {
-            " (fitted)"
-        } else {
-            " (fixed)"
-        }
-    ));
-    line(format!(
-        "time residuals: rms {:.3} ps over {} inliers of {} pixels with direct light, robust sigma {:.3} ps",
-        tfit.rms_ps,
-        tfit.inlier_count(),
-        result.time.samples,
-        tfit.sigma_ps
-    ));
-    for l in result.scanline_report.lines() {
-        line(l);
-    }
-    line(format!(
+    vec![
+        format!(
+            "camera: centre ({:.4}, {:.4}, {:.4}) m, looking along ({:.4}, {:.4}, {:.4})",
+            o.x, o.y, o.z, f.x, f.y, f.z
+        ),
+        format!(
+            "intrinsics: fx {:.3} fy {:.3} cx {:.3} cy {:.3} px, k1 {:.5} k2 {:.5}",
+            k.fx, k.fy, k.cx, k.cy, k.k1, k.k2
+        ),
+        format!(
+            "registration: {hits} of {} pixels see the mesh ({:.1} %), distance {dmin:.4} .. {dmax:.4} m",
+            meta.nx * meta.ny,
+            100.0 * hits as f64 / (meta.nx * meta.ny) as f64
+        ),
+    ]
+}
+
+/// The time fit: `t0`, its residuals, the scanline offsets and the detection floor with its
+/// check.
+fn time_lines(
+    args: &CalibrateArgs,
+    meta: &femto::container::CubeMeta,
+    result: &Calibrated,
+) -> Vec<String> {
+    let tfit = &result.time.fit;
+    let mut lines = vec![
+        format!(
+            "time: t0 {:.3} +- {:.3} ps (bin coordinate {:.4} on the cube's axis of {} ps bins), time scale {}{}",
+            tfit.t0_ps,
+            result.time.t0_std_error_ps,
+            meta.axis.bin_coord(tfit.t0_ps),
+            meta.axis.dt_ps,
+            tfit.time_scale,
+            if args.fit_time_scale {
+                " (fitted)"
+            } else {
+                " (fixed)"
+            }
+        ),
+        format!(
+            "time residuals: rms {:.3} ps over {} inliers of {} pixels with direct light, robust sigma {:.3} ps",
+            tfit.rms_ps,
+            tfit.inlier_count(),
+            result.time.samples,
+            tfit.sigma_ps
+        ),
+    ];
+    lines.extend(result.scanline_report.lines());
+    lines.push(format!(
         "detection floor {:.4} ({}; the cube's noise sigma {:.4}); check with the floor at {:.4}: t0 {:.3} ps over {} pixels",
         result.time.floor,
         match args.min_peak {
@@ -299,11 +328,5 @@ fn report(
         result.check.fit.t0_ps,
         result.check.samples
     ));
-    line(format!(
-        "wrote {} and the /{} group of {}",
-        out.display(),
-        registration::GROUP,
-        args.cube.display()
-    ));
-    r
+    lines
 }

@@ -17,7 +17,7 @@ use femto::cube::TimeAxis;
 use femto::geometry::bvh::Bvh;
 use femto::geometry::load::load_mesh;
 use femto::pipeline::overwrite::refuse_existing;
-use femto::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions};
+use femto::pipeline::unwarp::{unwarp_file, Distances, UnwarpOptions, Unwarped};
 use femto::unwarp::Direction;
 use std::path::{Path, PathBuf};
 
@@ -137,6 +137,13 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
             args.out.display()
         );
     }
+    print_summary(&args, &done, direction);
+    Ok(())
+}
+
+/// What `femto unwarp` prints once the output is written: the axes, the pixels shifted and
+/// masked, the scanlines moved.
+fn print_summary(args: &UnwarpArgs, done: &Unwarped, direction: Direction) {
     let (a, o) = (done.input_axis, done.output_axis);
     println!(
         "wrote {}: {} -> {} time, {} x {} pixels, {} bins of {} ps from {} ps (input: {} bins from {} ps)",
@@ -196,7 +203,6 @@ pub fn run(args: UnwarpArgs) -> anyhow::Result<()> {
             femto::store::registration::SCANLINE_OFFSETS
         );
     }
-    Ok(())
 }
 
 /// The groups (pyramid, registration, ...) an existing `out` holds, which replacing it drops.

@@ -298,9 +298,6 @@ fn still_output(figure: &str, path: &str, caption: &str, pairs: &[(&str, String)
 /// through the target) shown naively (keeping the capture camera's time warp) and re-warped,
 /// and three isochrone images: the capture camera's time of arrival, world time, and the
 /// novel camera's time of arrival.
-///
-/// Long (about 140 lines) on purpose: the figure's five images one after another, each
-/// render beside its file name, caption and parameter list; most lines are those tables.
 pub fn fig4(
     scene: &RenderScene,
     sizes: &DemoSizes,
@@ -326,59 +323,114 @@ pub fn fig4(
     };
     let novel = CameraPath::static_view(&novel_pose, vfov, spec)?;
     let capture = CameraPath::static_view(&scene.capture.pose, vfov, spec)?;
-    let mut outputs = Vec::new();
     let t_receive_ps = st.show_offset(scene, &novel_pos);
-    let common = |view: &str| {
+    let fig = Fig4 {
+        scene,
+        st: &st,
+        size: (w, h),
+        t_receive_ps,
+        out,
+    };
+    let mut outputs = fig.novel_views(&novel)?;
+    outputs.extend(fig.isochrones(&capture, &novel)?);
+    Ok(outputs)
+}
+
+/// What the images of [`fig4`] share.
+struct Fig4<'a, 's> {
+    scene: &'a RenderScene<'s>,
+    st: &'a Stills,
+    /// Width and height of each image, pixels.
+    size: (usize, usize),
+    /// The time offset of the novel camera's stills ([`Stills::show_offset`]), ps.
+    t_receive_ps: f64,
+    out: &'a Path,
+}
+
+impl Fig4<'_, '_> {
+    /// The parameters every image of the figure lists, for `view`.
+    fn common(&self, view: &str) -> Vec<(&'static str, String)> {
+        let (w, h) = self.size;
         vec![
             ("view", view.to_string()),
             ("size", format!("{w}x{h}")),
-            ("t_receive_ps", format!("{t_receive_ps:.1}")),
-            ("exposure_window_ps", format!("{}", st.dtau_ps)),
+            ("t_receive_ps", format!("{:.1}", self.t_receive_ps)),
+            ("exposure_window_ps", format!("{}", self.st.dtau_ps)),
             ("novel_yaw_deg", format!("{NOVEL_YAW_DEG}")),
         ]
-    };
-    for (view, file, caption) in [
-        (
-            View::Naive,
-            "fig4_naive.png",
-            "novel view, naive: the capture's camera-time frames re-projected (time warp of the capture camera kept)",
-        ),
-        (
-            View::Transient,
-            "fig4_rewarped.png",
-            "novel view, re-warped: world time shifted by the novel camera's own distances",
-        ),
-    ] {
-        let mut s = settings(w, h, st.dtau_ps, Effects::ALL, view);
-        s.exposure = st.exposure;
-        s.time_offset_ps = t_receive_ps;
-        let rgb = render_rgb8(scene, &s, &novel, 0);
-        write_png(&out.join(file), w, h, &rgb)?;
-        let mut p = common(view.name());
-        p.push(("exposure", format!("{:.4e}", st.exposure)));
-        outputs.push(still_output("fig4", file, caption, &p));
     }
-    let iso_renders: [(&CameraPath, bool, &str, &str); 3] = [
-        (
-            &capture,
-            true,
-            "fig4_isochrones_capture.png",
-            "isochrones of the capture camera: time of arrival at the capture camera (camera time)",
-        ),
-        (
-            &capture,
-            false,
-            "fig4_isochrones_world.png",
-            "isochrones in world time: when the direct light reaches each point",
-        ),
-        (
-            &novel,
-            true,
-            "fig4_isochrones_novel.png",
-            "isochrones of the novel camera: time of arrival at the novel camera",
-        ),
-    ];
-    for (path, unwarp, file, caption) in iso_renders {
+
+    /// The novel view from `novel`, naive and re-warped.
+    fn novel_views(&self, novel: &CameraPath) -> Result<Vec<OutputFile>, DemoError> {
+        let (st, (w, h)) = (self.st, self.size);
+        let mut outputs = Vec::new();
+        for (view, file, caption) in [
+            (
+                View::Naive,
+                "fig4_naive.png",
+                "novel view, naive: the capture's camera-time frames re-projected (time warp of the capture camera kept)",
+            ),
+            (
+                View::Transient,
+                "fig4_rewarped.png",
+                "novel view, re-warped: world time shifted by the novel camera's own distances",
+            ),
+        ] {
+            let mut s = settings(w, h, st.dtau_ps, Effects::ALL, view);
+            s.exposure = st.exposure;
+            s.time_offset_ps = self.t_receive_ps;
+            let rgb = render_rgb8(self.scene, &s, novel, 0);
+            write_png(&self.out.join(file), w, h, &rgb)?;
+            let mut p = self.common(view.name());
+            p.push(("exposure", format!("{:.4e}", st.exposure)));
+            outputs.push(still_output("fig4", file, caption, &p));
+        }
+        Ok(outputs)
+    }
+
+    /// The three isochrone images, each with its colour bar: arrival at the `capture`
+    /// camera, world time, arrival at the `novel` camera.
+    fn isochrones(
+        &self,
+        capture: &CameraPath,
+        novel: &CameraPath,
+    ) -> Result<Vec<OutputFile>, DemoError> {
+        let iso_renders: [(&CameraPath, bool, &str, &str); 3] = [
+            (
+                capture,
+                true,
+                "fig4_isochrones_capture.png",
+                "isochrones of the capture camera: time of arrival at the capture camera (camera time)",
+            ),
+            (
+                capture,
+                false,
+                "fig4_isochrones_world.png",
+                "isochrones in world time: when the direct light reaches each point",
+            ),
+            (
+                novel,
+                true,
+                "fig4_isochrones_novel.png",
+                "isochrones of the novel camera: time of arrival at the novel camera",
+            ),
+        ];
+        iso_renders
+            .into_iter()
+            .map(|(path, unwarp, file, caption)| self.isochrone(path, unwarp, file, caption))
+            .collect()
+    }
+
+    /// One isochrone image from `path` (arrival at the camera with `unwarp`, else world
+    /// time) with its colour bar, written to `file`.
+    fn isochrone(
+        &self,
+        path: &CameraPath,
+        unwarp: bool,
+        file: &str,
+        caption: &str,
+    ) -> Result<OutputFile, DemoError> {
+        let (scene, (w, h)) = (self.scene, self.size);
         let effects = Effects {
             unwarp,
             ..Effects::ALL
@@ -386,7 +438,7 @@ pub fn fig4(
         let probe = settings(
             w,
             h,
-            st.dtau_ps,
+            self.st.dtau_ps,
             effects,
             View::Isochrones(Isochrones {
                 t_min_ps: 0.0,
@@ -406,8 +458,8 @@ pub fn fig4(
         };
         let bar = isochrone_bar(&iso, w);
         let with_bar = stack(&image, &bar.strip);
-        write_png(&out.join(file), w, with_bar.height, &with_bar.rgb8)?;
-        let mut p = common("isochrones");
+        write_png(&self.out.join(file), w, with_bar.height, &with_bar.rgb8)?;
+        let mut p = self.common("isochrones");
         p.retain(|(k, _)| *k != "t_receive_ps" && *k != "exposure_window_ps");
         p.push((
             "clock",
@@ -435,9 +487,8 @@ pub fn fig4(
             "{caption}; colour bar below: time in ps, blue early to red late, a dark line every {} ps as in the image",
             iso.contour_ps
         );
-        outputs.push(still_output("fig4", file, &caption, &p));
+        Ok(still_output("fig4", file, &caption, &p))
     }
-    Ok(outputs)
 }
 
 /// Label scale of text drawn on a still `width` pixels wide: font pixels of 1 screen pixel up

@@ -284,24 +284,87 @@ fn read_h(ds: &H5Dataset, path: &Path) -> Result<(usize, usize, usize, Vec<f32>)
 /// Read the y-tal capture at `path` (one laser point, `H_format = T_Sx_Sy`); confocal and
 /// multi-laser captures are refused, naming what they hold.
 pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
-    let file = H5File::open(path).map_err(h5err(path))?;
-    let names: Vec<String> = file
-        .dataset_names()
-        .into_iter()
-        .map(|n| n.trim_start_matches('/').to_string())
-        .collect();
-    let has = |k: &str| names.iter().any(|n| n == k);
-    let open = |k: &str| -> Result<H5Dataset, InteropError> {
-        if !has(k) {
+    let f = TalReader::open(path)?;
+    let h_format = f.scalar("H_format")?;
+    if h_format != f64::from(H_FORMAT_T_SX_SY) {
+        return Err(invalid(
+            path,
+            "H_format",
+            format!(
+                "{h_format} (femto reads T_Sx_Sy = 1: one laser point, a grid of sensor points)"
+            ),
+        ));
+    }
+    let (nt, sx, sy, h) = read_h(&f.dataset("H")?, path)?;
+    let (sensor_grid_xyz_m, sensor_grid_normals) = f.sensor_grid(sx, sy)?;
+    let laser_grid_xyz_m = f.laser_grid(sx, sy, &sensor_grid_xyz_m)?;
+    // Optical path lengths: a bin width and a time in metres ([`ranges::BIN_WIDTH_PS`],
+    // [`ranges::TIME_PS`] times c); `delta_t = 1e-300` was ingested as a cube of 3e-297 ps bins.
+    let delta_t_m = in_range(
+        path,
+        "delta_t",
+        f.scalar("delta_t")?,
+        ranges::BIN_WIDTH_PS.scaled(C_M_PER_PS, " m"),
+    )?;
+    let t_start_m = in_range(
+        path,
+        "t_start",
+        f.scalar("t_start")?,
+        ranges::TIME_PS.scaled(C_M_PER_PS, " m"),
+    )?;
+    Ok(TalCapture {
+        nt,
+        sx,
+        sy,
+        h,
+        delta_t_m,
+        t_start_m,
+        t_accounts_first_and_last_bounces: f.scalar("t_accounts_first_and_last_bounces")? != 0.0,
+        sensor_xyz_m: f.point("sensor_xyz")?,
+        sensor_grid_xyz_m,
+        sensor_grid_normals,
+        laser_xyz_m: f.point("laser_xyz")?,
+        laser_grid_xyz_m,
+    })
+}
+
+/// A y-tal file open for reading, its datasets by name; each read names the file and the
+/// dataset when it fails.
+struct TalReader<'a> {
+    path: &'a Path,
+    file: H5File,
+    names: Vec<String>,
+}
+
+impl<'a> TalReader<'a> {
+    fn open(path: &'a Path) -> Result<Self, InteropError> {
+        let file = H5File::open(path).map_err(h5err(path))?;
+        let names: Vec<String> = file
+            .dataset_names()
+            .into_iter()
+            .map(|n| n.trim_start_matches('/').to_string())
+            .collect();
+        Ok(TalReader { path, file, names })
+    }
+
+    fn has(&self, k: &str) -> bool {
+        self.names.iter().any(|n| n == k)
+    }
+
+    /// Dataset `k`, refused as missing when the file has none.
+    fn dataset(&self, k: &str) -> Result<H5Dataset, InteropError> {
+        if !self.has(k) {
             return Err(InteropError::Missing {
-                path: path.to_path_buf(),
+                path: self.path.to_path_buf(),
                 key: k.to_string(),
             });
         }
-        file.dataset(k).map_err(h5err(path))
-    };
-    let read = |k: &str| -> Result<(Vec<usize>, Vec<f64>), InteropError> {
-        let ds = open(k)?;
+        self.file.dataset(k).map_err(h5err(self.path))
+    }
+
+    /// Dataset `k`'s shape and numbers.
+    fn read(&self, k: &str) -> Result<(Vec<usize>, Vec<f64>), InteropError> {
+        let ds = self.dataset(k)?;
         let shape = ds.shape();
         // The stored values and their f64 copy, before either is read.
         crate::limits::check_decoded(
@@ -312,118 +375,105 @@ pub fn read_tal(path: &Path) -> Result<TalCapture, InteropError> {
             "is the file damaged?",
         )
         .map_err(|source| InteropError::Limit {
-            path: path.to_path_buf(),
+            path: self.path.to_path_buf(),
             source,
         })?;
-        Ok((shape, numbers(&ds, path, k)?))
-    };
-    let scalar = |k: &str| -> Result<f64, InteropError> {
-        let (_, v) = read(k)?;
+        Ok((shape, numbers(&ds, self.path, k)?))
+    }
+
+    /// Dataset `k` as one finite number.
+    fn scalar(&self, k: &str) -> Result<f64, InteropError> {
+        let (_, v) = self.read(k)?;
         match v.as_slice() {
             [x] if x.is_finite() => Ok(*x),
             _ => Err(invalid(
-                path,
+                self.path,
                 k,
                 format!("expected one finite number, found {v:?}"),
             )),
         }
-    };
-    let point = |k: &str| -> Result<[f64; 3], InteropError> {
-        let (_, v) = read(k)?;
-        let p = <[f64; 3]>::try_from(v.as_slice())
-            .map_err(|_| invalid(path, k, format!("expected 3 numbers, found {}", v.len())))?;
-        check_device(path, k, &p)?;
-        Ok(p)
-    };
-
-    let h_format = scalar("H_format")?;
-    if h_format != f64::from(H_FORMAT_T_SX_SY) {
-        return Err(invalid(
-            path,
-            "H_format",
-            format!(
-                "{h_format} (femto reads T_Sx_Sy = 1: one laser point, a grid of sensor points)"
-            ),
-        ));
     }
-    let (nt, sx, sy, h) = read_h(&open("H")?, path)?;
-    let grid = |k: &str| -> Result<Vec<[f64; 3]>, InteropError> {
-        let (shape, v) = read(k)?;
+
+    /// Dataset `k` as the position of a device (the sensor, the laser).
+    fn point(&self, k: &str) -> Result<[f64; 3], InteropError> {
+        let (_, v) = self.read(k)?;
+        let p = <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+            invalid(
+                self.path,
+                k,
+                format!("expected 3 numbers, found {}", v.len()),
+            )
+        })?;
+        check_device(self.path, k, &p)?;
+        Ok(p)
+    }
+
+    /// Dataset `k` as an `(sx, sy)` grid of 3-vectors, `[x][y]`.
+    fn grid(&self, k: &str, sx: usize, sy: usize) -> Result<Vec<[f64; 3]>, InteropError> {
+        let (shape, v) = self.read(k)?;
         if shape != [sx, sy, 3] {
             return Err(invalid(
-                path,
+                self.path,
                 k,
                 format!("shape {shape:?}, expected [{sx}, {sy}, 3]"),
             ));
         }
         Ok(v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
-    };
-    // Entry i of a (Sx, Sy) grid is [x][y].
-    let xy = |i: usize| format!("[{}][{}]", i / sy, i % sy);
-    let sensor_grid_xyz_m = grid("sensor_grid_xyz")?;
-    check_grid(
-        path,
-        "sensor_grid_xyz",
-        &sensor_grid_xyz_m,
-        ranges::COORD_M,
-        xy,
-    )?;
-    require_known_point(path, "sensor_grid_xyz", &sensor_grid_xyz_m)?;
-    // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
-    let sensor_grid_normals = match has("sensor_grid_normals") {
-        true if !read("sensor_grid_normals")?.1.is_empty() => Some(grid("sensor_grid_normals")?),
-        _ => None,
-    };
-    if let Some(n) = &sensor_grid_normals {
-        check_grid(path, "sensor_grid_normals", n, ranges::DIRECTION, xy)?;
     }
-    let (lshape, lv) = read("laser_grid_xyz")?;
-    let laser_grid_xyz_m = if lv.len() == 3 {
-        let spot = [lv[0], lv[1], lv[2]];
-        check_point(path, "laser_grid_xyz", &spot, ranges::COORD_M)?;
-        LaserSpot::Single(spot)
-    } else if lshape == [sx, sy, 3] && is_confocal_grid(&lv, &sensor_grid_xyz_m) {
-        LaserSpot::Confocal
-    } else {
+
+    /// The sensor grid's points and, when the file has them, its normals, checked.
+    #[allow(clippy::type_complexity)]
+    fn sensor_grid(
+        &self,
+        sx: usize,
+        sy: usize,
+    ) -> Result<(Vec<[f64; 3]>, Option<Vec<[f64; 3]>>), InteropError> {
+        // Entry i of a (Sx, Sy) grid is [x][y].
+        let xy = |i: usize| format!("[{}][{}]", i / sy, i % sy);
+        let points = self.grid("sensor_grid_xyz", sx, sy)?;
+        check_grid(self.path, "sensor_grid_xyz", &points, ranges::COORD_M, xy)?;
+        require_known_point(self.path, "sensor_grid_xyz", &points)?;
+        // y-tal writes an absent value as an empty dataset (h5py.Empty): no normals then.
+        let normals = match self.has("sensor_grid_normals") {
+            true if !self.read("sensor_grid_normals")?.1.is_empty() => {
+                Some(self.grid("sensor_grid_normals", sx, sy)?)
+            }
+            _ => None,
+        };
+        if let Some(n) = &normals {
+            check_grid(self.path, "sensor_grid_normals", n, ranges::DIRECTION, xy)?;
+        }
+        Ok((points, normals))
+    }
+
+    /// The laser grid: one spot, or the sensor grid itself (a confocal scan); any other
+    /// (several laser points, a custom pairing) is refused.
+    fn laser_grid(
+        &self,
+        sx: usize,
+        sy: usize,
+        sensor_grid_xyz_m: &[[f64; 3]],
+    ) -> Result<LaserSpot, InteropError> {
+        let (lshape, lv) = self.read("laser_grid_xyz")?;
+        if lv.len() == 3 {
+            let spot = [lv[0], lv[1], lv[2]];
+            check_point(self.path, "laser_grid_xyz", &spot, ranges::COORD_M)?;
+            return Ok(LaserSpot::Single(spot));
+        }
+        if lshape == [sx, sy, 3] && is_confocal_grid(&lv, sensor_grid_xyz_m) {
+            return Ok(LaserSpot::Confocal);
+        }
         let what = if lshape.starts_with(&[sx, sy]) {
             "a laser point per sensor point that is not the sensor point (a custom pairing)"
         } else {
             "several laser points"
         };
-        return Err(invalid(
-            path,
+        Err(invalid(
+            self.path,
             "laser_grid_xyz",
             format!("shape {lshape:?}: {what}; femto reads one laser spot or a confocal scan (split the capture in y-tal: get_single_subdata_from_laser_point)"),
-        ));
-    };
-    // Optical path lengths: a bin width and a time in metres ([`ranges::BIN_WIDTH_PS`],
-    // [`ranges::TIME_PS`] times c); `delta_t = 1e-300` was ingested as a cube of 3e-297 ps bins.
-    let delta_t_m = in_range(
-        path,
-        "delta_t",
-        scalar("delta_t")?,
-        ranges::BIN_WIDTH_PS.scaled(C_M_PER_PS, " m"),
-    )?;
-    let t_start_m = in_range(
-        path,
-        "t_start",
-        scalar("t_start")?,
-        ranges::TIME_PS.scaled(C_M_PER_PS, " m"),
-    )?;
-    Ok(TalCapture {
-        nt,
-        sx,
-        sy,
-        h,
-        delta_t_m,
-        t_start_m,
-        t_accounts_first_and_last_bounces: scalar("t_accounts_first_and_last_bounces")? != 0.0,
-        sensor_xyz_m: point("sensor_xyz")?,
-        sensor_grid_xyz_m,
-        sensor_grid_normals,
-        laser_xyz_m: point("laser_xyz")?,
-        laser_grid_xyz_m,
-    })
+        ))
+    }
 }
 
 /// Whether a laser grid (flat `x, y, z` triples) is the sensor grid, as y-tal's

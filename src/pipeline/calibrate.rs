@@ -32,7 +32,7 @@ use crate::calibrate::{
     SpatialFit, SpatialOptions, TimeFit,
 };
 use crate::camera::{Calibration, Intrinsics, KnownIntrinsics};
-use crate::container::{CubeReader, GroupUpdate};
+use crate::container::{CubeMeta, CubeReader, GroupUpdate};
 use crate::cube::{row_slabs, Cube, TimeFrame};
 use crate::geometry::bvh::Bvh;
 use crate::ingest::assemble::{JITTER_SHIFTS_NOTE, TRUE_JITTER_NOTE};
@@ -241,16 +241,13 @@ pub fn calibrate_cube(
 ) -> Result<Calibrated, StageError> {
     let reader = CubeReader::open(cube_path)?;
     let meta = reader.meta().clone();
-    let at = |e: CalibrateError| StageError::Calibrate {
-        path: cube_path.display().to_string(),
-        source: e,
-    };
+    let at = |e: CalibrateError| calibrate_error(cube_path, e);
     if meta.frame != TimeFrame::Camera {
         return Err(at(CalibrateError::WorldTimeCube));
     }
     check_options(options)?;
-    let t = options.threshold_fraction;
 
+    // The camera, and what each pixel sees through it.
     let spatial = spatial_options(options, cube_path, meta.nx, meta.ny)?;
     let fit = fit_camera(points, &spatial).map_err(|e| StageError::Points { source: e })?;
     let camera = fit.calibration(0.0, 1.0, laser_m, options.eta);
@@ -260,6 +257,7 @@ pub fn calibrate_cube(
     }
     let footprint_spread_m = footprint_spread_m(&camera, mesh, &reg);
 
+    // t0 from the direct light above the detection floor, checked at twice the floor.
     let noise = cube_noise_sigma(&reader)?;
     let auto_floor = (NOISE_SIGMAS * noise) as f32;
     let floor = match options.floor {
@@ -268,45 +266,20 @@ pub fn calibrate_cube(
     };
     let prints = footprints(&reg, &laser_m);
     let mask = reader.read_mask()?;
-    let slabs = Slabs {
-        reader: &reader,
-        mask: mask.as_deref(),
-        reg: &reg,
-        prints: &prints,
+    let fitter = TimeFitter {
+        cube_path,
+        slabs: Slabs {
+            reader: &reader,
+            mask: mask.as_deref(),
+            reg: &reg,
+            prints: &prints,
+        },
+        laser_m,
+        options,
+        progress,
     };
-    let run = |floor: f32, what: &str| -> Result<TimeFitRun, StageError> {
-        let arrival = ArrivalOptions {
-            threshold_fraction: t,
-            min_peak: floor,
-            ..ArrivalOptions::default()
-        };
-        let (fit, samples) = fit_direct_time(options.eta, options.fit_time_scale, &mut |model| {
-            time_samples(
-                &slabs,
-                &laser_m,
-                options.eta,
-                model,
-                &[],
-                &arrival,
-                what,
-                progress,
-            )
-        })
-        .map_err(|e| match e {
-            StageError::Calibrate { source, .. } => at(source),
-            other => other,
-        })?;
-        let n = fit.inlier_count().max(1) as f64;
-        Ok(TimeFitRun {
-            t0_std_error_ps: fit.sigma_ps / n.sqrt(),
-            samples: samples.len(),
-            fit,
-            floor,
-        })
-    };
-    let time = run(floor, "t0")?;
-    let check = run((2.0 * floor).max(auto_floor), "t0 check")?;
-
+    let time = fitter.fit_t0(floor, "t0")?;
+    let check = fitter.fit_t0((2.0 * floor).max(auto_floor), "t0 check")?;
     let dt_ps = meta.axis.dt_ps;
     let shift_ps = (check.fit.t0_ps - time.fit.t0_ps).abs();
     let allowed_ps =
@@ -321,72 +294,15 @@ pub fn calibrate_cube(
             noise_sigma: noise,
         });
     }
-    let mut warnings = Vec::new();
-    if floor < auto_floor {
-        warnings.push(format!(
-            "the detection floor {floor} is below {NOISE_SIGMAS} x the cube's noise ({auto_floor:.4}); \
-             t0 agreed with the check at {:.4} within {shift_ps:.3} ps",
-            check.floor
-        ));
-    }
-    if time.fit.rms_ps > dt_ps {
-        warnings.push(format!(
-            "the direct light fits t0 with {:.2} ps rms, more than a bin ({dt_ps} ps): check the \
-             laser position and the mesh",
-            time.fit.rms_ps
-        ));
-    }
+    let warnings = time_warnings(&time, &check, auto_floor, dt_ps);
+
+    // Each scanline's offset against the geometry.
     let model = DirectTime {
         t0_ps: time.fit.t0_ps,
         time_scale: time.fit.time_scale,
         eta: options.eta,
     };
-    let measure = |min_peak: f32, what: &str| {
-        let arrival = ArrivalOptions {
-            threshold_fraction: t,
-            min_peak,
-            ..ArrivalOptions::default()
-        };
-        fit_scanline_offsets(&model, meta.ny, |shift_ps| {
-            time_samples(
-                &slabs,
-                &laser_m,
-                options.eta,
-                Some((model.t0_ps, model.time_scale)),
-                shift_ps,
-                &arrival,
-                what,
-                progress,
-            )
-        })
-    };
-    // Only a capture whose scanlines were triggered one by one has scanline offsets to find:
-    // ingest records that by removing their jitter. Elsewhere (a cube from an array file, a
-    // tracer, another tool) a row's median residual is the time model's error along the row,
-    // which on an analytic cube of 40 ps bins reached 7 ps "beyond 4 standard errors".
-    let triggered = meta.notes.iter().any(|(k, _)| k == JITTER_SHIFTS_NOTE);
-    let (scanlines, scanline_report) = if triggered {
-        let mut scanlines = measure(floor, "scanline times")?;
-        if scanlines.iter().any(Option::is_none) {
-            let dim = measure(floor * DIM_ROW_FLOOR, "scanline times, dim rows")?;
-            fill_missing(&mut scanlines, &dim);
-        }
-        let truth = jitter_truth(&meta.notes, meta.ny);
-        let report = scanline_report(
-            &scanlines,
-            truth.as_ref().map(|(t, i)| (t.as_slice(), i.as_slice())),
-        );
-        (scanlines, report)
-    } else {
-        let report = OffsetReport {
-            summary: format!(
-                "scanline times: not measured (the cube has no {JITTER_SHIFTS_NOTE} note: its \
-                 scanlines were not ingested as separately triggered sweeps)"
-            ),
-            ..OffsetReport::default()
-        };
-        (Vec::new(), report)
-    };
+    let (scanlines, scanline_report) = fitter.scanline_times(&meta, &model, floor)?;
     let calibration = fit.calibration(time.fit.t0_ps, time.fit.time_scale, laser_m, options.eta);
     Ok(Calibrated {
         calibration,
@@ -401,6 +317,161 @@ pub fn calibrate_cube(
         footprint_spread_m,
         warnings,
     })
+}
+
+/// A calibration error of the cube at `cube_path`.
+fn calibrate_error(cube_path: &Path, source: CalibrateError) -> StageError {
+    StageError::Calibrate {
+        path: cube_path.display().to_string(),
+        source,
+    }
+}
+
+/// What the user should know of the fit of `t0` (`time`) and its check: a floor below the
+/// automatic one `auto_floor` (with how well the check agreed), a residual over a bin of
+/// `dt_ps`.
+fn time_warnings(
+    time: &TimeFitRun,
+    check: &TimeFitRun,
+    auto_floor: f32,
+    dt_ps: f64,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let (floor, shift_ps) = (time.floor, (check.fit.t0_ps - time.fit.t0_ps).abs());
+    if floor < auto_floor {
+        warnings.push(format!(
+            "the detection floor {floor} is below {NOISE_SIGMAS} x the cube's noise ({auto_floor:.4}); \
+             t0 agreed with the check at {:.4} within {shift_ps:.3} ps",
+            check.floor
+        ));
+    }
+    if time.fit.rms_ps > dt_ps {
+        warnings.push(format!(
+            "the direct light fits t0 with {:.2} ps rms, more than a bin ({dt_ps} ps): check the \
+             laser position and the mesh",
+            time.fit.rms_ps
+        ));
+    }
+    warnings
+}
+
+/// The time fits of [`calibrate_cube`] over one registered cube: `t0` and each scanline's
+/// offset, from the cube's row slabs, the laser spot and the options.
+struct TimeFitter<'a> {
+    cube_path: &'a Path,
+    slabs: Slabs<'a>,
+    laser_m: Point3<f64>,
+    options: &'a CalibrateOptions,
+    progress: &'a dyn Progress,
+}
+
+impl TimeFitter<'_> {
+    /// The first-arrival search of the options, counting only pixels whose maximum reaches
+    /// `min_peak`.
+    fn arrival(&self, min_peak: f32) -> ArrivalOptions {
+        ArrivalOptions {
+            threshold_fraction: self.options.threshold_fraction,
+            min_peak,
+            ..ArrivalOptions::default()
+        }
+    }
+
+    /// One fit of `t0` (and the time scale, if asked) to the direct light of the pixels above
+    /// `floor`; `what` names the pass in the progress.
+    fn fit_t0(&self, floor: f32, what: &str) -> Result<TimeFitRun, StageError> {
+        let options = self.options;
+        let arrival = self.arrival(floor);
+        let (fit, samples) = fit_direct_time(options.eta, options.fit_time_scale, &mut |model| {
+            time_samples(
+                &self.slabs,
+                &self.laser_m,
+                options.eta,
+                model,
+                &[],
+                &arrival,
+                what,
+                self.progress,
+            )
+        })
+        .map_err(|e| match e {
+            StageError::Calibrate { source, .. } => calibrate_error(self.cube_path, source),
+            other => other,
+        })?;
+        let n = fit.inlier_count().max(1) as f64;
+        Ok(TimeFitRun {
+            t0_std_error_ps: fit.sigma_ps / n.sqrt(),
+            samples: samples.len(),
+            fit,
+            floor,
+        })
+    }
+
+    /// Each scanline's offset against `model` from the pixels above `min_peak`
+    /// ([`fit_scanline_offsets`]).
+    fn scanline_offsets(
+        &self,
+        model: &DirectTime,
+        ny: usize,
+        min_peak: f32,
+        what: &str,
+    ) -> Result<Vec<Option<RowOffset>>, StageError> {
+        let arrival = self.arrival(min_peak);
+        fit_scanline_offsets(model, ny, |shift_ps| {
+            time_samples(
+                &self.slabs,
+                &self.laser_m,
+                self.options.eta,
+                Some((model.t0_ps, model.time_scale)),
+                shift_ps,
+                &arrival,
+                what,
+                self.progress,
+            )
+        })
+    }
+
+    /// The scanline offsets of a cube whose scanlines were triggered one by one, measured
+    /// above `floor` and, for the rows left without an estimate, above
+    /// [`DIM_ROW_FLOOR`] of it; with their report (against the truth of a simulated capture).
+    ///
+    /// Only such a capture has scanline offsets to find: ingest records it by removing their
+    /// jitter. Elsewhere (a cube from an array file, a tracer, another tool) a row's median
+    /// residual is the time model's error along the row, which on an analytic cube of 40 ps
+    /// bins reached 7 ps "beyond 4 standard errors"; those get no offsets and say why.
+    fn scanline_times(
+        &self,
+        meta: &CubeMeta,
+        model: &DirectTime,
+        floor: f32,
+    ) -> Result<(Vec<Option<RowOffset>>, OffsetReport), StageError> {
+        let triggered = meta.notes.iter().any(|(k, _)| k == JITTER_SHIFTS_NOTE);
+        if !triggered {
+            let report = OffsetReport {
+                summary: format!(
+                    "scanline times: not measured (the cube has no {JITTER_SHIFTS_NOTE} note: \
+                     its scanlines were not ingested as separately triggered sweeps)"
+                ),
+                ..OffsetReport::default()
+            };
+            return Ok((Vec::new(), report));
+        }
+        let mut scanlines = self.scanline_offsets(model, meta.ny, floor, "scanline times")?;
+        if scanlines.iter().any(Option::is_none) {
+            let dim = self.scanline_offsets(
+                model,
+                meta.ny,
+                floor * DIM_ROW_FLOOR,
+                "scanline times, dim rows",
+            )?;
+            fill_missing(&mut scanlines, &dim);
+        }
+        let truth = jitter_truth(&meta.notes, meta.ny);
+        let report = scanline_report(
+            &scanlines,
+            truth.as_ref().map(|(t, i)| (t.as_slice(), i.as_slice())),
+        );
+        Ok((scanlines, report))
+    }
 }
 
 /// A simulated capture's true scanline delays and the shifts ingest removed (zeros when it

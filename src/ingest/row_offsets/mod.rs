@@ -418,14 +418,247 @@ fn candidate_windows(ny: usize) -> (Vec<Vec<Window>>, Vec<Vec<[f64; 4]>>) {
     (windows, misfit_coeffs)
 }
 
+/// Step 1 of the module doc over a capture: every row's candidate windows (the centred one
+/// first) with their misfit coefficients, and the per-pixel measurements `values` (`ny x nx`,
+/// `[y][x]`, `None` = not measured) they predict from.
+struct Stencils<'a> {
+    values: &'a [Option<f64>],
+    nx: usize,
+    windows: Vec<Vec<Window>>,
+    misfit_coeffs: Vec<Vec<[f64; 4]>>,
+}
+
+/// Step 2 for one candidate window of one row: the median residual `r` over the pixels for
+/// which the window is clean, its squared standard error `s2`, and how many pixels (`0`, with
+/// `s2` infinite, when fewer than the fit's minimum).
+#[derive(Clone, Copy, Debug)]
+struct WindowFit {
+    r: f64,
+    s2: f64,
+    pixels: usize,
+}
+
+/// The window chosen for a row (step 2): its index among the row's candidates, its median
+/// residual and squared standard error.
+type Chosen = Option<(usize, f64, f64)>;
+
+impl<'a> Stencils<'a> {
+    fn new(values: &'a [Option<f64>], nx: usize, ny: usize) -> Self {
+        let (windows, misfit_coeffs) = candidate_windows(ny);
+        Stencils {
+            values,
+            nx,
+            windows,
+            misfit_coeffs,
+        }
+    }
+
+    fn ny(&self) -> usize {
+        self.windows.len()
+    }
+
+    /// Pixel `(y, x)` against window `k` of its row: its residual and the signed third divided
+    /// difference of the window's four other rows; NaN where a row is not measured.
+    #[inline]
+    fn pixel(&self, y: usize, x: usize, k: usize) -> (f64, f64) {
+        let (values, nx) = (self.values, self.nx);
+        let w = &self.windows[y][k];
+        let Some(v) = values[y * nx + x] else {
+            return (f64::NAN, f64::NAN);
+        };
+        let (mut p, mut m) = (0.0, 0.0);
+        for ((&ry, &wk), &ck) in w.rows.iter().zip(&w.weights).zip(&self.misfit_coeffs[y][k]) {
+            let Some(u) = values[ry * nx + x] else {
+                return (f64::NAN, f64::NAN);
+            };
+            p += wk * u;
+            m += ck * u;
+        }
+        (v - p, m)
+    }
+
+    /// [`Stencils::pixel`] with the misfit's magnitude.
+    #[inline]
+    fn misfit(&self, y: usize, x: usize, k: usize) -> (f64, f64) {
+        let (e, m) = self.pixel(y, x, k);
+        (e, m.abs())
+    }
+
+    /// Step 1's edge test: a pixel's window holds an edge of the scene where its misfit exceeds
+    /// [`EDGE_FACTOR`] times the median over every pixel and window. `None` when no pixel has
+    /// a finite misfit.
+    fn misfit_limit(&self) -> Option<f64> {
+        let (ny, nx) = (self.ny(), self.nx);
+        let mut misfits: Vec<f64> = (0..ny)
+            .flat_map(|y| (0..nx).map(move |x| (y, x)))
+            .flat_map(|(y, x)| (0..self.windows[y].len()).map(move |k| (y, x, k)))
+            .map(|(y, x, k)| self.misfit(y, x, k).1)
+            .filter(|m| m.is_finite())
+            .collect();
+        (!misfits.is_empty()).then(|| EDGE_FACTOR * median(&mut misfits))
+    }
+
+    /// Step 2 for every candidate window of every row: its median residual over the pixels for
+    /// which it is clean (misfit within `misfit_limit`), with at least `min` of them; and the
+    /// centred window's over every pixel (`None` with fewer than `min`).
+    fn fit_windows(
+        &self,
+        min: usize,
+        misfit_limit: f64,
+    ) -> (Vec<Vec<WindowFit>>, Vec<Option<(f64, f64)>>) {
+        let (ny, nx) = (self.ny(), self.nx);
+        let mut residuals: Vec<f64> = Vec::with_capacity(nx);
+        let mut fitted: Vec<Vec<WindowFit>> = Vec::with_capacity(ny);
+        let mut centred_all: Vec<Option<(f64, f64)>> = Vec::with_capacity(ny);
+        for (y, row_windows) in self.windows.iter().enumerate() {
+            let mut row = Vec::with_capacity(5);
+            for k in 0..row_windows.len() {
+                residuals.clear();
+                residuals.extend(
+                    (0..nx)
+                        .map(|x| self.misfit(y, x, k))
+                        .filter(|&(_, m)| m <= misfit_limit)
+                        .map(|(e, _)| e),
+                );
+                row.push(if residuals.len() >= min {
+                    let (r, s2) = median_and_variance(&mut residuals);
+                    WindowFit {
+                        r,
+                        s2,
+                        pixels: residuals.len(),
+                    }
+                } else {
+                    WindowFit {
+                        r: 0.0,
+                        s2: f64::INFINITY,
+                        pixels: 0,
+                    }
+                });
+            }
+            fitted.push(row);
+            residuals.clear();
+            residuals.extend(
+                (0..nx)
+                    .map(|x| self.pixel(y, x, 0).0)
+                    .filter(|e| e.is_finite()),
+            );
+            centred_all.push((residuals.len() >= min).then(|| median_and_variance(&mut residuals)));
+        }
+        (fitted, centred_all)
+    }
+
+    /// Step 2's choice of one window per row: the centred one where it is clean for at least
+    /// half of the row's measured pixels; else (a horizontal edge next to the row, where every
+    /// pixel jumps at once) the clean window whose residual is smallest: the side of the edge
+    /// that the row belongs to, off by the offsets only, not by the edge; with no clean
+    /// window, the centred one over every pixel.
+    fn choose(
+        &self,
+        fitted: &[Vec<WindowFit>],
+        centred_all: &[Option<(f64, f64)>],
+        min: usize,
+    ) -> Vec<Chosen> {
+        let nx = self.nx;
+        (0..self.ny())
+            .map(|y| {
+                let measured = (0..nx)
+                    .filter(|&x| self.values[y * nx + x].is_some())
+                    .count();
+                let f = &fitted[y];
+                let centred_clean = f[0].pixels >= min && 2 * f[0].pixels >= measured;
+                if centred_clean {
+                    Some((0, f[0].r, f[0].s2))
+                } else {
+                    (0..f.len())
+                        .filter(|&k| f[k].pixels >= min)
+                        .min_by(|&a, &b| f[a].r.abs().total_cmp(&f[b].r.abs()))
+                        .map(|k| (k, f[k].r, f[k].s2))
+                        .or_else(|| centred_all[y].map(|(r, s2)| (0, r, s2)))
+                }
+            })
+            .collect()
+    }
+
+    /// Step 3's equations: one per row with a chosen window, its variance at least `floor`;
+    /// with the row of each.
+    fn equations(&self, chosen: &[Chosen], floor: f64) -> (Vec<Equation>, Vec<usize>) {
+        let ny = self.ny();
+        let mut eqs: Vec<Equation> = Vec::with_capacity(ny);
+        let mut eq_row: Vec<usize> = Vec::with_capacity(ny);
+        for (y, c) in chosen.iter().enumerate() {
+            if let Some((k, r, s2)) = *c {
+                eqs.push(Equation {
+                    coeffs: Window {
+                        r,
+                        s2,
+                        ..self.windows[y][k]
+                    }
+                    .coeffs(y),
+                    r,
+                    s2: s2.max(floor),
+                    model_s2: 0.0,
+                });
+                eq_row.push(y);
+            }
+        }
+        (eqs, eq_row)
+    }
+
+    /// Step 3's model error: each equation's `model_s2`, how far its row's clean windows other
+    /// than the chosen one miss their residuals given `offsets` (an edge of the scene that the
+    /// windows see differently). Whether any is positive.
+    fn add_model_error(
+        &self,
+        eqs: &mut [Equation],
+        eq_row: &[usize],
+        fitted: &[Vec<WindowFit>],
+        min: usize,
+        floor: f64,
+        offsets: &[f64],
+    ) -> bool {
+        for (e, &y) in eqs.iter_mut().zip(eq_row) {
+            let mut excess: Vec<f64> = (0..self.windows[y].len())
+                .filter(|&k| fitted[y][k].pixels >= min)
+                .map(|k| {
+                    let w = Window {
+                        r: fitted[y][k].r,
+                        s2: fitted[y][k].s2,
+                        ..self.windows[y][k]
+                    };
+                    let m = w.r
+                        - w.coeffs(y)
+                            .iter()
+                            .map(|&(i, c)| c * offsets[i])
+                            .sum::<f64>();
+                    (m * m - w.s2.max(floor)).max(0.0)
+                })
+                .collect();
+            e.model_s2 = if excess.is_empty() {
+                0.0
+            } else {
+                median(&mut excess)
+            };
+        }
+        eqs.iter().any(|e| e.model_s2 > 0.0)
+    }
+}
+
+/// The smallest variance of a row's residual (step 3): [`MODEL_FLOOR`] of the median chosen
+/// residual, squared; `None` when no row has a chosen window.
+fn model_floor(chosen: &[Chosen]) -> Option<f64> {
+    let mut typical: Vec<f64> = chosen.iter().flatten().map(|c| c.1.abs()).collect();
+    if typical.is_empty() {
+        return None;
+    }
+    Some((MODEL_FLOOR * median(&mut typical)).powi(2).max(1e-24))
+}
+
 /// The offset common to each row of per-pixel measurements `values` (`ny x nx`, `[y][x]`,
 /// `None` = not measured), with its standard error and the part applied (module doc). Rows
 /// with fewer than `fit.min_pixels` predicted pixels get `None`; with fewer than 5 rows,
 /// every row does. A glitched row next to a horizontal edge of the scene is left alone
 /// rather than corrected: the windows of its neighbours that hold it look like an edge, so
 /// its prediction windows disagree and its standard error is large (module doc).
-/// (About 150 lines: the residuals of every candidate window and the choice among them
-/// share the per-pixel closures `pixel` and `misfit`, which a split would pass around.)
 pub fn estimate_row_offsets(
     values: &[Option<f64>],
     nx: usize,
@@ -436,144 +669,23 @@ pub fn estimate_row_offsets(
         return vec![None; ny];
     }
     let min = fit.min_pixels.max(3);
-    // Steps 1 and 2, for every 5-row window holding each row; the centred one first. Per
-    // pixel, a window is left out where its four other rows do not lie on a quadratic (an
-    // edge of the scene runs between them); where the windows left disagree by far more than
-    // usual (an edge between the row and one side), only the one closest to the measured
-    // value (the pixel's own side) is kept.
-    let (windows, misfit_coeffs) = candidate_windows(ny);
-    // Per (y, x): each window's residual and the signed third divided difference of its
-    // four other rows, NaN where a row is not measured.
-    let pixel = |y: usize, x: usize, k: usize| -> (f64, f64) {
-        let w = &windows[y][k];
-        let Some(v) = values[y * nx + x] else {
-            return (f64::NAN, f64::NAN);
-        };
-        let (mut p, mut m) = (0.0, 0.0);
-        for ((&ry, &wk), &ck) in w.rows.iter().zip(&w.weights).zip(&misfit_coeffs[y][k]) {
-            let Some(u) = values[ry * nx + x] else {
-                return (f64::NAN, f64::NAN);
-            };
-            p += wk * u;
-            m += ck * u;
-        }
-        (v - p, m)
-    };
-    let misfit = |y: usize, x: usize, k: usize| -> (f64, f64) {
-        let (e, m) = pixel(y, x, k);
-        (e, m.abs())
-    };
-    let mut misfits: Vec<f64> = (0..ny)
-        .flat_map(|y| (0..nx).map(move |x| (y, x)))
-        .flat_map(|(y, x)| (0..windows[y].len()).map(move |k| (y, x, k)))
-        .map(|(y, x, k)| misfit(y, x, k).1)
-        .filter(|m| m.is_finite())
-        .collect();
-    if misfits.is_empty() {
+    // Step 1: every 5-row window holding each row, the centred one first; per pixel, a window
+    // is left out where its four other rows do not lie on a quadratic.
+    let stencils = Stencils::new(values, nx, ny);
+    let Some(misfit_limit) = stencils.misfit_limit() else {
         return vec![None; ny];
-    }
-    let misfit_limit = EDGE_FACTOR * median(&mut misfits);
-    drop(misfits);
-    // Each window's median residual over the pixels for which it is clean, and how many;
-    // and the centred window's over every pixel.
-    let mut residuals: Vec<f64> = Vec::with_capacity(nx);
-    let mut fitted: Vec<Vec<(f64, f64, usize)>> = Vec::with_capacity(ny);
-    let mut centred_all: Vec<Option<(f64, f64)>> = Vec::with_capacity(ny);
-    for (y, row_windows) in windows.iter().enumerate() {
-        let mut row = Vec::with_capacity(5);
-        for k in 0..row_windows.len() {
-            residuals.clear();
-            residuals.extend(
-                (0..nx)
-                    .map(|x| misfit(y, x, k))
-                    .filter(|&(_, m)| m <= misfit_limit)
-                    .map(|(e, _)| e),
-            );
-            row.push(if residuals.len() >= min {
-                let (r, s2) = median_and_variance(&mut residuals);
-                (r, s2, residuals.len())
-            } else {
-                (0.0, f64::INFINITY, 0)
-            });
-        }
-        fitted.push(row);
-        residuals.clear();
-        residuals.extend((0..nx).map(|x| pixel(y, x, 0).0).filter(|e| e.is_finite()));
-        centred_all.push((residuals.len() >= min).then(|| median_and_variance(&mut residuals)));
-    }
-    // One window per row: the centred one where it is clean for at least half of the row's
-    // measured pixels; else (a horizontal edge next to the row, where every pixel jumps at
-    // once) the clean window whose residual is smallest: the side of the edge that the row
-    // belongs to, off by the offsets only, not by the edge; with no clean window, the
-    // centred one over every pixel.
-    let mut chosen: Vec<Option<(usize, f64, f64)>> = vec![None; ny];
-    for y in 0..ny {
-        let measured = (0..nx).filter(|&x| values[y * nx + x].is_some()).count();
-        let f = &fitted[y];
-        let centred_clean = f[0].2 >= min && 2 * f[0].2 >= measured;
-        chosen[y] = if centred_clean {
-            Some((0, f[0].0, f[0].1))
-        } else {
-            (0..f.len())
-                .filter(|&k| f[k].2 >= min)
-                .min_by(|&a, &b| f[a].0.abs().total_cmp(&f[b].0.abs()))
-                .map(|k| (k, f[k].0, f[k].1))
-                .or_else(|| centred_all[y].map(|(r, s2)| (0, r, s2)))
-        };
-    }
-    // The scene model's error at each row: how far the row's clean windows other than the
-    // chosen one miss their residuals, given the offsets (an edge of the scene that the
-    // windows see differently); 0 on the first solve.
-    let floor = {
-        let mut typical: Vec<f64> = chosen.iter().flatten().map(|c| c.1.abs()).collect();
-        if typical.is_empty() {
-            return vec![None; ny];
-        }
-        (MODEL_FLOOR * median(&mut typical)).powi(2).max(1e-24)
     };
-    let mut eqs: Vec<Equation> = Vec::with_capacity(ny);
-    let mut eq_row: Vec<usize> = Vec::with_capacity(ny);
-    for (y, c) in chosen.iter().enumerate() {
-        if let Some((k, r, s2)) = *c {
-            eqs.push(Equation {
-                coeffs: Window {
-                    r,
-                    s2,
-                    ..windows[y][k]
-                }
-                .coeffs(y),
-                r,
-                s2: s2.max(floor),
-                model_s2: 0.0,
-            });
-            eq_row.push(y);
-        }
-    }
+    // Step 2: each window's median residual and its error; one window per row.
+    let (fitted, centred_all) = stencils.fit_windows(min, misfit_limit);
+    let chosen = stencils.choose(&fitted, &centred_all, min);
+    // Step 3: the robust solve, then again with the scene model's error where the row's
+    // windows disagree given the offsets (0 on the first solve).
+    let Some(floor) = model_floor(&chosen) else {
+        return vec![None; ny];
+    };
+    let (mut eqs, eq_row) = stencils.equations(&chosen, floor);
     let mut solution = solve_robust(&eqs, ny, fit);
-    for (e, &y) in eqs.iter_mut().zip(&eq_row) {
-        let mut excess: Vec<f64> = (0..windows[y].len())
-            .filter(|&k| fitted[y][k].2 >= min)
-            .map(|k| {
-                let w = Window {
-                    r: fitted[y][k].0,
-                    s2: fitted[y][k].1,
-                    ..windows[y][k]
-                };
-                let m = w.r
-                    - w.coeffs(y)
-                        .iter()
-                        .map(|&(i, c)| c * solution.offsets[i])
-                        .sum::<f64>();
-                (m * m - w.s2.max(floor)).max(0.0)
-            })
-            .collect();
-        e.model_s2 = if excess.is_empty() {
-            0.0
-        } else {
-            median(&mut excess)
-        };
-    }
-    if eqs.iter().any(|e| e.model_s2 > 0.0) {
+    if stencils.add_model_error(&mut eqs, &eq_row, &fitted, min, floor, &solution.offsets) {
         solution = solve_robust(&eqs, ny, fit);
     }
     // A row is estimated when it has an equation of its own.
