@@ -561,23 +561,60 @@ pub trait PrefixRead {
     /// total after it, linear inside a bin; NaN for a NaN coordinate.
     #[inline]
     fn at_coord(&self, c: f64) -> f64 {
-        let nt = self.nt();
-        if c <= 0.0 {
-            0.0
-        } else if c >= nt as f64 {
-            self.total()
-        } else if c.is_nan() {
-            f64::NAN
-        } else {
-            let i = c as usize;
-            self.get(i) + (c - i as f64) * self.bin(i)
-        }
+        PrefixCoord::new(c, self.nt()).read(self)
     }
 
     /// `P(t_ps)` on `axis` (see [`PrefixRead::at_coord`]).
     #[inline]
     fn at(&self, axis: &TimeAxis, t_ps: f64) -> f64 {
         self.at_coord(axis.bin_coord(t_ps))
+    }
+}
+
+/// A fractional bin coordinate of an axis of `nt` bins, resolved once for reading several
+/// pixels' prefixes at it ([`PrefixRead::at_coord`] is `PrefixCoord::new(c, nt).read(p)`):
+/// the renderer reads the up to four pixels around a point at the same two coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrefixCoord {
+    /// At or before the axis start: `P = 0`.
+    Before,
+    /// At or after the axis end: `P` is the pixel's total.
+    After,
+    /// A NaN coordinate: `P` is NaN.
+    Nan,
+    /// Inside bin `bin`, at `frac` (0 to 1) of its width.
+    Inside { bin: usize, frac: f64 },
+}
+
+impl PrefixCoord {
+    /// The case of coordinate `c` on an axis of `nt` bins.
+    #[inline(always)]
+    pub fn new(c: f64, nt: usize) -> PrefixCoord {
+        if c <= 0.0 {
+            PrefixCoord::Before
+        } else if c >= nt as f64 {
+            PrefixCoord::After
+        } else if c.is_nan() {
+            PrefixCoord::Nan
+        } else {
+            let bin = c as usize;
+            PrefixCoord::Inside {
+                bin,
+                frac: c - bin as f64,
+            }
+        }
+    }
+
+    /// `P` of the prefix `p` at this coordinate: 0 before the axis, the total after it,
+    /// linear inside a bin.
+    #[inline(always)]
+    pub fn read<P: PrefixRead + ?Sized>(self, p: &P) -> f64 {
+        match self {
+            PrefixCoord::Before => 0.0,
+            PrefixCoord::After => p.total(),
+            PrefixCoord::Nan => f64::NAN,
+            PrefixCoord::Inside { bin, frac } => p.get(bin) + frac * p.bin(bin),
+        }
     }
 }
 

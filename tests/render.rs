@@ -1565,6 +1565,117 @@ fn reused_rays_give_the_same_frames_bit_for_bit() {
     }
 }
 
+/// `render_frame`'s row pipeline (rays four at a time, the batch ray caster, the transient
+/// view's vector projection and its lookups) writes, for every pixel, the colour that
+/// `probe_pixel` (the whole pipeline of one pixel, step by step) computes, bit for bit: for
+/// dollies, an orbit and a rotating sensor, with every effect, with none and with each one
+/// off, both radiometries, the naive and integrated views, a capture camera with lens
+/// distortion, and frames whose width is not a multiple of four.
+#[test]
+fn the_row_pipeline_renders_each_pixel_as_probe_pixel_does() {
+    use femto::render::paths::{shortcut_path, Shortcut};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 20.0,
+        nt: 600,
+    };
+    let mut distorted = cube_scene_calibration(40, 30);
+    distorted.intrinsics.k1 = -0.12;
+    distorted.intrinsics.k2 = 0.03;
+    let mut lit = 0;
+    let mut pixels = 0;
+    for cal in [cube_scene_calibration(40, 30), distorted] {
+        let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 30.0));
+        let pyramid = Pyramid::build(&cube);
+        let scene = RenderScene::new(&bvh, cal, &pyramid, 532.0).unwrap();
+        let (w, h, frames) = (27usize, 19usize, 6usize);
+        let mut paths: Vec<(String, CameraPath, f64)> = [
+            Shortcut::Dolly { beta: 0.6 },
+            Shortcut::Orbit { beta: 0.5 },
+            Shortcut::Dolly { beta: -0.4 },
+        ]
+        .into_iter()
+        .map(|sc| {
+            let s = shortcut_path(&scene, sc, w, h, frames, None).unwrap();
+            (format!("{sc:?}"), s.path, s.time_offset_ps)
+        })
+        .collect();
+        let dolly = paths[0].1.clone();
+        let rotating = CameraPath::new(
+            dolly.spec(),
+            Some(dolly.tau0_ps()),
+            Some(SensorRotation {
+                axis: RotationAxis::Yaw,
+                beta_edge: 0.4,
+            }),
+            dolly.motion().clone(),
+            "rotating",
+        )
+        .unwrap();
+        paths.push(("rotating".into(), rotating, paths[0].2));
+        for (name, path, offset) in &paths {
+            let mut all = RenderSettings::for_path(path);
+            all.time_offset_ps = *offset;
+            let mut variants = vec![
+                all,
+                RenderSettings {
+                    radiometry: Radiometry::Paper,
+                    ..all
+                },
+                RenderSettings {
+                    view: View::Naive,
+                    ..all
+                },
+                RenderSettings {
+                    view: View::Integrated,
+                    ..all
+                },
+                RenderSettings {
+                    colour: ColourOutput::Xyz,
+                    ..all
+                },
+            ];
+            for effects in [
+                "none",
+                "aberration,doppler,searchlight,dilation,rotation",
+                "unwarp,doppler,searchlight,dilation,rotation",
+                "unwarp,aberration,searchlight,dilation,rotation",
+                "unwarp,aberration,doppler,dilation,rotation",
+                "unwarp,aberration,doppler,searchlight,rotation",
+            ] {
+                variants.push(RenderSettings {
+                    effects: Effects::parse(effects).unwrap(),
+                    ..all
+                });
+            }
+            for k in [0, 2, frames - 1] {
+                let state = path.frame(k);
+                for settings in &variants {
+                    let got = render(&scene, settings, &state);
+                    for (n, px) in got.iter().enumerate() {
+                        let (i, j) = (n % w, n / w);
+                        let want = probe_pixel(&scene, settings, &state, i, j)
+                            .rgb
+                            .map(|c| c as f32);
+                        assert!(
+                            px.map(f32::to_bits) == want.map(f32::to_bits),
+                            "{name} frame {k}, {} {} {:?}, pixel ({i}, {j}): {px:?}, probe_pixel {want:?}",
+                            settings.view.name(),
+                            settings.effects,
+                            settings.radiometry,
+                        );
+                        lit += usize::from(px[1] > 0.0);
+                    }
+                    pixels += got.len();
+                }
+            }
+        }
+    }
+    // The comparison is not of black frames.
+    assert!(lit * 10 > pixels, "{lit} of {pixels} pixels lit");
+}
+
 // ---------------------------------------------------------------------------------------
 // Black frames: the shortcuts' times against where the cube holds light (issue 15).
 

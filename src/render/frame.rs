@@ -4,6 +4,14 @@
 //! row, each stage over the whole row before the next); [`render_frame_reusing_rays`] keeps
 //! the rays of steps 1-2 from frame to frame while they stay the same (a dolly);
 //! [`probe_pixel`] returns every intermediate quantity of one pixel.
+//!
+//! A row's rays are made four at a time (`rays`), cast with the batch caster that skips rays
+//! missing the scene's box ([`crate::geometry::bvh::Bvh::intersect_distances`]), and shaded
+//! in the transient view by the row pipeline of `transient`; other views shade pixel by
+//! pixel ([`FrameCtx::shade`]). Each computes what [`probe_pixel`] does, bit for bit.
+
+mod rays;
+mod transient;
 
 use super::views;
 use super::{ColourOutput, RenderScene, RenderSettings, View, FALSE_COLOUR_LASER_NM};
@@ -370,12 +378,25 @@ impl<'s> FrameCtx<'s> {
         scratch: &mut RowScratch,
         row: &mut [[f32; 3]],
     ) {
-        scratch.hit_t.clear();
+        scratch.dirs.clear();
+        scratch.dirs.extend(
+            d_world
+                .iter()
+                .map(|d| Vector3::new(d.x as f32, d.y as f32, d.z as f32)),
+        );
+        scratch.hit_t.resize(d_world.len(), None);
+        scene.bvh.intersect_distances(
+            self.origin_f32,
+            &scratch.dirs,
+            0.0,
+            f32::INFINITY,
+            &mut scratch.hit_t,
+        );
+        if settings.view == View::Transient {
+            return self.shade_transient_row(scene, settings, d_world, doppler, scratch, row);
+        }
         scratch.lambda_nm.clear();
         scratch.colour.clear();
-        scratch
-            .hit_t
-            .extend(d_world.iter().map(|d| self.cast(scene, d)));
         for ((d, &doppler), &hit_t) in d_world.iter().zip(doppler).zip(&scratch.hit_t) {
             let s = self.shade(scene, settings, d, doppler, hit_t);
             scratch.lambda_nm.push(s.lambda_nm);
@@ -448,10 +469,15 @@ enum Colour {
     Radiance(f64),
 }
 
-/// One row's hit distances, wavelengths and colours, filled one stage at a time.
+/// One row's ray directions, hit distances, projections, wavelengths and colours, filled
+/// one stage at a time.
 #[derive(Default)]
 struct RowScratch {
+    dirs: Vec<Vector3<f32>>,
     hit_t: Vec<Option<f32>>,
+    /// The pixels whose ray hits the mesh: index in the row, distance.
+    hit_pixels: Vec<(usize, f32)>,
+    projected: Vec<transient::Projected>,
     lambda_nm: Vec<f64>,
     colour: Vec<Colour>,
 }
@@ -480,13 +506,9 @@ pub fn render_frame(
         .for_each_init(
             || (Vec::new(), Vec::new(), RowScratch::default()),
             |(d_world, doppler, scratch), (j, row)| {
-                d_world.clear();
-                doppler.clear();
-                for i in 0..row.len() {
-                    let r = ctx.ray(settings, i, j);
-                    d_world.push(r.d_world);
-                    doppler.push(r.doppler);
-                }
+                d_world.resize(row.len(), Vector3::zeros());
+                doppler.resize(row.len(), 0.0);
+                ctx.row_rays(settings, j, d_world, doppler);
                 ctx.render_row(scene, settings, d_world, doppler, scratch, row);
             },
         );
@@ -556,12 +578,7 @@ pub fn render_frame_reusing_rays(
             .par_chunks_mut(w)
             .zip(rays.doppler.par_chunks_mut(w))
             .enumerate()
-            .for_each(|(j, (d_row, dop_row))| {
-                for (i, (d, dop)) in d_row.iter_mut().zip(dop_row).enumerate() {
-                    let r = ctx.ray(settings, i, j);
-                    (*d, *dop) = (r.d_world, r.doppler);
-                }
-            });
+            .for_each(|(j, (d_row, dop_row))| ctx.row_rays(settings, j, d_row, dop_row));
         rays.key = Some(key);
     }
     out.par_chunks_mut(w)

@@ -127,6 +127,7 @@
 
 pub mod coverage;
 pub mod dark;
+mod dark_span;
 pub mod exposure;
 pub mod frame;
 pub mod ibr_error;
@@ -143,7 +144,7 @@ use crate::camera_path::CameraPath;
 use crate::color;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::Ray;
-use crate::pyramid::{PrefixRead, Pyramid};
+use crate::pyramid::{PrefixCoord, PrefixRead, Pyramid};
 use crate::relativity::Radiometry;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -478,6 +479,9 @@ pub struct RenderScene<'a> {
     /// stored two levels (`Pyramid::prefix`), which made a 640 x 480 frame 5 % slower
     /// (benches/render_results.md).
     prefix: Vec<f64>,
+    /// Per cube pixel, where the prefix sums of its 3 x 3 neighbourhood are flat: a window
+    /// there is black without a lookup (module `dark`).
+    dark: Vec<dark_span::DarkSpan>,
     /// `1 / dt` of the cube's axis, per ps.
     inv_dt_per_ps: f64,
     /// [`auto_exposure`] of the transient and naive views, and of the integrated view, once
@@ -551,6 +555,7 @@ impl<'a> RenderScene<'a> {
                 let p = world.prefix.pixel(pix);
                 out.iter_mut().enumerate().for_each(|(i, o)| *o = p.get(i));
             });
+        let dark = dark_span::dark_spans(&prefix, world.nx, world.ny, nt);
         Ok(RenderScene {
             bvh,
             capture,
@@ -559,6 +564,7 @@ impl<'a> RenderScene<'a> {
             hits,
             links,
             prefix,
+            dark,
             inv_dt_per_ps: 1.0 / world.axis.dt_ps,
             auto_exposures: Default::default(),
         })
@@ -585,11 +591,19 @@ impl<'a> RenderScene<'a> {
     /// a point ([`RenderScene::capture_taps`]). The bin coordinates are computed once.
     #[inline]
     pub fn emitted_energy_of(&self, taps: &CaptureTaps, t_a_ps: f64, t_b_ps: f64) -> f64 {
-        let (ca, cb) = (self.bin_coord(t_a_ps), self.bin_coord(t_b_ps));
+        self.energy_at_coords(taps, self.bin_coord(t_a_ps), self.bin_coord(t_b_ps))
+    }
+
+    /// [`RenderScene::emitted_energy_of`] between the bin coordinates `ca` and `cb` (each
+    /// resolved once for the up to four pixels, [`PrefixCoord`]).
+    #[inline(always)]
+    fn energy_at_coords(&self, taps: &CaptureTaps, ca: f64, cb: f64) -> f64 {
+        let nt = self.world.axis.nt;
+        let (a, b) = (PrefixCoord::new(ca, nt), PrefixCoord::new(cb, nt));
         taps.iter()
             .map(|((x, y), weight)| {
                 let p = self.pixel_prefix(x, y);
-                weight * (p.at_coord(cb) - p.at_coord(ca))
+                weight * (b.read(p) - a.read(p))
             })
             .sum()
     }
@@ -691,12 +705,19 @@ impl<'a> RenderScene<'a> {
     /// image; computed once per scene) and the others' weights scaled to sum to 1.
     #[inline(always)]
     pub fn capture_taps(&self, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> Option<CaptureTaps> {
-        let (nearest, (u, v)) = self.seen_projection(p_m, d_world)?;
+        let (nearest, uv) = self.seen_projection(p_m, d_world)?;
+        Some(self.taps_around(nearest, uv))
+    }
+
+    /// [`RenderScene::capture_taps`] of a point whose projection `(u, v)` (inside the image)
+    /// has the nearest pixel `nearest`, which sees the point.
+    #[inline(always)]
+    fn taps_around(&self, nearest: (usize, usize), (u, v): (f64, f64)) -> CaptureTaps {
         let k = &self.capture.intrinsics;
         // Pixel centres sit at half-integer coordinates; the nearest pixel is one of the four
         // and its weight is at least 1/4.
         let (fu, fv) = (u - 0.5, v - 0.5);
-        let (x0, y0) = (fu.floor(), fv.floor());
+        let (x0, y0) = (floor_small(fu), floor_small(fv));
         let (ax, ay) = (fu - x0, fv - y0);
         let mut taps = CaptureTaps {
             nearest,
@@ -734,7 +755,7 @@ impl<'a> RenderScene<'a> {
         taps.weights[..taps.count]
             .iter_mut()
             .for_each(|w| *w *= inv);
-        Some(taps)
+        taps
     }
 
     /// For a point `p_m` that the nearest pixel of its projection would record without the
@@ -792,6 +813,20 @@ impl<'a> RenderScene<'a> {
             return false;
         }
         true
+    }
+}
+
+/// `x.floor()` for finite `|x| < 2^52` (`+0.0` for `-0.0`), without the libm call that
+/// `floor` is on x86-64's baseline (no `roundsd`): truncation, one less where it rounded a
+/// negative `x` up. [`RenderScene::taps_around`]'s coordinates are finite and at least
+/// `-0.5`, and never `-0.0` (`u - 0.5` with `u >= 0`).
+#[inline(always)]
+fn floor_small(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
     }
 }
 

@@ -47,8 +47,10 @@
 
 //!
 //! Layout: this file holds the tree's types and the public API; `build` makes the tree,
-//! `traverse` walks it, `packets` holds the triangle test, `tests` the tests.
+//! `traverse` walks it, `packets` holds the triangle test, `batch` casts many rays from one
+//! origin, `tests` the tests.
 
+mod batch;
 mod build;
 mod packets;
 #[cfg(test)]
@@ -237,6 +239,11 @@ const PORTABLE_OR_SSE: u8 = 0;
 const AVX: u8 = 1;
 #[cfg(target_arch = "x86_64")]
 const AVX512: u8 = 2;
+/// The batch caster's copies (`batch`): its loop compiled for AVX and for AVX-512.
+#[cfg(target_arch = "x86_64")]
+const AVX_BATCH: u8 = 3;
+#[cfg(target_arch = "x86_64")]
+const AVX512_BATCH: u8 = 4;
 
 /// The instructions the eight-wide traversal is compiled for, with the proof that the CPU
 /// runs them (none off x86_64). Both run the same lane operations (AVX intrinsics), so they

@@ -807,3 +807,75 @@ fn a_level_is_built_exactly_where_the_cpu_runs_it() {
     #[cfg(not(target_arch = "x86_64"))]
     assert!(matches!(auto.tree, Tree::Four(_, FourLanes::Native)));
 }
+
+/// `Bvh::intersect_distances` gives `Bvh::intersect`'s distances bit for bit, for rays from
+/// one origin outside the mesh's box (most miss it), on its face planes and inside a room, in
+/// random, axis-parallel and degenerate directions, at every SIMD level this CPU runs.
+#[test]
+fn batch_distances_are_the_single_ray_distances() {
+    let mut rng = Uniforms(7);
+    let meshes = [
+        test_mesh(&mut rng),
+        room_mesh(&mut rng),
+        TriangleMesh::default(),
+    ];
+    let mut levels = vec![None, Some(SimdLevel::Scalar), Some(SimdLevel::Sse)];
+    levels.extend(
+        [SimdLevel::Avx2, SimdLevel::Avx512]
+            .into_iter()
+            .filter(|l| l.is_supported())
+            .map(Some),
+    );
+    let (mut hits, mut misses) = (0, 0);
+    for mesh in &meshes {
+        for &level in &levels {
+            let bvh = Bvh::with_simd(mesh.clone(), level).unwrap();
+            let origins = [
+                Point3::new(0.5, 0.6, 0.4),
+                Point3::new(3.0, -5.0, 7.0),
+                Point3::new(-2.0, 0.5, 0.5),
+                Point3::new(1.0, 0.0, 0.5),
+            ];
+            for o in origins {
+                let mut dirs: Vec<Vector3<f32>> = (0..203)
+                    .map(|_| {
+                        let t = Point3::new(
+                            rng.range(-3.0, 3.0),
+                            rng.range(-3.0, 3.0),
+                            rng.range(-3.0, 3.0),
+                        );
+                        t - o
+                    })
+                    .collect();
+                dirs.extend([
+                    Vector3::x(),
+                    -Vector3::x(),
+                    Vector3::y(),
+                    -Vector3::z(),
+                    Vector3::zeros(),
+                    Vector3::new(0.0, -0.0, 1.0),
+                    Vector3::new(f32::NAN, 0.0, 1.0),
+                    Vector3::new(f32::INFINITY, 1.0, 0.0),
+                ]);
+                for (t_min, t_max) in [(0.0, f32::INFINITY), (0.5, 2.0), (1.0, 1.0)] {
+                    let mut got = vec![Some(f32::NAN); dirs.len()];
+                    bvh.intersect_distances(o, &dirs, t_min, t_max, &mut got);
+                    for (d, got) in dirs.iter().zip(&got) {
+                        let want = bvh.intersect(&Ray::new(o, *d), t_min, t_max).map(|h| h.t);
+                        assert_eq!(
+                            got.map(f32::to_bits),
+                            want.map(f32::to_bits),
+                            "{level:?} origin {o:?} dir {d:?} t {t_min}..{t_max}"
+                        );
+                        if want.is_some() {
+                            hits += 1;
+                        } else {
+                            misses += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(hits > 1000 && misses > 1000, "{hits} hits, {misses} misses");
+}

@@ -1,0 +1,183 @@
+//! Steps 4-7 of the pipeline for a whole row in the transient view (the view `femto view`
+//! and `femto render` show by default): first, four pixels at a time ([`wide::f64x4`]), the
+//! hit points, their projections into the capture camera and the bin coordinates of their
+//! emission windows; then, pixel by pixel, the lookups that read memory (the nearest cube
+//! pixel's surface, the taps, the prefix sums) and the colour, computed only for pixels with
+//! light. A window where the capture holds no light near the point (`render::dark_span`)
+//! is black without the lookups. The arithmetic is [`FrameCtx::shade`]'s, operation for operation (exactly rounded
+//! lane by lane, no fused multiply-add), so the pixels are bit for bit those of
+//! [`super::probe_pixel`] (tests/render.rs pins every pixel of several frames to it).
+
+use super::{FrameCtx, RenderScene, RenderSettings, RowScratch};
+use nalgebra::{Point3, Vector3};
+use wide::f64x4;
+
+/// One pixel's hit point, its projection `(u, v)` into the capture image (NaN when the
+/// point is behind the capture camera) and the bin coordinates of the start and end of its
+/// emission window.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Projected {
+    p_m: [f64; 3],
+    u: f64,
+    v: f64,
+    coord_a: f64,
+    coord_b: f64,
+}
+
+impl FrameCtx<'_> {
+    /// Steps 4-7 of the transient view for one row whose world rays, Doppler factors and
+    /// hit distances (`scratch.hit_t`) are known.
+    pub(super) fn shade_transient_row(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        d_world: &[Vector3<f64>],
+        doppler: &[f64],
+        scratch: &mut RowScratch,
+        row: &mut [[f32; 3]],
+    ) {
+        // Pixels whose ray leaves the scene are black; the others are projected, four at a
+        // time, and looked up.
+        row.fill([0.0; 3]);
+        scratch.hit_pixels.clear();
+        scratch.hit_pixels.extend(
+            scratch
+                .hit_t
+                .iter()
+                .enumerate()
+                .filter_map(|(i, t)| t.map(|t| (i, t))),
+        );
+        let projected = &mut scratch.projected;
+        projected.resize(scratch.hit_pixels.len(), Projected::default());
+        self.project_hits(
+            scene,
+            settings,
+            d_world,
+            doppler,
+            &scratch.hit_pixels,
+            projected,
+        );
+        let k = &scene.capture.intrinsics;
+        let (width, height) = (k.width as f64, k.height as f64);
+        let e = settings.effects;
+        for (&(i, _), pr) in scratch.hit_pixels.iter().zip(projected.iter()) {
+            let (px, d, dop) = (&mut row[i], &d_world[i], doppler[i]);
+            let (u, v) = (pr.u, pr.v);
+            // RenderScene::seen_projection (NaN fails every comparison).
+            if !(u >= 0.0 && v >= 0.0 && u < width && v < height) {
+                continue;
+            }
+            let nearest = (u as usize, v as usize);
+            let d_light = if e.searchlight { dop } else { 1.0 };
+            let factor = settings.radiometry.window_factor(d_light);
+            // A window where the taps hold no light gives energy +0 and so the value
+            // `factor * +0 * (1 / dtau)`, which is +0 too for a finite positive factor; that
+            // pixel is black like one the capture does not see, with no lookup.
+            if scene.dark[nearest.1 * k.width + nearest.0].holds(pr.coord_a, pr.coord_b)
+                && (factor * 0.0 * self.inv_dtau_per_ps).to_bits() == 0
+            {
+                continue;
+            }
+            let p = Point3::from(pr.p_m);
+            if !scene.pixel_sees(nearest.0, nearest.1, &p, d) {
+                continue;
+            }
+            let taps = scene.taps_around(nearest, (u, v));
+            let energy = scene.energy_at_coords(&taps, pr.coord_a, pr.coord_b);
+            let value = factor * energy * self.inv_dtau_per_ps;
+            // A pixel without light is black whatever its colour (the colour of a received
+            // wavelength is finite): only lit pixels compute theirs.
+            let c = if value == 0.0 {
+                [1.0; 3]
+            } else {
+                let lambda_nm = if e.doppler {
+                    dop * scene.laser_nm
+                } else {
+                    scene.laser_nm
+                };
+                self.colour(settings, lambda_nm)
+            };
+            *px = [
+                (value * c[0]) as f32,
+                (value * c[1]) as f32,
+                (value * c[2]) as f32,
+            ];
+        }
+    }
+
+    /// The vector part of [`FrameCtx::shade_transient_row`] for the pixels `hits` (index in
+    /// the row, hit distance): hit points `o + r d`, their projections into the capture
+    /// camera ([`crate::camera::Calibration::project`]) and the bin coordinates of the
+    /// emission windows `[t_e, t_e + dtau / D]`.
+    fn project_hits(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        d_world: &[Vector3<f64>],
+        doppler: &[f64],
+        hits: &[(usize, f32)],
+        out: &mut [Projected],
+    ) {
+        let s = f64x4::splat;
+        let cal = &scene.capture;
+        let k = &cal.intrinsics;
+        let r = cal.pose.world_from_camera.matrix();
+        let o_c = cal.pose.position_m;
+        let o = [self.origin.x, self.origin.y, self.origin.z].map(s);
+        let o_c = [o_c.x, o_c.y, o_c.z].map(s);
+        let (k1, k2, one) = (s(k.k1), s(k.k2), s(1.0));
+        let (fx, fy, cx, cy) = (s(k.fx), s(k.fy), s(k.cx), s(k.cy));
+        let e = settings.effects;
+        let t_receive = s(self.t_receive_ps);
+        let eta_over_c = s(self.eta_over_c_ps_per_m);
+        let dtau = s(settings.dtau_ps);
+        let axis = &scene.world.axis;
+        let (cube_t0, time_scale) = (s(cal.t0_ps), s(cal.time_scale));
+        let (axis_t0, inv_dt) = (s(axis.t0_ps), s(scene.inv_dt_per_ps));
+        // RenderScene::bin_coord.
+        let bin_coord = |t: f64x4| ((cube_t0 + time_scale * t) - axis_t0) * inv_dt;
+        for (hits, out) in hits.chunks(4).zip(out.chunks_mut(4)) {
+            // The last few pixels padded with copies of the last one.
+            let four: [(usize, f32); 4] = std::array::from_fn(|k| hits[k.min(hits.len() - 1)]);
+            let dist = f64x4::new(four.map(|(_, t)| t as f64));
+            let dir = |a: usize| f64x4::new(four.map(|(i, _)| d_world[i][a]));
+            let (dx, dy, dz) = (dir(0), dir(1), dir(2));
+            let dop = f64x4::new(four.map(|(i, _)| doppler[i]));
+            // FrameCtx::shade: p = o + d r; Pose::camera_from_world: R^T (p - o_c), each
+            // component a column of R dotted with it as nalgebra does, `(a + b) + c`.
+            let p = [dx, dy, dz].map(|d| d * dist);
+            let p = [o[0] + p[0], o[1] + p[1], o[2] + p[2]];
+            let w = [p[0] - o_c[0], p[1] - o_c[1], p[2] - o_c[2]];
+            let cam = [0, 1, 2]
+                .map(|c| (s(r[(0, c)]) * w[0] + s(r[(1, c)]) * w[1]) + s(r[(2, c)]) * w[2]);
+            // Intrinsics::project_camera_point.
+            let (x, y) = (cam[0] / cam[2], cam[1] / cam[2]);
+            let r2 = x * x + y * y;
+            let scale = (one + k1 * r2) + k2 * r2 * r2;
+            // No projection for a point behind the camera.
+            let behind = cam[2].simd_le(s(0.0));
+            let nan = s(f64::NAN);
+            let u = behind.select(nan, fx * scale * x + cx);
+            let v = behind.select(nan, fy * scale * y + cy);
+            let d_light = if e.searchlight { dop } else { one };
+            let t_e = if e.unwarp {
+                t_receive - eta_over_c * dist
+            } else {
+                t_receive
+            };
+            let t_b = t_e + dtau / d_light;
+            let (coord_a, coord_b) = (bin_coord(t_e).to_array(), bin_coord(t_b).to_array());
+            let (u, v) = (u.to_array(), v.to_array());
+            let p = p.map(f64x4::to_array);
+            for (i, out) in out.iter_mut().enumerate() {
+                *out = Projected {
+                    p_m: [p[0][i], p[1][i], p[2][i]],
+                    u: u[i],
+                    v: v[i],
+                    coord_a: coord_a[i],
+                    coord_b: coord_b[i],
+                };
+            }
+        }
+    }
+}
