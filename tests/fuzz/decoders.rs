@@ -22,7 +22,10 @@ fn read_array(path: &Path, format: Format) -> Result<(), String> {
     let open = |transpose| {
         let options = ReadOptions {
             dataset: None,
-            transpose,
+            layout: femto::readers::layout::LayoutOptions {
+                transpose,
+                ..Default::default()
+            },
         };
         let c = femto::readers::open(path, format, &options).map_err(s)?;
         assert_eq!(
