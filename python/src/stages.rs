@@ -274,7 +274,7 @@ pub fn calibrate<'py>(
     d.set_item("points", correspondences.len())?;
     d.set_item(
         "scanline_offset_ps",
-        femto::calibrate::scanline_time::applied_ps(&result.scanlines),
+        femto::row_offset::applied_ps(&result.scanlines),
     )?;
     d.set_item("scanline_report", result.scanline_report.lines())?;
     d.set_item("warnings", result.warnings.clone())?;

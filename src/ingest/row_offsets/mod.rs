@@ -69,6 +69,9 @@ use crate::stats::{median, median_and_variance, quantile};
 pub use report::{jitter_report, power_report, scanline_report, OffsetReport, RowTruth};
 use robust::{solve_robust, Equation};
 
+/// Each row's centred window fit over every pixel (median residual and its spread), `None`
+/// with too few pixels.
+type CentredFits = Vec<Option<(f64, f64)>>;
 /// Fraction of the row's reference (90th-percentile) pulse height, or integral, below which a
 /// pixel is not measured.
 const MIN_RELATIVE_SIGNAL: f64 = 0.2;
@@ -501,11 +504,7 @@ impl<'a> Stencils<'a> {
     /// Step 2 for every candidate window of every row: its median residual over the pixels for
     /// which it is clean (misfit within `misfit_limit`), with at least `min` of them; and the
     /// centred window's over every pixel (`None` with fewer than `min`).
-    fn fit_windows(
-        &self,
-        min: usize,
-        misfit_limit: f64,
-    ) -> (Vec<Vec<WindowFit>>, Vec<Option<(f64, f64)>>) {
+    fn fit_windows(&self, min: usize, misfit_limit: f64) -> (Vec<Vec<WindowFit>>, CentredFits) {
         let (ny, nx) = (self.ny(), self.nx);
         let mut residuals: Vec<f64> = Vec::with_capacity(nx);
         let mut fitted: Vec<Vec<WindowFit>> = Vec::with_capacity(ny);
