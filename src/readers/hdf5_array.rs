@@ -177,7 +177,7 @@ pub fn is_3d_dataset(path: &Path, dataset: &str) -> bool {
 /// Whether `dataset` of the plain HDF5 file `path` is a stack of streak images for the
 /// scanline route of `femto ingest` (`(ny, nt, nx)`, streak corrections apply): a 3-D
 /// dataset whose group records no bin width or bin count. Any other dataset is an
-/// assembled array read by [`open`].
+/// assembled array read by [`super::open()`].
 pub fn is_streak_stack(path: &Path, dataset: &str) -> bool {
     let Ok(file) = h5::open(path) else {
         return false;

@@ -8,7 +8,7 @@
 //!   the capture's frame, behind an occluder, or the other side of a surface);
 //! - [`DarkKind::Masked`]: the capture pixel that would show it was masked by `femto unwarp`
 //!   (a mixed pixel whose footprint spans several path lengths, docs/ingest.md);
-//! - [`DarkKind::NoLightNow`]: the capture saw the point and kept its pixel, but holds no
+//! - [`DarkKind::Seen`] with no light now: the capture saw the point and kept its pixel, but holds no
 //!   light there at the frame's emission time.
 //!
 //! The first three do not depend on time; the fourth is what a transient frame is mostly

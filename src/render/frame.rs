@@ -8,7 +8,7 @@
 //! A row's rays are made four at a time (`rays`), cast with the batch caster that skips rays
 //! missing the scene's box ([`crate::geometry::bvh::Bvh::intersect_distances`]), and shaded
 //! in the transient view by the row pipeline of `transient`; other views shade pixel by
-//! pixel ([`FrameCtx::shade`]). Each computes what [`probe_pixel`] does, bit for bit.
+//! pixel (`FrameCtx::shade`). Each computes what [`probe_pixel`] does, bit for bit.
 
 mod rays;
 mod transient;

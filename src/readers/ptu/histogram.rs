@@ -4,7 +4,7 @@
 //! 1. [`scan`]: photons, the start-stop bins and channels in use, the frames and lines the
 //!    markers delimit, and the mean line time (the time between a line's start and stop
 //!    markers, rounded);
-//! 2. [`image`] and [`point`]: the photons histogrammed into `[y][x][t]` counts.
+//! 2. [`image()`] and [`point()`]: the photons histogrammed into `[y][x][t]` counts.
 //!
 //! The rules are `ptufile`'s (`decode_info`, `decode_t3_image`, `decode_t3_histogram`), so
 //! that counts agree exactly: a frame starts at the first line start after the start or a
