@@ -21,13 +21,19 @@ pub fn process_cpu_seconds() -> f64 {
 mod tests {
     #[test]
     fn cpu_time_grows_with_work() {
+        // Busy work until 20 ms of CPU time are counted: on a loaded machine the thread may
+        // get a small share of the wall time (50 ms of wall gave 18 ms of CPU at load 10),
+        // so the wall clock only bounds the wait (10 s).
         let before = super::process_cpu_seconds();
         let mut x = 0u64;
         let started = std::time::Instant::now();
-        while started.elapsed().as_millis() < 50 {
-            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+        let mut after = before;
+        while after - before < 0.02 && started.elapsed().as_secs() < 10 {
+            for _ in 0..100_000 {
+                x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+            }
+            after = super::process_cpu_seconds();
         }
-        let after = super::process_cpu_seconds();
         assert!(after - before >= 0.02, "{before} -> {after}");
     }
 }
