@@ -56,6 +56,28 @@ fn a_lying_content_length_is_refused_and_the_server_answers_the_next_request() {
 }
 
 #[test]
+fn a_client_that_closes_without_reading_the_refusal_leaves_the_server_answering() {
+    // The report's case exactly: 1 kB sent and the connection closed, the reply unread.
+    let fx = fixture();
+    let server = Server::start(&fx.root);
+    let host = server.url.trim_start_matches("http://").to_string();
+    for _ in 0..3 {
+        let mut s = TcpStream::connect(&host).unwrap();
+        let head = format!(
+            "POST /api/state.toml HTTP/1.1\r\nHost: {host}\r\nAuthorization: token {}\r\n\
+             Content-Type: application/json\r\nContent-Length: 1000000000000\r\n\r\n",
+            server.token
+        );
+        let _ = s.write_all(head.as_bytes());
+        let _ = s.write_all(&[b'{'; 1024]);
+        drop(s);
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (code, _) = request("GET", &format!("{}/api/info", server.url), None);
+    assert_eq!(code, 200);
+}
+
+#[test]
 fn a_client_that_stops_sending_does_not_hold_up_the_others() {
     let fx = fixture();
     let server = Server::start(&fx.root);

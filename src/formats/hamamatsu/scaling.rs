@@ -174,54 +174,14 @@ pub(super) fn parse_axis_scaling(
                 .parse()
                 .map_err(|_| bad("ScalingFile", raw, expected))?;
             let first_entry = table_part(path, sections, axis, len, table_len)?;
-            // The table's extent and the part the image holds, in u128: no header value
-            // (offset, count, areSource) can wrap.
-            let end = u128::from(byte_offset) + 4 * table_len as u128;
-            if end > u128::from(u64::MAX) {
-                return Err(bad(
-                    "ScalingFile",
-                    raw,
-                    &format!(
-                        "a table inside this file ({table_len} float32 at byte {byte_offset} \
-                         would end at byte {end}, past 2^64)"
-                    ),
-                ));
-            }
-            if end > u128::from(file.len) {
-                return Err(FormatError::Truncated {
-                    path: path.to_path_buf(),
-                    what: format!(
-                        "the {axis} axis table of [Scaling] {}=\"{raw}\" ({table_len} float32 at \
-                         byte {byte_offset})",
-                        key("ScalingFile")
-                    ),
-                    needed: end as u64,
-                    available: file.len,
-                });
-            }
-            // Inside the file, so below 2^64: `first_entry + len <= table_len` (table_part).
-            let start = byte_offset + 4 * first_entry as u64;
-            let table_bytes = file
-                .read(start, 4 * len)
-                .map_err(|source| FormatError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
-            let values: Vec<f64> = table_bytes
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)
-                .collect();
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(bad(
-                    "ScalingFile",
-                    raw,
-                    &format!(
-                        "a table of finite numbers (entry {} is {})",
-                        first_entry + i,
-                        values[i]
-                    ),
-                ));
-            }
+            let table = TablePlace {
+                axis,
+                raw,
+                byte_offset,
+                table_len,
+                first_entry,
+            };
+            let values = read_table(path, file, &table, len)?;
             Ok(AxisScaling::Table {
                 unit,
                 byte_offset,
@@ -236,6 +196,74 @@ pub(super) fn parse_axis_scaling(
             value: other.to_string(),
         }),
     }
+}
+
+/// Where a `[Scaling]` table lies: the axis, the `ScalingFile` value as written, the byte
+/// offset and length (entries) it gives, and the first entry the image holds.
+struct TablePlace<'a> {
+    axis: char,
+    raw: &'a str,
+    byte_offset: u64,
+    table_len: usize,
+    first_entry: usize,
+}
+
+/// The `len` entries of a table the image holds, read from `file` once the table's extent is
+/// known to lie in it (in u128: no offset or count of the header can wrap), checked finite.
+fn read_table(
+    path: &Path,
+    file: &FileRegions,
+    t: &TablePlace,
+    len: usize,
+) -> Result<Vec<f64>, FormatError> {
+    let key = format!("Scaling{}ScalingFile", t.axis);
+    let bad = |expected: String| FormatError::BadValue {
+        path: path.to_path_buf(),
+        section: "Scaling".into(),
+        key: key.clone(),
+        value: t.raw.to_string(),
+        expected,
+    };
+    let (byte_offset, table_len) = (t.byte_offset, t.table_len);
+    let end = u128::from(byte_offset) + 4 * table_len as u128;
+    if end > u128::from(u64::MAX) {
+        return Err(bad(format!(
+            "a table inside this file ({table_len} float32 at byte {byte_offset} would end at \
+             byte {end}, past 2^64)"
+        )));
+    }
+    if end > u128::from(file.len) {
+        return Err(FormatError::Truncated {
+            path: path.to_path_buf(),
+            what: format!(
+                "the {} axis table of [Scaling] {key}=\"{}\" ({table_len} float32 at byte \
+                 {byte_offset})",
+                t.axis, t.raw
+            ),
+            needed: end as u64,
+            available: file.len,
+        });
+    }
+    // Inside the file, so below 2^64: `first_entry + len <= table_len` (table_part).
+    let start = byte_offset + 4 * t.first_entry as u64;
+    let table_bytes = file
+        .read(start, 4 * len)
+        .map_err(|source| FormatError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let values: Vec<f64> = table_bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64)
+        .collect();
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(bad(format!(
+            "a table of finite numbers (entry {} is {})",
+            t.first_entry + i,
+            values[i]
+        )));
+    }
+    Ok(values)
 }
 
 /// The first table entry of an axis `len` pixels long whose table has `table_len` entries:

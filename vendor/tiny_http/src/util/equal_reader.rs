@@ -59,10 +59,12 @@ where
     }
 }
 
-/// femto patch: the most bytes of an unread body that dropping the reader discards. A
-/// body the application refused (too large) is not read to its end: the connection's next
-/// request then starts inside it, fails to parse and closes the connection.
-const DISCARD_LIMIT: usize = 1 << 20;
+/// femto patch: the most bytes of an unread body that dropping the reader discards (after
+/// the response is written, so that a client still sending a body the application refused
+/// as too large can finish and read the refusal). A body longer still is not read to its
+/// end: the connection's next request then starts inside it, fails to parse and closes the
+/// connection.
+const DISCARD_LIMIT: usize = 64 << 20;
 
 impl<R> Drop for EqualReader<R>
 where
