@@ -134,8 +134,9 @@ pub struct SimulateOptions {
     /// (a streak capture is the sensor's response).
     pub time_filter: TimeFilter,
     /// First bounce at which Russian roulette may end a path
-    /// ([`crate::tracer::TraceOptions::rr_start_bounce`], >= 1); `None`: the tracer's default. Only with
-    /// `transient_only`, to render with another renderer's setting in a comparison.
+    /// ([`TraceOptions::rr_start_bounce`](crate::tracer::TraceOptions::rr_start_bounce),
+    /// >= 1); `None`: the tracer's default. Only with `transient_only`, to render with
+    /// another renderer's setting in a comparison.
     pub rr_start_bounce: Option<u32>,
 }
 

@@ -105,11 +105,9 @@ impl PathKernel<'_> {
     /// Trace path `index` of a pixel from the camera centre `camera_m` along the unit world
     /// direction `dir` (what [`PathKernel::trace_path`] does for the scene's own camera; a
     /// moving camera's truth, `crate::render::truth`, starts from wherever that camera is).
-    /// Contributions' path lengths end at `camera_m`.
-    ///
-    /// Long (about 150 lines) on purpose: the hot loop of every render, one vertex per
-    /// iteration with its throughput and roulette state local; its output is pinned
-    /// bit-for-bit (the demo's hashes, the wide-ISA test), which a split would put at risk.
+    /// Contributions' path lengths end at `camera_m`. Per vertex: the hit, the connection to
+    /// the spot ([`PathKernel::connect_spot`]), the light point's
+    /// ([`PathKernel::connect_light_point`]), then the bounce ([`PathKernel::scatter`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn trace_from(
@@ -123,9 +121,12 @@ impl PathKernel<'_> {
         sink: &mut impl FnMut(Contribution),
     ) -> PathTally {
         let mut origin = camera_m;
-        let mut path_m = 0.0f64;
-        let mut first_m = 0.0f64;
-        let mut beta = 1.0f32;
+        let mut path = PathState {
+            bounce: 0,
+            beta: 1.0,
+            path_m: 0.0,
+            first_m: 0.0,
+        };
         let mut tally = PathTally::default();
         let (mut early_m, mut late_m) = (f64::NEG_INFINITY, f64::INFINITY);
         // With light vertices: the path's light point, and the solid-angle density of the
@@ -137,6 +138,7 @@ impl PathKernel<'_> {
         // runs from the vertex itself.
         let mut origin_ahead_m = 0.0f32;
         for bounce in 1..=self.max_bounces {
+            path.bounce = bounce;
             tally.rays += 1;
             let ray = Ray::new(origin, dir);
             let Some(hit) = self.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
@@ -144,10 +146,10 @@ impl PathKernel<'_> {
             };
             let p = origin + dir * hit.t;
             let segment_m = hit.t + origin_ahead_m;
-            path_m += segment_m as f64;
+            path.path_m += segment_m as f64;
             if bounce == 1 {
-                first_m = hit.t as f64;
-                (early_m, late_m) = window.bounds_m(first_m);
+                path.first_m = hit.t as f64;
+                (early_m, late_m) = window.bounds_m(path.first_m);
             }
             // Two-sided surfaces: shade the side the ray arrives from.
             let shading = &self.shading[hit.triangle as usize];
@@ -166,53 +168,35 @@ impl PathKernel<'_> {
                 let (u1, u2) = ld.sample(index, bounce);
                 cosine_local(u1, u2)
             });
-            let p_off = p + n * RAY_OFFSET_M;
-            // Next-event estimation towards the spot, from the vertex itself (the shadow ray
-            // starts off the surface, parallel to the connection).
+            let v = Vertex {
+                p,
+                p_off: p + n * RAY_OFFSET_M,
+                n,
+                rho,
+            };
+            // Next-event estimation towards the spot, from the vertex itself.
             let to_spot = self.laser_m - p;
             let r2 = to_spot.norm_squared();
             let r = r2.sqrt();
             // This connection arrives after `path_m + r`, and so does every later one (the
             // rest of a longer path to the spot is at least the straight line): past the
             // window, the path has nothing left to give.
-            let arrival_m = path_m + r as f64;
-            if arrival_m > late_m {
+            let spot = ToSpot {
+                to_spot,
+                r2,
+                r,
+                arrival_m: path.path_m + r as f64,
+            };
+            if spot.arrival_m > late_m {
                 tally.ended_late = true;
                 break;
             }
-            if arrival_m < early_m {
+            if spot.arrival_m < early_m {
                 tally.skipped_early += 1;
-            } else if r2 > SHADOW_END_M * SHADOW_END_M {
-                let inv_r = 1.0 / r;
-                let w = to_spot * inv_r;
-                let cos_p = n.dot(&w);
-                let intensity = if self.cosine_emission {
-                    self.intensity_scale * (-self.laser_normal.dot(&w)).max(0.0)
-                } else {
-                    self.intensity_scale
-                };
-                if cos_p > 0.0 && intensity > 0.0 {
-                    tally.rays += 1;
-                    let shadow = Ray::new(p_off, w);
-                    if !self.bvh.occluded(&shadow, 0.0, r - SHADOW_END_M) {
-                        let mut value = beta * rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
-                        if bounce >= 2 && self.light_vertex {
-                            let pdf_camera = bounce_pdf * -n.dot(&dir) / (segment_m * segment_m);
-                            let pdf_light = self.emission_area_pdf(&p, &n);
-                            // A direction tangent to the surface (cosine 0) that the light
-                            // cannot reach either keeps its whole weight.
-                            if pdf_camera + pdf_light > 0.0 {
-                                value *= pdf_camera / (pdf_camera + pdf_light);
-                            }
-                        }
-                        sink(Contribution {
-                            bounce,
-                            path_m: arrival_m,
-                            first_m,
-                            value: value as f64,
-                        });
-                    }
-                }
+            } else if let Some(c) =
+                self.connect_spot(&v, &path, &spot, (dir, segment_m, bounce_pdf), &mut tally)
+            {
+                sink(c);
             }
             if bounce == self.max_bounces {
                 break;
@@ -222,44 +206,112 @@ impl PathKernel<'_> {
                     light = self.light_point(ld, index, &mut tally);
                 }
                 if let Some(y) = &light {
-                    self.connect_light_point(
-                        y,
-                        (p, p_off, n, rho),
-                        (bounce, beta, path_m, first_m),
-                        (early_m, late_m),
-                        &mut tally,
-                        sink,
-                    );
+                    self.connect_light_point(y, &v, &path, (early_m, late_m), &mut tally, sink);
                 }
             }
-            // Cosine-weighted continuation: BRDF * cos / pdf = rho.
-            beta *= rho;
-            let mut survive = 1.0;
-            if bounce >= self.rr_start_bounce {
-                survive = beta.min(0.95);
-                if uniform(rng) >= survive {
-                    break;
-                }
-                beta /= survive;
-            }
-            // The first two bounces from the pixel's low-discrepancy points, later ones from
-            // its random stream (drawn after Russian roulette's, in this order).
-            let l = ld_local.unwrap_or_else(|| {
-                let (u1, u2) = uniform_pair(rng);
-                cosine_local(u1, u2)
-            });
-            bounce_pdf = survive * l.z * FRAC_1_PI;
-            // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
-            let b = if back {
-                -shading.bitangent
-            } else {
-                shading.bitangent
+            let Some(next) = self.scatter(rng, ld_local, shading, back, &v, &mut path) else {
+                break;
             };
-            dir = shading.tangent * l.x + b * l.y + n * l.z;
-            origin = p_off;
-            origin_ahead_m = RAY_OFFSET_M * l.z;
+            (dir, bounce_pdf, origin_ahead_m) = next;
+            origin = v.p_off;
         }
         tally
+    }
+
+    /// Next-event estimation from vertex `v` of `path` to the laser spot along `spot`: the
+    /// contribution, or `None` where the spot lies within [`SHADOW_END_M`] of `v` (a spot on
+    /// a surface is not lit by that surface), behind the surface, unlit in that direction, or
+    /// shadowed (the shadow ray starts off the surface, parallel to the connection). With
+    /// light vertices, a vertex after the first is weighted against the light's strategy by
+    /// the balance heuristic: `incoming` is the last bounce's direction, the segment's length
+    /// to `v` and the direction's solid-angle density.
+    #[inline(always)]
+    pub(super) fn connect_spot(
+        &self,
+        v: &Vertex,
+        path: &PathState,
+        spot: &ToSpot,
+        (dir, segment_m, bounce_pdf): (Vector3<f32>, f32, f32),
+        tally: &mut PathTally,
+    ) -> Option<Contribution> {
+        let far = spot.r2 > SHADOW_END_M * SHADOW_END_M;
+        if !far {
+            return None;
+        }
+        let inv_r = 1.0 / spot.r;
+        let w = spot.to_spot * inv_r;
+        let cos_p = v.n.dot(&w);
+        let intensity = if self.cosine_emission {
+            self.intensity_scale * (-self.laser_normal.dot(&w)).max(0.0)
+        } else {
+            self.intensity_scale
+        };
+        let lit = cos_p > 0.0 && intensity > 0.0;
+        if !lit {
+            return None;
+        }
+        tally.rays += 1;
+        let shadow = Ray::new(v.p_off, w);
+        if self.bvh.occluded(&shadow, 0.0, spot.r - SHADOW_END_M) {
+            return None;
+        }
+        let mut value = path.beta * v.rho * FRAC_1_PI * intensity * cos_p * inv_r * inv_r;
+        if path.bounce >= 2 && self.light_vertex {
+            let pdf_camera = bounce_pdf * -v.n.dot(&dir) / (segment_m * segment_m);
+            let pdf_light = self.emission_area_pdf(&v.p, &v.n);
+            // A direction tangent to the surface (cosine 0) that the light cannot reach
+            // either keeps its whole weight.
+            if pdf_camera + pdf_light > 0.0 {
+                value *= pdf_camera / (pdf_camera + pdf_light);
+            }
+        }
+        Some(Contribution {
+            bounce: path.bounce,
+            path_m: spot.arrival_m,
+            first_m: path.first_m,
+            value: value as f64,
+        })
+    }
+
+    /// The bounce from vertex `v` (on the back of `shading`'s triangle when `back`): the
+    /// cosine-weighted continuation (BRDF * cos / pdf = rho, which `path.beta` takes), after
+    /// Russian roulette from `rr_start_bounce` on; `None` where roulette ends the path. The
+    /// direction comes from `ld_local` (the first two bounces' low-discrepancy points), else
+    /// from the pixel's random stream (drawn after Russian roulette's, in this order).
+    /// Returns the new direction, its solid-angle density and how far the next ray's origin
+    /// lies ahead of `v` along it.
+    #[inline(always)]
+    pub(super) fn scatter(
+        &self,
+        rng: &mut Pcg64Mcg,
+        ld_local: Option<Vector3<f32>>,
+        shading: &TriangleShading,
+        back: bool,
+        v: &Vertex,
+        path: &mut PathState,
+    ) -> Option<(Vector3<f32>, f32, f32)> {
+        path.beta *= v.rho;
+        let mut survive = 1.0;
+        if path.bounce >= self.rr_start_bounce {
+            survive = path.beta.min(0.95);
+            if uniform(rng) >= survive {
+                return None;
+            }
+            path.beta /= survive;
+        }
+        let l = ld_local.unwrap_or_else(|| {
+            let (u1, u2) = uniform_pair(rng);
+            cosine_local(u1, u2)
+        });
+        let bounce_pdf = survive * l.z * FRAC_1_PI;
+        // The basis of the flipped normal is (t, -b) (sampling::cosine_hemisphere_in).
+        let b = if back {
+            -shading.bitangent
+        } else {
+            shading.bitangent
+        };
+        let dir = shading.tangent * l.x + b * l.y + v.n * l.z;
+        Some((dir, bounce_pdf, RAY_OFFSET_M * l.z))
     }
 
     /// Density, per unit area at the surface point `p` (unit normal `n`, either side), of
@@ -326,10 +378,10 @@ impl PathKernel<'_> {
         })
     }
 
-    /// The light's strategy for the light of `bounce + 1` bounces: vertex `bounce` of a path
+    /// The light's strategy for the light of `bounce + 1` bounces: vertex `v` of `path`
     /// (point `x_m`, moved off the surface `x_off`, unit normal `n_x` of the side seen,
-    /// albedo `rho_x`, throughput `beta`, path length `path_m` so far) joined to the light
-    /// point `y` by a shadow ray. Its contribution, and the camera's own (a bounce from `x`
+    /// albedo `rho_x`; the path's throughput `beta` and length `path_m` so far) joined to the
+    /// light point `y` by a shadow ray. Its contribution, and the camera's own (a bounce from `x`
     /// that lands on `y`, connected to the spot), are weighted by the balance heuristic of
     /// their densities per unit area at `y`, so that together they count that light once,
     /// without the camera strategy's spikes where a bounce lands next to the spot (its
@@ -339,12 +391,14 @@ impl PathKernel<'_> {
     pub(super) fn connect_light_point(
         &self,
         y: &LightPoint,
-        (x_m, x_off, n_x, rho_x): (Point3<f32>, Point3<f32>, Vector3<f32>, f32),
-        (bounce, beta, path_m, first_m): (u32, f32, f64, f64),
+        v: &Vertex,
+        path: &PathState,
         (early_m, late_m): (f64, f64),
         tally: &mut PathTally,
         sink: &mut impl FnMut(Contribution),
     ) {
+        let (x_m, x_off, n_x, rho_x) = (v.p, v.p_off, v.n, v.rho);
+        let (bounce, beta, path_m, first_m) = (path.bounce, path.beta, path.path_m, path.first_m);
         let to_y = y.p - x_m;
         let d2 = to_y.norm_squared();
         let inv_d = 1.0 / d2.sqrt();
@@ -395,6 +449,38 @@ impl PathKernel<'_> {
             value: value as f64,
         });
     }
+}
+
+/// A vertex of a camera path: the surface point `p`, the point `p_off` moved off the surface
+/// along the normal (where the next rays leave from), the unit normal `n` of the side the
+/// path arrives from, and the surface's albedo `rho`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Vertex {
+    pub(super) p: Point3<f32>,
+    pub(super) p_off: Point3<f32>,
+    pub(super) n: Vector3<f32>,
+    pub(super) rho: f32,
+}
+
+/// A camera path at its current vertex: the vertex's index (1 = the first surface seen), the
+/// throughput so far, the optical path length from the camera to the vertex and to the
+/// path's first surface, metres.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PathState {
+    pub(super) bounce: u32,
+    pub(super) beta: f32,
+    pub(super) path_m: f64,
+    pub(super) first_m: f64,
+}
+
+/// The straight line from a vertex to the laser spot: the vector, its squared length and its
+/// length (metres), and the path length of the light that takes it, metres.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ToSpot {
+    pub(super) to_spot: Vector3<f32>,
+    pub(super) r2: f32,
+    pub(super) r: f32,
+    pub(super) arrival_m: f64,
 }
 
 /// Where an emission ray from the spot lands ([`PathKernel::light_point`]).

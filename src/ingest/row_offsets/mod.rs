@@ -432,8 +432,9 @@ struct Stencils<'a> {
 }
 
 /// Step 2 for one candidate window of one row: the median residual `r` over the pixels for
-/// which the window is clean, its squared standard error `s2`, and how many pixels (`0`, with
-/// `s2` infinite, when fewer than the fit's minimum).
+/// which the window is clean (for the centred window over every pixel: all of them), its
+/// squared standard error `s2`, and how many pixels (`0`, with `s2` infinite, when fewer than
+/// the fit's minimum).
 #[derive(Clone, Copy, Debug)]
 struct WindowFit {
     r: f64,
@@ -508,7 +509,7 @@ impl<'a> Stencils<'a> {
         let (ny, nx) = (self.ny(), self.nx);
         let mut residuals: Vec<f64> = Vec::with_capacity(nx);
         let mut fitted: Vec<Vec<WindowFit>> = Vec::with_capacity(ny);
-        let mut centred_all: Vec<Option<(f64, f64)>> = Vec::with_capacity(ny);
+        let mut centred_all: Vec<Option<WindowFit>> = Vec::with_capacity(ny);
         for (y, row_windows) in self.windows.iter().enumerate() {
             let mut row = Vec::with_capacity(5);
             for k in 0..row_windows.len() {
@@ -541,7 +542,14 @@ impl<'a> Stencils<'a> {
                     .map(|x| self.pixel(y, x, 0).0)
                     .filter(|e| e.is_finite()),
             );
-            centred_all.push((residuals.len() >= min).then(|| median_and_variance(&mut residuals)));
+            centred_all.push((residuals.len() >= min).then(|| {
+                let (r, s2) = median_and_variance(&mut residuals);
+                WindowFit {
+                    r,
+                    s2,
+                    pixels: residuals.len(),
+                }
+            }));
         }
         (fitted, centred_all)
     }
@@ -554,7 +562,7 @@ impl<'a> Stencils<'a> {
     fn choose(
         &self,
         fitted: &[Vec<WindowFit>],
-        centred_all: &[Option<(f64, f64)>],
+        centred_all: &[Option<WindowFit>],
         min: usize,
     ) -> Vec<Chosen> {
         let nx = self.nx;
@@ -572,7 +580,7 @@ impl<'a> Stencils<'a> {
                         .filter(|&k| f[k].pixels >= min)
                         .min_by(|&a, &b| f[a].r.abs().total_cmp(&f[b].r.abs()))
                         .map(|k| (k, f[k].r, f[k].s2))
-                        .or_else(|| centred_all[y].map(|(r, s2)| (0, r, s2)))
+                        .or_else(|| centred_all[y].map(|c| (0, c.r, c.s2)))
                 }
             })
             .collect()
