@@ -20,11 +20,17 @@ use rayon::prelude::*;
 pub(super) struct DarkSpan {
     /// Every neighbour's `P(c)` is `+0.0` for `c < before` (infinite: for every finite `c`).
     before: f64,
-    /// Every neighbour's `P(c)` is its total for `c >= after` (infinite: never).
+    /// Every neighbour's `P(c)` is its total for `c >= after` (NaN: for no `c`).
     after: f64,
 }
 
 impl DarkSpan {
+    /// A span that holds no window (before the cube's spans are known).
+    pub(super) const NEVER: DarkSpan = DarkSpan {
+        before: f64::NEG_INFINITY,
+        after: f64::NAN,
+    };
+
     /// Whether the window between the bin coordinates `ca` and `cb` lies wholly in a flat
     /// part, so that every neighbour's `P(cb) - P(ca)` is `+0.0` (false for a NaN).
     #[inline(always)]
@@ -42,7 +48,7 @@ impl DarkSpan {
         };
         let total = p[p.len() - 1];
         let after = if !total.is_finite() || total.to_bits() == (-0.0f64).to_bits() {
-            f64::INFINITY
+            f64::NAN
         } else {
             // P(c) for c >= H reads P[H ..= nt] (or the total); c >= 1 is never `Before`.
             let last_other = p.iter().rposition(|v| v.to_bits() != total.to_bits());
@@ -67,7 +73,12 @@ pub(super) fn dark_spans(prefix: &[f64], nx: usize, ny: usize, nt: usize) -> Vec
                     for xn in x.saturating_sub(1)..(x + 2).min(nx) {
                         let o = own[yn * nx + xn];
                         span.before = span.before.min(o.before);
-                        span.after = span.after.max(o.after);
+                        // A neighbour that is never flat at the end makes the span so.
+                        span.after = if o.after.is_nan() || span.after.is_nan() {
+                            f64::NAN
+                        } else {
+                            span.after.max(o.after)
+                        };
                     }
                 }
             }
@@ -125,7 +136,8 @@ mod tests {
         let pixel = |i: usize| &prefix[i * (nt + 1)..(i + 1) * (nt + 1)];
         let coords: Vec<f64> = (-4..=2 * nt as i32 + 4)
             .map(|k| k as f64 * 0.5)
-            .chain([0.3, 2.999, 3.0, 3.001, 11.5, -1e9, 1e9, f64::NAN])
+            .chain([0.3, 2.999, 3.0, 3.001, 11.5, -1e9, 1e9])
+            .chain([f64::NAN, f64::INFINITY, f64::NEG_INFINITY])
             .collect();
         let (mut dark, mut checked) = (0, 0);
         for (centre, span) in spans.iter().enumerate() {

@@ -10,6 +10,7 @@
 //! in the transient view by the row pipeline of `transient`; other views shade pixel by
 //! pixel (`FrameCtx::shade`). Each computes what [`probe_pixel`] does, bit for bit.
 
+mod colour;
 mod rays;
 mod transient;
 
@@ -478,6 +479,9 @@ struct RowScratch {
     /// The pixels whose ray hits the mesh: index in the row, distance.
     hit_pixels: Vec<(usize, f32)>,
     projected: Vec<transient::Projected>,
+    /// The lit pixels of the transient view whose colours are made four at a time: index
+    /// in the row, value, received wavelength (nm).
+    lit: Vec<(usize, f64, f64)>,
     lambda_nm: Vec<f64>,
     colour: Vec<Colour>,
 }

@@ -447,8 +447,11 @@ impl RenderSettings {
     }
 }
 
-/// One capture pixel's first hit: point and unit normal, `f32::NAN` where the ray misses.
+/// One capture pixel as a lookup reads it, in one cache line: its first hit (point and unit
+/// normal, `f32::NAN` where the ray misses), whether the cube's mask keeps it, its links and
+/// its dark span.
 #[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
 struct CaptureHit {
     point: [f32; 3],
     normal: [f32; 3],
@@ -456,6 +459,14 @@ struct CaptureHit {
     tolerance_m: f32,
     /// `n . (o_c - q)`: which side of the surface the capture camera at `o_c` is on.
     capture_side: f64,
+    /// Whether the cube's mask keeps the pixel (true without a mask).
+    kept: bool,
+    /// Bit `k` set when the neighbour `NEIGHBOURS[k]` records the same surface
+    /// (`surface_links`): the pixels [`RenderScene::capture_taps`] interpolates between.
+    links: u8,
+    /// Where the prefix sums of the pixel's 3 x 3 neighbourhood are flat: a window there is
+    /// black without a lookup (module `dark_span`).
+    dark: dark_span::DarkSpan,
 }
 
 /// The scene as the renderer sees it: geometry, the capture camera, the world-time cube's
@@ -469,19 +480,13 @@ pub struct RenderScene<'a> {
     pub world: &'a Pyramid,
     /// Laser wavelength in its rest frame, nm.
     pub laser_nm: f64,
+    /// Per cube pixel, its first hit, mask, links and dark span.
     hits: Vec<CaptureHit>,
-    /// Per cube pixel, bit `k` set when its neighbour `NEIGHBOURS[k]` records the same
-    /// surface (`surface_links`): the pixels [`RenderScene::capture_taps`] interpolates
-    /// between.
-    links: Vec<u8>,
     /// `world`'s prefix sums expanded to f64, `nt + 1` values per pixel (`P[i]` = sum of bins
     /// `0 .. i`): an interpolated `P(t)` then reads one cache line, not one of each of the
     /// stored two levels (`Pyramid::prefix`), which made a 640 x 480 frame 5 % slower
     /// (benches/render_results.md).
     prefix: Vec<f64>,
-    /// Per cube pixel, where the prefix sums of its 3 x 3 neighbourhood are flat: a window
-    /// there is black without a lookup (module `dark`).
-    dark: Vec<dark_span::DarkSpan>,
     /// `1 / dt` of the cube's axis, per ps.
     inv_dt_per_ps: f64,
     /// [`auto_exposure`] of the transient and naive views, and of the integrated view, once
@@ -523,6 +528,9 @@ impl<'a> RenderScene<'a> {
                 normal: [f32::NAN; 3],
                 tolerance_m: 0.0,
                 capture_side: f64::NAN,
+                kept: true,
+                links: 0,
+                dark: dark_span::DarkSpan::NEVER,
             };
             k.width * k.height
         ];
@@ -541,6 +549,7 @@ impl<'a> RenderScene<'a> {
                             normal: [hit.normal.x, hit.normal.y, hit.normal.z],
                             tolerance_m: (1e-4 + 2.0 * footprint * hit.t as f64) as f32,
                             capture_side: n.dot(&(capture.pose.position_m - q)),
+                            ..*h
                         };
                     }
                 }
@@ -556,15 +565,17 @@ impl<'a> RenderScene<'a> {
                 out.iter_mut().enumerate().for_each(|(i, o)| *o = p.get(i));
             });
         let dark = dark_span::dark_spans(&prefix, world.nx, world.ny, nt);
+        for (i, h) in hits.iter_mut().enumerate() {
+            h.kept = world.mask.as_ref().is_none_or(|m| m[i] != 0);
+            (h.links, h.dark) = (links[i], dark[i]);
+        }
         Ok(RenderScene {
             bvh,
             capture,
             world,
             laser_nm,
             hits,
-            links,
             prefix,
-            dark,
             inv_dt_per_ps: 1.0 / world.axis.dt_ps,
             auto_exposures: Default::default(),
         })
@@ -742,7 +753,7 @@ impl<'a> RenderScene<'a> {
                 // The corners are at most one pixel from the nearest in each axis.
                 let cell = 3 * (y + 1 - nearest.1) + (x + 1 - nearest.0);
                 let bit = cell - usize::from(cell > 4);
-                if self.links[nearest.1 * k.width + nearest.0] & (1 << bit) == 0 {
+                if self.hits[nearest.1 * k.width + nearest.0].links & (1 << bit) == 0 {
                     continue;
                 }
             }
@@ -786,12 +797,7 @@ impl<'a> RenderScene<'a> {
     #[inline(always)]
     fn pixel_sees(&self, x: usize, y: usize, p_m: &Point3<f64>, d_world: &Vector3<f64>) -> bool {
         let width = self.capture.intrinsics.width;
-        self.surface_holds(x, y, p_m, d_world)
-            && self
-                .world
-                .mask
-                .as_ref()
-                .is_none_or(|mask| mask[y * width + x] != 0)
+        self.surface_holds(x, y, p_m, d_world) && self.hits[y * width + x].kept
     }
 
     /// [`RenderScene::pixel_sees`] without the mask.

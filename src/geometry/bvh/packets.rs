@@ -19,7 +19,12 @@ impl<T> TriRay<T> {
     #[inline(always)]
     pub(super) fn new<S: Simd<M, Lanes = T>, const M: usize>(lanes: S, c: &RayConsts) -> Self {
         TriRay {
-            o: c.origin.map(|x| lanes.splat(x)),
+            // Written out, not with `map` and a closure (see `NodeRay::new`).
+            o: [
+                lanes.splat(c.origin[0]),
+                lanes.splat(c.origin[1]),
+                lanes.splat(c.origin[2]),
+            ],
             kx: c.kx,
             ky: c.ky,
             kz: c.kz,

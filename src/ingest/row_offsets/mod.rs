@@ -69,9 +69,8 @@ use crate::stats::{median, median_and_variance, quantile};
 pub use report::{jitter_report, power_report, scanline_report, OffsetReport, RowTruth};
 use robust::{solve_robust, Equation};
 
-/// Each row's centred window fit over every pixel (median residual and its spread), `None`
-/// with too few pixels.
-type CentredFits = Vec<Option<(f64, f64)>>;
+/// Each row's centred window fit over every pixel, `None` with too few pixels.
+type CentredFits = Vec<Option<WindowFit>>;
 /// Fraction of the row's reference (90th-percentile) pulse height, or integral, below which a
 /// pixel is not measured.
 const MIN_RELATIVE_SIGNAL: f64 = 0.2;

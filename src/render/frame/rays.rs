@@ -47,22 +47,36 @@ impl FrameCtx<'_> {
         for (c, (d_out, dop_out)) in d_world.chunks_mut(4).zip(doppler.chunks_mut(4)).enumerate() {
             let u = s((4 * c) as f64) + centres;
             let x = (u - half_x) * inv_focal;
-            let d = [0, 1, 2].map(|r| (m_x[r] * x + m_y[r]) + m_z[r]);
+            // Written out rather than with `map`: closures left out of line turned each
+            // vector operation into a call.
+            let d = [
+                (m_x[0] * x + m_y[0]) + m_z[0],
+                (m_x[1] * x + m_y[1]) + m_z[1],
+                (m_x[2] * x + m_y[2]) + m_z[2],
+            ];
             let norm = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]).sqrt();
             let inv_norm = one / norm;
-            let cam = d.map(|d| d * inv_norm);
+            let cam = [d[0] * inv_norm, d[1] * inv_norm, d[2] * inv_norm];
             let b_dot_d = (beta[0] * cam[0] + beta[1] * cam[1]) + beta[2] * cam[2];
             let (world, dop) = if aberration {
                 // PixelBoost::aberrate_with_doppler.
                 let inv = one / (one - b_dot_d);
                 let shift = k * b_dot_d - one;
-                let world = [0, 1, 2].map(|a| (cam[a] * inv_gamma + beta[a] * shift) * inv);
+                let world = [
+                    (cam[0] * inv_gamma + beta[0] * shift) * inv,
+                    (cam[1] * inv_gamma + beta[1] * shift) * inv,
+                    (cam[2] * inv_gamma + beta[2] * shift) * inv,
+                ];
                 (world, gamma * (one - b_dot_d))
             } else {
                 // PixelBoost::doppler_of_world_ray.
                 (cam, one / (gamma * (one + b_dot_d)))
             };
-            let world = world.map(f64x4::to_array);
+            let world = [
+                world[0].to_array(),
+                world[1].to_array(),
+                world[2].to_array(),
+            ];
             let dop = dop.to_array();
             for (lane, (d, p)) in d_out.iter_mut().zip(dop_out.iter_mut()).enumerate() {
                 *d = Vector3::new(world[0][lane], world[1][lane], world[2][lane]);

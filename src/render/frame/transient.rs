@@ -8,7 +8,7 @@
 //! lane by lane, no fused multiply-add), so the pixels are bit for bit those of
 //! [`super::probe_pixel`] (tests/render.rs pins every pixel of several frames to it).
 
-use super::{FrameCtx, RenderScene, RenderSettings, RowScratch};
+use super::{colour, ColourOutput, FrameCtx, RenderScene, RenderSettings, RowScratch};
 use nalgebra::{Point3, Vector3};
 use wide::f64x4;
 
@@ -60,6 +60,10 @@ impl FrameCtx<'_> {
         let k = &scene.capture.intrinsics;
         let (width, height) = (k.width as f64, k.height as f64);
         let e = settings.effects;
+        // FrameCtx::colour: the laser's colour without the Doppler shift, else the colour of
+        // each pixel's wavelength, computed four at a time for display output.
+        let vector_colours = e.doppler && settings.colour == ColourOutput::LinearSrgb;
+        scratch.lit.clear();
         for (&(i, _), pr) in scratch.hit_pixels.iter().zip(projected.iter()) {
             let (px, d, dop) = (&mut row[i], &d_world[i], doppler[i]);
             let (u, v) = (pr.u, pr.v);
@@ -73,7 +77,9 @@ impl FrameCtx<'_> {
             // A window where the taps hold no light gives energy +0 and so the value
             // `factor * +0 * (1 / dtau)`, which is +0 too for a finite positive factor; that
             // pixel is black like one the capture does not see, with no lookup.
-            if scene.dark[nearest.1 * k.width + nearest.0].holds(pr.coord_a, pr.coord_b)
+            if scene.hits[nearest.1 * k.width + nearest.0]
+                .dark
+                .holds(pr.coord_a, pr.coord_b)
                 && (factor * 0.0 * self.inv_dtau_per_ps).to_bits() == 0
             {
                 continue;
@@ -86,22 +92,27 @@ impl FrameCtx<'_> {
             let energy = scene.energy_at_coords(&taps, pr.coord_a, pr.coord_b);
             let value = factor * energy * self.inv_dtau_per_ps;
             // A pixel without light is black whatever its colour (the colour of a received
-            // wavelength is finite): only lit pixels compute theirs.
-            let c = if value == 0.0 {
-                [1.0; 3]
+            // wavelength is finite): only lit pixels compute theirs, the Doppler-shifted ones
+            // four at a time below.
+            if value == 0.0 {
+                *px = [value as f32; 3];
+            } else if vector_colours {
+                scratch.lit.push((i, value, dop * scene.laser_nm));
             } else {
                 let lambda_nm = if e.doppler {
                     dop * scene.laser_nm
                 } else {
                     scene.laser_nm
                 };
-                self.colour(settings, lambda_nm)
-            };
-            *px = [
-                (value * c[0]) as f32,
-                (value * c[1]) as f32,
-                (value * c[2]) as f32,
-            ];
+                *px = radiance(value, self.colour(settings, lambda_nm));
+            }
+        }
+        for lit in scratch.lit.chunks(4) {
+            let four: [(usize, f64, f64); 4] = std::array::from_fn(|k| lit[k.min(lit.len() - 1)]);
+            let colours = colour::laser_colours(four.map(|(_, _, lambda_nm)| lambda_nm));
+            for (&(i, value, _), c) in lit.iter().zip(colours) {
+                row[i] = radiance(value, c);
+            }
         }
     }
 
@@ -122,6 +133,8 @@ impl FrameCtx<'_> {
         let cal = &scene.capture;
         let k = &cal.intrinsics;
         let r = cal.pose.world_from_camera.matrix();
+        // Column c of R, splatted.
+        let r_col = [0, 1, 2].map(|c| [0, 1, 2].map(|row| s(r[(row, c)])));
         let o_c = cal.pose.position_m;
         let o = [self.origin.x, self.origin.y, self.origin.z].map(s);
         let o_c = [o_c.x, o_c.y, o_c.z].map(s);
@@ -137,19 +150,32 @@ impl FrameCtx<'_> {
         // RenderScene::bin_coord.
         let bin_coord = |t: f64x4| ((cube_t0 + time_scale * t) - axis_t0) * inv_dt;
         for (hits, out) in hits.chunks(4).zip(out.chunks_mut(4)) {
-            // The last few pixels padded with copies of the last one.
-            let four: [(usize, f32); 4] = std::array::from_fn(|k| hits[k.min(hits.len() - 1)]);
-            let dist = f64x4::new(four.map(|(_, t)| t as f64));
-            let dir = |a: usize| f64x4::new(four.map(|(i, _)| d_world[i][a]));
-            let (dx, dy, dz) = (dir(0), dir(1), dir(2));
-            let dop = f64x4::new(four.map(|(i, _)| doppler[i]));
+            // The last few pixels padded with copies of the last one. Gathers and vector
+            // arithmetic written out rather than with `map`: closures left out of line turned
+            // each vector operation into a call.
+            let mut lanes = [[0.0; 4]; 5];
+            for k in 0..4 {
+                let (i, t) = hits[k.min(hits.len() - 1)];
+                let d = &d_world[i];
+                (lanes[0][k], lanes[1][k], lanes[2][k]) = (d.x, d.y, d.z);
+                (lanes[3][k], lanes[4][k]) = (t as f64, doppler[i]);
+            }
+            let [dx, dy, dz, dist, dop] = [
+                f64x4::new(lanes[0]),
+                f64x4::new(lanes[1]),
+                f64x4::new(lanes[2]),
+                f64x4::new(lanes[3]),
+                f64x4::new(lanes[4]),
+            ];
             // FrameCtx::shade: p = o + d r; Pose::camera_from_world: R^T (p - o_c), each
             // component a column of R dotted with it as nalgebra does, `(a + b) + c`.
-            let p = [dx, dy, dz].map(|d| d * dist);
-            let p = [o[0] + p[0], o[1] + p[1], o[2] + p[2]];
+            let p = [o[0] + dx * dist, o[1] + dy * dist, o[2] + dz * dist];
             let w = [p[0] - o_c[0], p[1] - o_c[1], p[2] - o_c[2]];
-            let cam = [0, 1, 2]
-                .map(|c| (s(r[(0, c)]) * w[0] + s(r[(1, c)]) * w[1]) + s(r[(2, c)]) * w[2]);
+            let cam = [
+                (r_col[0][0] * w[0] + r_col[0][1] * w[1]) + r_col[0][2] * w[2],
+                (r_col[1][0] * w[0] + r_col[1][1] * w[1]) + r_col[1][2] * w[2],
+                (r_col[2][0] * w[0] + r_col[2][1] * w[1]) + r_col[2][2] * w[2],
+            ];
             // Intrinsics::project_camera_point.
             let (x, y) = (cam[0] / cam[2], cam[1] / cam[2]);
             let r2 = x * x + y * y;
@@ -168,7 +194,7 @@ impl FrameCtx<'_> {
             let t_b = t_e + dtau / d_light;
             let (coord_a, coord_b) = (bin_coord(t_e).to_array(), bin_coord(t_b).to_array());
             let (u, v) = (u.to_array(), v.to_array());
-            let p = p.map(f64x4::to_array);
+            let p = [p[0].to_array(), p[1].to_array(), p[2].to_array()];
             for (i, out) in out.iter_mut().enumerate() {
                 *out = Projected {
                     p_m: [p[0][i], p[1][i], p[2][i]],
@@ -180,4 +206,14 @@ impl FrameCtx<'_> {
             }
         }
     }
+}
+
+/// The pixel written for the value `value` of light of colour `c` (step 7).
+#[inline(always)]
+fn radiance(value: f64, c: [f64; 3]) -> [f32; 3] {
+    [
+        (value * c[0]) as f32,
+        (value * c[1]) as f32,
+        (value * c[2]) as f32,
+    ]
 }
