@@ -504,10 +504,9 @@ impl VideoWriter {
                 let dest = tmp.path().join(&name);
                 match self.format {
                     VideoFormat::PngSequence => {
-                        let place = self.sequence_length.map(|frames| SequencePlace {
-                            index,
-                            frames,
-                        });
+                        let place = self
+                            .sequence_length
+                            .map(|frames| SequencePlace { index, frames });
                         write_png(&dest, &frame.srgb8, width, height, place)
                     }
                     _ => write_exr(&dest, &frame.linear_rgb, width, height),

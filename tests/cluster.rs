@@ -226,11 +226,17 @@ fn encode_makes_the_single_renders_mp4_and_gif_from_split_png_frames() {
     // A set shorter than the 7 frames the render planned: the last part, or the first.
     encode(
         &["part0", "part1"],
-        &["frames 5..7 of the 7 the render planned", "part1 ends at frame 4"],
+        &[
+            "frames 5..7 of the 7 the render planned",
+            "part1 ends at frame 4",
+        ],
     );
     encode(
         &["part2", "part1"],
-        &["frames 0..3 of the 7 the render planned", "part1 starts at frame 3"],
+        &[
+            "frames 0..3 of the 7 the render planned",
+            "part1 starts at frame 3",
+        ],
     );
     encode(&["cap"], &["cap", "no PNG frames"]);
     refused_unchanged(

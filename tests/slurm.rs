@@ -163,7 +163,10 @@ fn slurm_job_arrays_merge_and_encode_as_one_process_would() {
     assert!(stderr.contains("a job failed or was cancelled"), "{stderr}");
     assert!(!failed_work.join("video.mp4").exists());
     let stdout = String::from_utf8_lossy(&failed.stdout);
-    assert!(!stdout.contains("video:"), "a failed run names no video: {stdout}");
+    assert!(
+        !stdout.contains("video:"),
+        "a failed run names no video: {stdout}"
+    );
 
     // submit.sh's own default --sim (no --size in it) is submitted as it is: its rows come
     // from the default's explicit size. Submitted only, then cancelled.

@@ -6,9 +6,7 @@
 
 use crate::errors::IntoPy;
 use crate::runner::{run_stage, Shared};
-use femto::pipeline::simulate::{
-    parse_format, parse_time_filter, prepare, run, SimulateRequest,
-};
+use femto::pipeline::simulate::{parse_format, parse_time_filter, prepare, run, SimulateRequest};
 use femto::simulate::{Flaws, SimulateSummary, Stage};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

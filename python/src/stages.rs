@@ -117,11 +117,7 @@ pub fn unwarp<'py>(
             Some(TimeAxis { t0_ps, dt_ps, nt })
         }
         (None, None) if dt_ps.is_none() => None,
-        _ => {
-            return Err(value_error(
-                "t0_ps= and nt= go together (dt_ps= optional)",
-            ))
-        }
+        _ => return Err(value_error("t0_ps= and nt= go together (dt_ps= optional)")),
     };
     options.compression = self::compression("compression", compression.as_deref())?;
     if let Some(bins) = mask_spread_bins {

@@ -251,12 +251,15 @@ pub fn calibrate_cube(
 
     let spatial = spatial_options(options, cube_path, meta.nx, meta.ny)?;
     let fit = fit_camera(points, &spatial).map_err(|e| StageError::Points { source: e })?;
+    progress.poll();
     let camera = fit.calibration(0.0, 1.0, laser_m, options.eta);
     let reg = register(&camera, mesh, meta.nx, meta.ny).map_err(at)?;
     if reg.hit_count() == 0 {
         return Err(StageError::NothingSeen);
     }
+    progress.poll();
     let footprint_spread_m = footprint_spread_m(&camera, mesh, &reg);
+    progress.poll();
 
     let noise = cube_noise_sigma(&reader)?;
     let auto_floor = (NOISE_SIGMAS * noise) as f32;
