@@ -798,7 +798,8 @@ pub fn render_to(
     let mut writer =
         VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
             .first_frame_index(plan.frames.start)
-            .sequence_length(spec.frames);
+            .sequence_length(spec.frames)
+            .record_sequence(plan.frames != (0..spec.frames));
     let mut frame = Frame {
         width: spec.width,
         height: spec.height,
