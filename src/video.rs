@@ -11,10 +11,10 @@
 //! the destination that `finish` puts in place, replacing an earlier sequence whole (no stale
 //! frames of a longer one stay; a partial render keeps the earlier frames of its own sequence,
 //! [`VideoWriter::sequence_length`], so split renders into one folder add up). A destination
-//! folder that holds anything but frames is refused when the writer is created, before
-//! anything is written. Each PNG frame of a render records its place in the sequence the
-//! render planned (`frame K of N`, [`place`]), so that `femto encode` can refuse a set of
-//! parts that falls short of it.
+//! folder that holds anything but frames (and the [`sequence`] file of a part) is refused when
+//! the writer is created, before anything is written. The folder of a render of part of a
+//! sequence (`--frames A..B`) records the sequence it belongs to ([`sequence`]), so that
+//! `femto encode` can refuse a set of parts that falls short of it.
 //!
 //! Colour handling (no tone mapping happens here; the caller decides how radiance becomes a
 //! displayable value):
@@ -42,7 +42,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use image::codecs::gif::{GifEncoder, Repeat};
-use image::{Delay, RgbaImage};
+use image::codecs::png::PngEncoder;
+use image::{Delay, ExtendedColorType, ImageEncoder, RgbaImage};
 use openh264::encoder::{
     BitRate, Encoder, EncoderConfig, FrameRate, FrameType, IntraFramePeriod, QpRange,
     RateControlMode, TransferCharacteristics, UsageType, VuiConfig,
@@ -393,6 +394,8 @@ pub struct VideoWriter {
     /// Frames of the whole sequence, of which this writer may write a part (see
     /// [`VideoWriter::sequence_length`]).
     sequence_length: Option<usize>,
+    /// Whether the folder records its sequence ([`VideoWriter::record_sequence`]).
+    record_sequence: bool,
     pushed: usize,
     sink: Sink,
 }
@@ -456,6 +459,7 @@ impl VideoWriter {
             fps,
             first_index: 0,
             sequence_length: None,
+            record_sequence: false,
             pushed: 0,
             sink,
         })
@@ -493,6 +497,7 @@ impl VideoWriter {
             fps,
             first_index: 0,
             sequence_length: None,
+            record_sequence: false,
             pushed: 0,
             sink,
         })
@@ -512,6 +517,15 @@ impl VideoWriter {
     /// by exactly the written frames.
     pub fn sequence_length(mut self, frames: usize) -> VideoWriter {
         self.sequence_length = Some(frames);
+        self
+    }
+
+    /// The folder records the sequence it is part of ([`sequence`]: N, the
+    /// [`VideoWriter::sequence_length`]): a render of part of a sequence sets it, so that
+    /// `femto encode` can refuse a set of parts that falls short of the whole. A whole
+    /// sequence's folder holds its frames only.
+    pub fn record_sequence(mut self, record: bool) -> VideoWriter {
+        self.record_sequence = record;
         self
     }
 
@@ -556,12 +570,7 @@ impl VideoWriter {
                 let name = sequence_file_name(index, self.format);
                 let dest = tmp.path().join(&name);
                 match self.format {
-                    VideoFormat::PngSequence => {
-                        let place = self
-                            .sequence_length
-                            .map(|frames| SequencePlace { index, frames });
-                        write_png(&dest, &frame.srgb8, width, height, place)
-                    }
+                    VideoFormat::PngSequence => write_png(&dest, &frame.srgb8, width, height),
                     _ => write_exr(&dest, &frame.linear_rgb, width, height),
                 }
                 .map_err(|e| e.at(self.path.join(&name)))?;
@@ -639,6 +648,10 @@ impl VideoWriter {
                 if let Some(total) = self.sequence_length {
                     let written = self.first_index..self.first_index + self.pushed;
                     keep_earlier_frames(&path, tmp.path(), self.format, total, written)?;
+                    if self.record_sequence {
+                        let frames = sequence::SequenceFile { frames: total };
+                        sequence::write_sequence_file(tmp.path(), frames)?;
+                    }
                 }
                 crate::atomic::replace_dir(tmp, &path)
                     .map_err(|source| VideoError::Io { path, source })?;
@@ -744,7 +757,7 @@ fn check_sequence_folder(path: &Path) -> Result<(), VideoError> {
                 let entry = entry.map_err(folder)?;
                 let name = entry.file_name().to_string_lossy().into_owned();
                 let is_file = entry.file_type().is_ok_and(|t| t.is_file());
-                if !(is_file && is_frame_name(&name)) {
+                if !(is_file && (is_frame_name(&name) || name == sequence::SEQUENCE_FILE)) {
                     return Err(VideoError::NotASequence {
                         path: path.to_path_buf(),
                         file: name,
@@ -825,42 +838,30 @@ impl VideoError {
     }
 }
 
-/// Encode an 8-bit sRGB still as PNG into `out`: the bytes of the frame a one-frame render
-/// writes (its place, `frame 0 of 1`, included), as `femto view` saves a still.
+/// Encode an 8-bit sRGB frame as PNG into `out`: the bytes of a frame of a PNG sequence.
 pub fn encode_png(
     srgb8: &[u8],
     width: usize,
     height: usize,
     out: &mut impl Write,
-) -> Result<(), png::EncodingError> {
-    let still = SequencePlace {
-        index: 0,
-        frames: 1,
-    };
-    place::encode_png(srgb8, width, height, Some(still), out)
+) -> Result<(), image::ImageError> {
+    PngEncoder::new(out).write_image(srgb8, width as u32, height as u32, ExtendedColorType::Rgb8)
 }
 
 /// Write one 8-bit sRGB frame as the PNG file `dest` (atomically: a temporary file beside it,
-/// renamed), recording its `place` in its sequence when given ([`place`]).
-pub fn write_png(
-    dest: &Path,
-    srgb8: &[u8],
-    width: usize,
-    height: usize,
-    place: Option<SequencePlace>,
-) -> Result<(), VideoError> {
+/// renamed).
+pub fn write_png(dest: &Path, srgb8: &[u8], width: usize, height: usize) -> Result<(), VideoError> {
     write_file_atomically(dest, |tmp| {
+        let image_err = |source| VideoError::Image {
+            path: dest.to_path_buf(),
+            source,
+        };
         let file = fs::File::create(tmp).map_err(|source| VideoError::Io {
             path: dest.to_path_buf(),
             source,
         })?;
         let mut out = BufWriter::new(file);
-        place::encode_png(srgb8, width, height, place, &mut out).map_err(|e| {
-            VideoError::Image {
-                path: dest.to_path_buf(),
-                source: image::ImageError::IoError(io::Error::other(e)),
-            }
-        })?;
+        encode_png(srgb8, width, height, &mut out).map_err(image_err)?;
         out.flush().map_err(|source| VideoError::Io {
             path: dest.to_path_buf(),
             source,
@@ -1019,9 +1020,7 @@ fn mp4_bytes(
 }
 
 pub mod encode;
-pub mod place;
-
-pub use place::SequencePlace;
+pub mod sequence;
 
 #[cfg(test)]
 mod tests;

@@ -228,14 +228,14 @@ fn encode_makes_the_single_renders_mp4_and_gif_from_split_png_frames() {
         &["part0", "part1"],
         &[
             "frames 5..7 of the 7 the render planned",
-            "part1 ends at frame 4",
+            "given end at frame 4",
         ],
     );
     encode(
         &["part2", "part1"],
         &[
             "frames 0..3 of the 7 the render planned",
-            "part1 starts at frame 3",
+            "given start at frame 3",
         ],
     );
     encode(&["cap"], &["cap", "no PNG frames"]);

@@ -4,8 +4,8 @@
 
 use crate::errors::{value_error, IntoPy};
 use crate::runner::run_stage;
-use femto::container::{AttrValue, CubeReader, DataBuf, GroupReader, Provenance};
-use femto::cube::{Cube, TimeAxis, TimeFrame};
+use femto::container::{AttrValue, CubeReader, CubeView, DataBuf, GroupReader, Provenance};
+use femto::cube::{TimeAxis, TimeFrame};
 use numpy::ndarray::{Array2, Array3, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyReadonlyArray3};
 use pyo3::prelude::*;
@@ -228,7 +228,11 @@ pub fn write_cube(
         .ok_or_else(|| value_error(format!("clock={clock:?}: expected \"camera\" or \"world\"")))?;
     let shape = array.as_array().shape().to_vec();
     let (ny, nx, nt) = (shape[0], shape[1], shape[2]);
-    let mask = match mask {
+    // The arrays' own buffers (C order: femto/_cube.py makes them so), not copies.
+    let values = array
+        .as_slice()
+        .map_err(|e| value_error(format!("array: {e} (expected C order)")))?;
+    let mask_values = match &mask {
         Some(m) => {
             let shape = m.as_array().shape().to_vec();
             if shape != [ny, nx] {
@@ -237,7 +241,10 @@ pub fn write_cube(
                     shape[0], shape[1]
                 )));
             }
-            Some(m.as_array().iter().copied().collect())
+            Some(
+                m.as_slice()
+                    .map_err(|e| value_error(format!("mask: {e} (expected C order)")))?,
+            )
         }
         None => None,
     };
@@ -247,13 +254,13 @@ pub fn write_cube(
             path.display()
         )));
     }
-    let cube = Cube {
+    let cube = CubeView {
         nx,
         ny,
         axis: TimeAxis { t0_ps, dt_ps, nt },
         frame,
-        data: array.as_array().iter().copied().collect(),
-        mask,
+        values,
+        mask: mask_values,
     };
     let mut provenance = Provenance::new("python: femto.cube_from_array");
     provenance.notes = notes;

@@ -92,11 +92,12 @@ fn figures<'py>(py: Python<'py>, done: &Rendered) -> PyResult<Bound<'py, PyDict>
     Ok(d)
 }
 
-/// Render `camera` on the opened inputs into memory: `(frames, h, w, 3)` uint8 display
-/// sRGB, or float32 linear RGB when `linear`.
+/// Render `camera` on the inputs `open` opens (on the worker, so that Ctrl-C reaches a slow
+/// open) into memory: `(frames, h, w, 3)` uint8 display sRGB, or float32 linear RGB when
+/// `linear`.
 fn render_in_memory<'py>(
     py: Python<'py>,
-    inputs: &RenderInputs,
+    open: &(dyn Fn() -> PyResult<RenderInputs> + Sync),
     camera: &Camera,
     options: &RenderOptions,
     linear: bool,
@@ -107,8 +108,12 @@ fn render_in_memory<'py>(
         Linear(Vec<f32>),
     }
     let (pixels, done, shape) = run_stage(py, progress, |shared| {
+        let inputs = open()?;
+        shared.check();
         let scene = inputs.scene().py_err()?;
+        shared.check();
         let plan = plan(&scene, camera, options).py_err()?;
+        shared.check();
         let spec = plan.path.spec();
         let n = plan.frames.len();
         let values = n * spec.width * spec.height * 3;
@@ -129,7 +134,7 @@ fn render_in_memory<'py>(
         };
         let frame_len = spec.width * spec.height * 3;
         let mut k_local = 0usize;
-        let done = render_planned(inputs, &scene, &plan, shared, |k, frame, _| {
+        let done = render_planned(&inputs, &scene, &plan, shared, |k, frame, _| {
             match &mut pixels {
                 Pixels::Linear(v) => v.extend(frame.iter().flatten()),
                 Pixels::Srgb8(v) => {
@@ -255,7 +260,7 @@ pub fn render<'py>(
         false_colour: false,
     };
     check_options(&options).py_err()?;
-    let inputs = py.detach(|| {
+    let open = || {
         open_inputs(
             &cube,
             calibration.as_deref(),
@@ -263,11 +268,11 @@ pub fn render<'py>(
             pyramid.as_deref(),
             laser_nm,
         )
-    })?;
+    };
     match out {
         None => {
             let (array, figures) =
-                render_in_memory(py, &inputs, &camera, &options, linear, progress.as_ref())?;
+                render_in_memory(py, &open, &camera, &options, linear, progress.as_ref())?;
             Ok((Some(array), figures))
         }
         Some(out) => {
@@ -277,6 +282,8 @@ pub fn render<'py>(
             input_paths.extend(pyramid.as_deref());
             input_paths.extend(path.as_deref());
             let done = run_stage(py, progress.as_ref(), |shared| {
+                let inputs = open()?;
+                shared.check();
                 render_to(&inputs, &camera, &options, &out, &input_paths, shared).py_err()
             })?;
             Ok((None, figures(py, &done)?))
@@ -306,7 +313,7 @@ pub fn render_still<'py>(
         name: "state".into(),
     };
     let options = state.render_options();
-    let inputs = py.detach(|| {
+    let open = || {
         open_inputs(
             &cube,
             calibration.as_deref(),
@@ -314,9 +321,9 @@ pub fn render_still<'py>(
             pyramid.as_deref(),
             Some(state.laser_nm),
         )
-    })?;
+    };
     let (frames, figures) =
-        render_in_memory(py, &inputs, &camera, &options, linear, progress.as_ref())?;
+        render_in_memory(py, &open, &camera, &options, linear, progress.as_ref())?;
     // One frame: drop the frames axis.
     let shape: Vec<usize> = frames.getattr("shape")?.extract()?;
     let frame = frames.call_method1("reshape", (shape[1..].to_vec(),))?;

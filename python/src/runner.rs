@@ -79,6 +79,9 @@ impl femto::pipeline::Progress for Shared {
         let len = self.len.load(Ordering::Relaxed);
         self.done.store(len, Ordering::Relaxed);
     }
+    fn poll(&self) {
+        self.check();
+    }
 }
 
 /// Run `stage` on a worker thread with the GIL released; `progress`, when given, is called

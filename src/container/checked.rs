@@ -7,8 +7,34 @@
 use super::error::{invalid, ContainerError, Result};
 use super::schema::{CubeCompression, Provenance, CUBE_DATASET};
 use super::write::CubeWriter;
-use crate::cube::{first_non_finite, Cube};
+use crate::cube::{first_non_finite, Cube, TimeAxis, TimeFrame};
 use std::path::Path;
+
+/// A cube in the caller's memory (a numpy array's buffer, borrowed): values `[y][x][t]`,
+/// their axis and clock, and an optional mask `[y][x]`.
+#[derive(Clone, Copy, Debug)]
+pub struct CubeView<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub axis: TimeAxis,
+    pub frame: TimeFrame,
+    pub values: &'a [f32],
+    pub mask: Option<&'a [u8]>,
+}
+
+impl<'a> CubeView<'a> {
+    /// A view of `cube`.
+    pub fn of(cube: &'a Cube) -> CubeView<'a> {
+        CubeView {
+            nx: cube.nx,
+            ny: cube.ny,
+            axis: cube.axis,
+            frame: cube.frame,
+            values: &cube.data,
+            mask: cube.mask.as_deref(),
+        }
+    }
+}
 
 /// Rows per slab: about 8 MiB of values, so that a caller polling `on_rows` between slabs
 /// (the Python package's Ctrl-C) waits for one slab's compression only.
@@ -18,20 +44,20 @@ fn slab_rows(nx: usize, nt: usize, ny: usize) -> usize {
 
 /// Refuse `cube` (to be written to `dest`, which errors name) unless the reader would read
 /// it back: see the module doc.
-pub fn check_cube(dest: &Path, cube: &Cube) -> Result<()> {
-    let (ny, nx, nt) = cube.shape();
+pub fn check_cube(dest: &Path, cube: &CubeView) -> Result<()> {
+    let (ny, nx, nt) = (cube.ny, cube.nx, cube.axis.nt);
     if nx == 0 || ny == 0 || nt == 0 {
         return Err(invalid(
             dest,
             format!("a cube of {ny} x {nx} x {nt}: it needs at least one pixel and one bin"),
         ));
     }
-    if cube.data.len() != nx * ny * nt {
+    if cube.values.len() != nx * ny * nt {
         return Err(invalid(
             dest,
             format!(
                 "{} values for a cube of {ny} x {nx} x {nt}",
-                cube.data.len()
+                cube.values.len()
             ),
         ));
     }
@@ -44,14 +70,14 @@ pub fn check_cube(dest: &Path, cube: &Cube) -> Result<()> {
     }
     crate::ranges::check("dt_ps", axis.dt_ps, crate::ranges::INTERVAL_PS)
         .map_err(|e| invalid(dest, e.to_string()))?;
-    if let Some(at) = first_non_finite(&cube.data, nx, nt) {
+    if let Some(at) = first_non_finite(cube.values, nx, nt) {
         return Err(ContainerError::NonFinite {
             path: dest.to_path_buf(),
             dataset: CUBE_DATASET.into(),
             at,
         });
     }
-    if let Some(mask) = &cube.mask {
+    if let Some(mask) = cube.mask {
         if mask.len() != nx * ny {
             return Err(invalid(
                 dest,
@@ -79,14 +105,14 @@ pub fn check_cube(dest: &Path, cube: &Cube) -> Result<()> {
 /// (the Python package on Ctrl-C) leaves nothing behind.
 pub fn write_checked_cube(
     path: &Path,
-    cube: &Cube,
+    cube: &CubeView,
     units: &str,
     provenance: &Provenance,
     compression: CubeCompression,
     on_rows: &dyn Fn(usize),
 ) -> Result<()> {
     check_cube(path, cube)?;
-    let (ny, nx, nt) = cube.shape();
+    let (ny, nx, nt) = (cube.ny, cube.nx, cube.axis.nt);
     let mut w = CubeWriter::create_with(
         path,
         nx,
@@ -101,10 +127,10 @@ pub fn write_checked_cube(
     let slab = slab_rows(nx, nt, ny);
     for y0 in (0..ny).step_by(slab) {
         let y1 = (y0 + slab).min(ny);
-        w.write_rows(y0, &cube.data[y0 * row_len..y1 * row_len])?;
+        w.write_rows(y0, &cube.values[y0 * row_len..y1 * row_len])?;
         on_rows(y1);
     }
-    if let Some(m) = &cube.mask {
+    if let Some(m) = cube.mask {
         w.write_mask(m)?;
     }
     w.finish()
@@ -113,7 +139,6 @@ pub fn write_checked_cube(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cube::{TimeAxis, TimeFrame};
 
     fn cube() -> Cube {
         let axis = TimeAxis {
@@ -135,7 +160,7 @@ mod tests {
         let write = |c: &Cube| {
             write_checked_cube(
                 &dest,
-                c,
+                &CubeView::of(c),
                 "arbitrary",
                 &Provenance::new("test"),
                 CubeCompression::default(),
@@ -163,7 +188,7 @@ mod tests {
         let good = cube();
         write_checked_cube(
             &dest,
-            &good,
+            &CubeView::of(&good),
             "arbitrary",
             &Provenance::new("test"),
             CubeCompression::default(),

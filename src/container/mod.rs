@@ -54,7 +54,7 @@ mod write;
 #[cfg(doc)]
 use crate::cube::Cube;
 
-pub use checked::{check_cube, write_checked_cube};
+pub use checked::{check_cube, write_checked_cube, CubeView};
 pub use compression::{CompressedRow, RowCompressor};
 pub use error::ContainerError;
 pub use groups::GroupReader;

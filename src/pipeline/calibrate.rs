@@ -250,12 +250,15 @@ pub fn calibrate_cube(
     // The camera, and what each pixel sees through it.
     let spatial = spatial_options(options, cube_path, meta.nx, meta.ny)?;
     let fit = fit_camera(points, &spatial).map_err(|e| StageError::Points { source: e })?;
+    progress.poll();
     let camera = fit.calibration(0.0, 1.0, laser_m, options.eta);
     let reg = register(&camera, mesh, meta.nx, meta.ny).map_err(at)?;
     if reg.hit_count() == 0 {
         return Err(StageError::NothingSeen);
     }
+    progress.poll();
     let footprint_spread_m = footprint_spread_m(&camera, mesh, &reg);
+    progress.poll();
 
     // t0 from the direct light above the detection floor, checked at twice the floor.
     let noise = cube_noise_sigma(&reader)?;

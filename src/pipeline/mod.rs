@@ -50,6 +50,10 @@ pub trait Progress: Sync {
     }
     /// The current pass is over.
     fn finish(&self) {}
+    /// Called between the steps of a stage's phases that report nothing (opening inputs,
+    /// building a scene, reading a slab before writing it), so that a caller may unwind
+    /// from here to stop the stage promptly (the Python package on Ctrl-C). Reports nothing.
+    fn poll(&self) {}
 }
 
 /// Reports nothing.

@@ -822,7 +822,9 @@ pub fn render_to(
 ) -> Result<Rendered, StageError> {
     refuse_same_file(out, input_paths, "out")?;
     let scene = inputs.scene()?;
+    progress.poll();
     let plan = plan(&scene, camera, options)?;
+    progress.poll();
     let spec = plan.path.spec();
     if options.format.is_sequence() {
         let names = plan
@@ -836,7 +838,8 @@ pub fn render_to(
     let mut writer =
         VideoWriter::create(out, options.format, spec.width, spec.height, options.fps)?
             .first_frame_index(plan.frames.start)
-            .sequence_length(spec.frames);
+            .sequence_length(spec.frames)
+            .record_sequence(plan.frames != (0..spec.frames));
     let mut frame = Frame {
         width: spec.width,
         height: spec.height,
@@ -880,6 +883,7 @@ pub fn render_planned(
     let spec = path.spec();
     // Frames whose times miss the cube's light, predicted before rendering (a coarse probe
     // of each frame, render::coverage); the rendered black frames are counted below.
+    progress.poll();
     let coverage = predict_coverage(scene, settings, path, frames.clone())?;
     progress.start("render", frames.len() as u64);
     let started = Instant::now();

@@ -133,7 +133,6 @@ pub fn stage_truth(
             &srgb8,
             w,
             h,
-            None,
         )?;
         on_frame();
     }

@@ -4,8 +4,8 @@
 //! read, and they are pushed to one [`super::VideoWriter`] in frame order.
 //!
 //! The folders must together hold frames `A..B` once each (`frame_NNNNN.png`, their global
-//! numbers, [`super::sequence_file_name`]), all of one size, and, when the frames record the
-//! sequence their render planned ([`super::place`]), every frame of it; gaps, repeats, a
+//! numbers, [`super::sequence_file_name`]), all of one size, and, when the parts record the
+//! sequence their render planned ([`super::sequence`]), every frame of it; gaps, repeats, a
 //! short set and EXR frames (linear values, not the displayed ones) are refused before
 //! anything is written.
 
@@ -115,26 +115,26 @@ pub fn list_frames(dirs: &[PathBuf]) -> Result<(std::ops::Range<usize>, Vec<Path
     Ok((range, frames.into_iter().map(|f| f.1).collect()))
 }
 
-/// Refuse frames `range` (the files `files`, in order) when their render planned another
-/// sequence: each frame records its place, `frame K of N` ([`super::place`]); every frame
-/// must name the same N and the folders must hold frames 0..N, so a part left out (or not
-/// written yet) is refused rather than encoded into a shorter video. Frames that record no
-/// place (another tool's) are taken as they are.
-fn check_planned(range: &std::ops::Range<usize>, files: &[PathBuf]) -> Result<(), VideoError> {
+/// Refuse frames `range` (from the folders `dirs`) when their render planned a longer
+/// sequence: the folder of each part records the sequence's frames N ([`super::sequence`]);
+/// every part must name the same N and together they must hold frames 0..N, so a part left
+/// out (or not written yet) is refused rather than encoded into a shorter video. Folders
+/// that record nothing (a whole render's, another tool's frames) are taken as they are.
+fn check_planned(range: &std::ops::Range<usize>, dirs: &[PathBuf]) -> Result<(), VideoError> {
     let mut planned: Option<(usize, &PathBuf)> = None;
-    for file in files {
-        let Some(place) = super::place::read_place(file)? else {
+    for dir in dirs {
+        let Some(sequence) = super::sequence::read_sequence_file(dir)? else {
             continue;
         };
         match planned {
-            None => planned = Some((place.frames, file)),
-            Some((n, first)) if n != place.frames => {
+            None => planned = Some((sequence.frames, dir)),
+            Some((n, other)) if n != sequence.frames => {
                 return Err(refuse(format!(
-                    "{}: a frame of a {}-frame render, but {} is of a {n}-frame one: parts of \
-                     one video come from one render's --frame-count",
-                    file.display(),
-                    place.frames,
-                    first.display()
+                    "{}: part of a {}-frame render, but {} is part of a {n}-frame one: the \
+                     parts of one video come from one render's --frame-count",
+                    dir.display(),
+                    sequence.frames,
+                    other.display()
                 )))
             }
             Some(_) => {}
@@ -143,22 +143,18 @@ fn check_planned(range: &std::ops::Range<usize>, files: &[PathBuf]) -> Result<()
     let Some((n, _)) = planned else {
         return Ok(());
     };
-    let folder = |f: &PathBuf| f.parent().unwrap_or(Path::new(".")).display().to_string();
     if range.start > 0 {
         return Err(refuse(format!(
-            "frames 0..{} of the {n} the render planned are in no folder ({} starts at frame \
-             {}): give every part",
-            range.start,
-            folder(&files[0]),
-            range.start
+            "frames 0..{} of the {n} the render planned are in no folder (the frames given \
+             start at frame {}): give every part",
+            range.start, range.start
         )));
     }
     if range.end < n {
         return Err(refuse(format!(
-            "frames {}..{n} of the {n} the render planned are in no folder ({} ends at frame \
-             {}): give every part, once each has been written",
+            "frames {}..{n} of the {n} the render planned are in no folder (the frames given \
+             end at frame {}): give every part, once each has been written",
             range.end,
-            folder(&files[files.len() - 1]),
             range.end - 1
         )));
     }
@@ -225,7 +221,7 @@ pub fn encode_sequences(
         )));
     }
     let (range, files) = list_frames(dirs)?;
-    check_planned(&range, &files)?;
+    check_planned(&range, dirs)?;
     let first = read_frame(&files[0])?;
     let (width, height) = (first.width, first.height);
     let mut writer = VideoWriter::create(out, format, width, height, fps)?;

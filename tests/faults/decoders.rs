@@ -361,14 +361,8 @@ fn an_mp4_under_16_pixels_is_refused_naming_the_size_and_the_limit() {
     std::fs::create_dir(d.join("frames")).unwrap();
     for k in 0..2 {
         let name = femto::video::sequence_file_name(k, femto::video::VideoFormat::PngSequence);
-        femto::video::write_png(
-            &d.join("frames").join(name),
-            &[90u8; 16 * 12 * 3],
-            16,
-            12,
-            None,
-        )
-        .unwrap();
+        femto::video::write_png(&d.join("frames").join(name), &[90u8; 16 * 12 * 3], 16, 12)
+            .unwrap();
     }
     refused_under_ulimit(
         d,
@@ -389,14 +383,8 @@ fn encode_refuses_a_frame_name_it_cannot_order() {
         "frame_00001.png",
         "frame_12345678901234567890123.png",
     ] {
-        femto::video::write_png(
-            &d.join("frames").join(name),
-            &[90u8; 16 * 16 * 3],
-            16,
-            16,
-            None,
-        )
-        .unwrap();
+        femto::video::write_png(&d.join("frames").join(name), &[90u8; 16 * 16 * 3], 16, 16)
+            .unwrap();
     }
     refused_under_ulimit(
         d,

@@ -164,8 +164,9 @@ def span(name: str, value: Any, example: str) -> Optional[Tuple[int, int]]:
 
 
 def array_values(name: str, value: Any) -> np.ndarray:
-    """A numpy array of real numbers (integers or floats), as float32; refused: booleans,
-    complex numbers, strings, objects, and values float32 cannot hold."""
+    """A numpy array of real numbers (integers or floats), as C-ordered float32 (the array
+    itself when it is one already, not a copy); refused: booleans, complex numbers, strings,
+    objects, and values float32 cannot hold."""
     a = np.asarray(value)
     if a.dtype.kind not in "iuf":
         raise FemtoError(
@@ -181,8 +182,8 @@ def array_values(name: str, value: Any) -> np.ndarray:
                 f"{name}[{', '.join(map(str, at))}] = {a[at].item()!r}: beyond float32's range "
                 "(a cube holds float32 values)"
             )
-        return b
-    return a.astype(np.float32)
+        return np.ascontiguousarray(b)
+    return np.ascontiguousarray(a, dtype=np.float32)
 
 
 def mask_values(name: str, value: Any) -> Optional[np.ndarray]:
@@ -199,7 +200,7 @@ def mask_values(name: str, value: Any) -> Optional[np.ndarray]:
             raise FemtoError(
                 f"{name}[{', '.join(map(str, at))}] = {m[at].item()!r}: expected 0 or 1 (1 = valid pixel)"
             )
-    return m.astype(np.uint8)
+    return np.ascontiguousarray(m, dtype=np.uint8)
 
 
 def compression(name: str, value: Any) -> Optional[str]:

@@ -129,6 +129,16 @@ pub(super) fn ordered_pipeline<T: Send>(
         abort: false,
     });
     let wake = Condvar::new();
+    struct StopOnDrop<'a> {
+        state: &'a Mutex<State>,
+        wake: &'a Condvar,
+    }
+    impl Drop for StopOnDrop<'_> {
+        fn drop(&mut self) {
+            self.state.lock().unwrap_or_else(|e| e.into_inner()).abort = true;
+            self.wake.notify_all();
+        }
+    }
     let stop = |state: &Mutex<State>| {
         state.lock().expect("pipeline lock").abort = true;
         wake.notify_all();
@@ -157,6 +167,14 @@ pub(super) fn ordered_pipeline<T: Send>(
             });
         }
         drop(tx);
+        // The workers stop however the sink ends: an error, or a panic unwinding through here
+        // (a caller that stops the ingest from its progress callback, as the Python package
+        // does on Ctrl-C); without it they would wait for a slot forever and the scope with
+        // them.
+        let _stop = StopOnDrop {
+            state: &state,
+            wake: &wake,
+        };
 
         let mut pending: BTreeMap<usize, Result<T, IngestError>> = BTreeMap::new();
         let mut done = 0;
@@ -209,6 +227,22 @@ mod tests {
         .unwrap();
         assert_eq!(seen, (0..200).collect::<Vec<_>>());
         assert!(worst_lead.load(Ordering::SeqCst) <= window);
+    }
+
+    #[test]
+    fn a_sink_that_panics_stops_the_workers_instead_of_hanging() {
+        let work = |i: usize| -> Result<usize, IngestError> { Ok(i) };
+        let started = std::time::Instant::now();
+        let unwound = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            ordered_pipeline(10_000, &work, &mut |i, _| {
+                if i == 3 {
+                    std::panic::resume_unwind(Box::new("stopped"));
+                }
+                Ok(())
+            })
+        }));
+        assert!(unwound.is_err());
+        assert!(started.elapsed() < std::time::Duration::from_secs(10));
     }
 
     #[test]
