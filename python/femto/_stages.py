@@ -9,6 +9,7 @@ import warnings
 from typing import Any, Dict, Optional, Sequence, Union
 
 from . import _femto
+from ._errors import FemtoError
 from ._progress import progress_callback
 from ._render import FemtoWarning, _path
 
@@ -60,8 +61,17 @@ def ingest(
     compression: Union[int, str, None] = None,
     force: bool = False,
     progress: Any = None,
+    time_axis: Optional[int] = None,
+    select: Optional[Dict[Union[str, int], int]] = None,
+    sum: Optional[Sequence[Union[str, int]]] = None,
+    confocal: bool = False,
+    wall_size_m: Optional[float] = None,
+    device_m: Optional[Sequence[float]] = None,
+    clock: Optional[str] = None,
 ) -> StageResult:
-    """Assemble a streak capture into an x-y-t cube in camera time (``femto ingest``).
+    """Assemble a streak capture into an x-y-t cube in camera time (``femto ingest``), or
+    ingest a file as instruments and labs save it (``.npy``, ``.npz``, ``.mat``, ``.hspy``,
+    HDF5, Delmic SPARC, PicoQuant ``.ptu``): the library decides which, as the command does.
 
     ``source``: a folder with manifest.toml, a manifest, a glob (``"scan_*.png"``), a printf
     pattern with ``rows=N``, an HDF5 stack with ``dataset=``, or one scanline image. ``out``:
@@ -79,7 +89,34 @@ def ingest(
     y-tal captures and mitransient arrays: :func:`ingest_tal`, :func:`ingest_mitransient`.
     ``force``: replace ``out`` if it exists (``--force``; without it an existing cube is
     refused, docs/faults.md "Overwriting").
+
+    Array, Delmic and PTU files (docs/ingest.md): ``time_axis``: which stored axis is time
+    (``--time-axis``, indexing the shape :func:`info` gives); ``select``: ``{axis: index}``
+    kept of extra axes (``{"frame": 0}``, ``{"C": 12}``); ``sum``: unnamed extra axes summed;
+    ``confocal=True`` with ``wall_size_m`` (and ``device_m``) records a confocal scan;
+    ``clock``: ``"camera"`` or ``"world"``. Returns ``path``, ``format``, ``source``,
+    ``shape``, ``t0_ps``, ``dt_ps``, ``time_axis``, ``layout`` (which axis became what),
+    ``saturated_pixels``, ``inexact_values``.
     """
+    array_only = (time_axis is not None or select or sum or confocal or wall_size_m is not None
+                  or device_m is not None or clock is not None)
+    if _femto.input_kind(os.fspath(source), dataset, False) == "array":
+        if confocal and wall_size_m is None:
+            raise FemtoError(f"{os.fspath(source)}: --confocal needs --wall-size-m M")
+        return StageResult(
+            _femto.ingest_array(
+                _path(source), _path(out), dataset, time_axis, bool(transpose),
+                [(str(k), int(v)) for k, v in (select or {}).items()],
+                [str(a) for a in (sum or [])], dt_ps, t0_ps, saturation,
+                wall_size_m if confocal else None, _point(device_m), clock, laser_nm,
+                bool(force),
+            )
+        )
+    if array_only:
+        raise FemtoError(
+            f"{os.fspath(source)}: time_axis, select, sum, confocal, wall_size_m, device_m and "
+            "clock are only for array files (.npy, .npz, .mat, .hspy, HDF5, Delmic, .ptu)"
+        )
     return StageResult(
         _femto.ingest(
             os.fspath(source), _path(out), rows, dataset, dt_ps, t0_ps, bool(resample_time),
@@ -243,5 +280,29 @@ def ingest_mitransient(
         _femto.ingest_mitransient(
             _path(source), _path(out), float(start_opl_m), float(bin_width_opl_m), channels,
             opl_clock,
+        )
+    )
+
+
+def info(
+    path: PathLike,
+    *,
+    dataset: Optional[str] = None,
+    time_axis: Optional[int] = None,
+    select: Optional[Dict[Union[str, int], int]] = None,
+    sum: Optional[Sequence[Union[str, int]]] = None,
+) -> Dict[str, Any]:
+    """Describe a file femto reads or writes (``femto info FILE --json``): a dict whose
+    ``kind`` says what it is (``"cube"``, ``"array"``, ``"streak_image"``, ...). For an
+    array, Delmic or PTU file: ``stored_shape`` (the axes ``time_axis`` numbers),
+    ``candidates`` (every array that could be the data, with its shape), ``layout``,
+    ``time_axis``, ``ingest_needs``; ``dataset``, ``time_axis``, ``select`` and ``sum``
+    describe the file as :func:`ingest` would read it with them."""
+    import json
+
+    return json.loads(
+        _femto.info(
+            _path(path), dataset, time_axis,
+            [(str(k), int(v)) for k, v in (select or {}).items()], [str(a) for a in (sum or [])],
         )
     )
