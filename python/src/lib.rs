@@ -9,11 +9,13 @@
 //! | `runner` | long stages on a worker thread: GIL released, progress, Ctrl-C |
 //! | `cube` | `open_cube`'s reads, the pyramid's integrals, `cube_from_array`'s write |
 //! | `stages` | `ingest`, `calibrate`, `unwarp`, `pyramid`, y-tal and mitransient interop |
+//! | `instruments` | the kind of an input, array/Delmic/PTU ingest, `info` (`femto info`) |
 //! | `simulate` | `simulate`: a streak capture, band or transient cube of a scene |
 //! | `render` | `render` and `render_still`: frames in memory or written as the CLI writes them |
 
 mod cube;
 mod errors;
+mod instruments;
 mod render;
 mod runner;
 mod simulate;
@@ -41,6 +43,9 @@ fn _femto(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(stages::export_tal, m)?,
         wrap_pyfunction!(stages::ingest_tal, m)?,
         wrap_pyfunction!(stages::ingest_mitransient, m)?,
+        wrap_pyfunction!(instruments::input_kind, m)?,
+        wrap_pyfunction!(instruments::ingest_array, m)?,
+        wrap_pyfunction!(instruments::info, m)?,
         wrap_pyfunction!(simulate::simulate, m)?,
     ] {
         m.add_function(f)?;

@@ -5,7 +5,7 @@
 //! histogram. When the user names none, the only candidate is read; several are listed in
 //! one line ([`choose`]).
 
-use super::{delmic, h5, hspy, mat, npz, Dtype, Format, ReaderError};
+use super::{delmic, h5, hspy, mat, npy, npz, Dtype, Format, ReaderError};
 use std::path::Path;
 
 /// An array that could be the data.
@@ -58,7 +58,14 @@ fn could_be_data(shape: &[usize], dtype: Dtype) -> bool {
 pub fn candidates(path: &Path, format: Format) -> Result<Vec<Candidate>, ReaderError> {
     let keep = |c: &Candidate| could_be_data(&c.shape, c.dtype);
     let all: Vec<Candidate> = match format {
-        Format::Npy => vec![],
+        Format::Npy => {
+            let (shape, dtype) = npy::header_of(path)?;
+            vec![Candidate {
+                name: String::new(),
+                shape,
+                dtype,
+            }]
+        }
         Format::Ptu => vec![],
         Format::Npz => npz::members(path)?
             .into_iter()

@@ -141,6 +141,27 @@ fn preamble(path: &Path, bytes: &[u8]) -> Result<(usize, usize), ReaderError> {
     }
 }
 
+/// The shape and sample type a `.npy` file's header declares (its values are not read).
+pub fn header_of(path: &Path) -> Result<(Vec<usize>, Dtype), ReaderError> {
+    let mut head = Vec::new();
+    std::io::Read::read_to_end(
+        &mut std::io::Read::take(
+            std::fs::File::open(path).map_err(|source| ReaderError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?,
+            HEAD_BYTES,
+        ),
+        &mut head,
+    )
+    .map_err(|source| ReaderError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let h = parse_header(path, &head)?;
+    Ok((h.shape, h.dtype))
+}
+
 /// The most of a `.npy` file read to find its header (NumPy writes headers of a few
 /// hundred bytes; version 2 allows up to 4 GiB, which no array needs).
 pub(super) const HEAD_BYTES: u64 = 1 << 20;

@@ -24,10 +24,12 @@ from ._stages import (
     export_tal,
     ingest_tal,
     ingest_mitransient,
+    info,
 )
 from ._simulate import simulate
 
 __all__ = [
+    "info",
     "__version__",
     "Cube",
     "Registration",

@@ -140,6 +140,13 @@ def ingest(
     compression: Union[int, str, None] = ...,
     force: bool = ...,
     progress: Progress = ...,
+    time_axis: Optional[int] = ...,
+    select: Optional[Dict[Union[str, int], int]] = ...,
+    sum: Optional[Sequence[Union[str, int]]] = ...,
+    confocal: bool = ...,
+    wall_size_m: Optional[float] = ...,
+    device_m: Optional[Sequence[float]] = ...,
+    clock: Optional[str] = ...,
 ) -> StageResult: ...
 def calibrate(
     cube: Union[PathLike, Cube],
@@ -240,3 +247,11 @@ def simulate(
     ``render_seconds``, ``files``, ``fiducials``, ...); see ``help(femto.simulate)``.
     """
     ...
+def info(
+    path: PathLike,
+    *,
+    dataset: Optional[str] = ...,
+    time_axis: Optional[int] = ...,
+    select: Optional[Dict[Union[str, int], int]] = ...,
+    sum: Optional[Sequence[Union[str, int]]] = ...,
+) -> Dict[str, Any]: ...

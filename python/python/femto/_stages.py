@@ -10,7 +10,7 @@ from typing import Any, Dict, Optional, Sequence, Union
 
 from . import _femto
 from . import _args as A
-from ._errors import keyword_errors
+from ._errors import FemtoError, keyword_errors
 from ._progress import reporting
 from ._render import FemtoWarning
 
@@ -71,8 +71,17 @@ def ingest(
     compression: Union[int, str, None] = None,
     force: bool = False,
     progress: Any = None,
+    time_axis: Optional[int] = None,
+    select: Optional[Dict[Union[str, int], int]] = None,
+    sum: Optional[Sequence[Union[str, int]]] = None,
+    confocal: bool = False,
+    wall_size_m: Optional[float] = None,
+    device_m: Optional[Sequence[float]] = None,
+    clock: Optional[str] = None,
 ) -> StageResult:
-    """Assemble a streak capture into an x-y-t cube in camera time (``femto ingest``).
+    """Assemble a streak capture into an x-y-t cube in camera time (``femto ingest``), or
+    ingest a file as instruments and labs save it (``.npy``, ``.npz``, ``.mat``, ``.hspy``,
+    HDF5, Delmic SPARC, PicoQuant ``.ptu``): the library decides which, as the command does.
 
     ``source``: a folder with manifest.toml, a manifest, a glob (``"scan_*.png"``), a printf
     pattern with ``rows=N``, an HDF5 stack with ``dataset=``, or one scanline image. ``out``:
@@ -90,11 +99,42 @@ def ingest(
     y-tal captures and mitransient arrays: :func:`ingest_tal`, :func:`ingest_mitransient`.
     ``force``: replace ``out`` if it exists (``--force``; without it an existing cube is
     refused, docs/faults.md "Overwriting").
+
+    Array, Delmic and PTU files (docs/ingest.md): ``time_axis``: which stored axis is time
+    (``--time-axis``, indexing the shape :func:`info` gives); ``select``: ``{axis: index}``
+    kept of extra axes (``{"frame": 0}``, ``{"C": 12}``); ``sum``: unnamed extra axes summed;
+    ``confocal=True`` with ``wall_size_m`` (and ``device_m``) records a confocal scan;
+    ``clock``: ``"camera"`` or ``"world"``. Returns ``path``, ``format``, ``source``,
+    ``shape``, ``t0_ps``, ``dt_ps``, ``time_axis``, ``layout`` (which axis became what),
+    ``saturated_pixels``, ``inexact_values``.
     """
+    array_only = (time_axis is not None or select or sum or confocal or wall_size_m is not None
+                  or device_m is not None or clock is not None)
+    source_s = A.path("source", source)
+    dataset_s = A.opt_text("dataset", dataset)
+    if _femto.input_kind(source_s, dataset_s, False) == "array":
+        if A.switch("confocal", confocal) and wall_size_m is None:
+            raise FemtoError(f"{source_s}: confocal=True needs wall_size_m=")
+        return StageResult(
+            _femto.ingest_array(
+                source_s, A.path("out", out), dataset_s, A.opt_whole("time_axis", time_axis),
+                A.switch("transpose", transpose), _select(select), _sum(sum),
+                A.opt_number("dt_ps", dt_ps), A.opt_number("t0_ps", t0_ps),
+                _saturation(saturation),
+                A.opt_number("wall_size_m", wall_size_m) if confocal else None,
+                A.point("device_m", device_m), A.opt_text("clock", clock),
+                A.opt_number("laser_nm", laser_nm), A.switch("force", force),
+            )
+        )
+    if array_only:
+        raise FemtoError(
+            f"{source_s}: time_axis, select, sum, confocal, wall_size_m, device_m and clock "
+            "are only for array files (.npy, .npz, .mat, .hspy, HDF5, Delmic, .ptu)"
+        )
     with reporting(progress) as callback:
         figures = _femto.ingest(
-            A.path("source", source), A.path("out", out), A.opt_whole("rows", rows, 1),
-            A.opt_text("dataset", dataset), A.opt_number("dt_ps", dt_ps),
+            source_s, A.path("out", out), A.opt_whole("rows", rows, 1),
+            dataset_s, A.opt_number("dt_ps", dt_ps),
             A.opt_number("t0_ps", t0_ps), A.switch("resample_time", resample_time),
             A.opt_number("laser_nm", laser_nm), A.switch("transpose", transpose), _dark(dark),
             A.path("flat", flat), A.path("sweep_table", sweep_table),
@@ -274,5 +314,48 @@ def ingest_mitransient(
             A.path("source", source), A.path("out", out), A.number("start_opl_m", start_opl_m),
             A.number("bin_width_opl_m", bin_width_opl_m), A.text("channels", channels),
             A.text("opl_clock", opl_clock),
+        )
+    )
+
+
+def _select(select: Any) -> list:
+    """``{axis: index}`` as ``[(axis, index)]`` (``--select AXIS=I``)."""
+    if select is None:
+        return []
+    if not isinstance(select, dict):
+        raise FemtoError(f"select: a dict {{axis: index}}, not {type(select).__name__}")
+    return [(str(k), A.whole(f"select[{k!r}]", v)) for k, v in select.items()]
+
+
+def _sum(axes: Any) -> list:
+    """Axes to sum, as names (``--sum AXIS``)."""
+    if axes is None:
+        return []
+    if isinstance(axes, (str, int)):
+        axes = [axes]
+    return [str(a) for a in axes]
+
+
+@keyword_errors
+def info(
+    path: PathLike,
+    *,
+    dataset: Optional[str] = None,
+    time_axis: Optional[int] = None,
+    select: Optional[Dict[Union[str, int], int]] = None,
+    sum: Optional[Sequence[Union[str, int]]] = None,
+) -> Dict[str, Any]:
+    """Describe a file femto reads or writes (``femto info FILE --json``): a dict whose
+    ``kind`` says what it is (``"cube"``, ``"array"``, ``"streak_image"``, ...). For an
+    array, Delmic or PTU file: ``stored_shape`` (the axes ``time_axis`` numbers),
+    ``candidates`` (every array that could be the data, with its shape), ``layout``,
+    ``time_axis``, ``ingest_needs``; ``dataset``, ``time_axis``, ``select`` and ``sum``
+    describe the file as :func:`ingest` would read it with them."""
+    import json
+
+    return json.loads(
+        _femto.info(
+            A.path("path", path), A.opt_text("dataset", dataset),
+            A.opt_whole("time_axis", time_axis), _select(select), _sum(sum),
         )
     )
