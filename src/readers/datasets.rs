@@ -148,7 +148,7 @@ pub fn choose<'a>(
         Some(w) => {
             let bare = |n: &str| n.trim_start_matches('/').to_string();
             found.iter().find(|c| bare(&c.name) == bare(w)).ok_or_else(|| {
-                ReaderError::invalid(
+                ReaderError::choice(
                     path,
                     "--dataset",
                     if found.is_empty() {
@@ -161,7 +161,7 @@ pub fn choose<'a>(
         }
         None => match found {
             [one] => Ok(one),
-            [] => Err(ReaderError::invalid(
+            [] => Err(ReaderError::choice(
                 path,
                 "data",
                 format!(
@@ -169,7 +169,7 @@ pub fn choose<'a>(
                      value (pictures and axes left out), so no {kind} to read"
                 ),
             )),
-            _ => Err(ReaderError::invalid(
+            _ => Err(ReaderError::choice(
                 path,
                 "data",
                 format!(

@@ -238,7 +238,7 @@ fn resolve(
     shape: &[usize],
     names: &[String],
 ) -> Result<usize, ReaderError> {
-    let bad = |m: String| ReaderError::invalid(path, flag, m);
+    let bad = |m: String| ReaderError::choice(path, flag, m);
     match r {
         AxisRef::Index(i) if *i < shape.len() => Ok(*i),
         AxisRef::Index(i) => Err(bad(format!(
@@ -279,7 +279,7 @@ pub fn decide(
     let role = |d: usize| info(d).role;
     let long: Vec<usize> = (0..rank).filter(|&d| shape[d] > 1).collect();
     if long.is_empty() {
-        return Err(ReaderError::invalid(
+        return Err(ReaderError::choice(
             path,
             "shape",
             format!("{what} {shape:?} holds one value, no time axis"),
@@ -297,7 +297,7 @@ pub fn decide(
     for (r, i) in &opts.select {
         let d = resolve(path, "--select", r, shape, &names)?;
         if *i >= shape[d] {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--select",
                 format!(
@@ -322,7 +322,7 @@ pub fn decide(
         } else {
             "--select"
         };
-        return Err(ReaderError::invalid(
+        return Err(ReaderError::choice(
             path,
             flag,
             format!(
@@ -356,7 +356,7 @@ pub fn decide(
     }
     let room = [y, x].iter().filter(|s| s.is_none()).count();
     if free.len() > room {
-        return Err(ReaderError::invalid(
+        return Err(ReaderError::choice(
             path,
             "shape",
             format!(
@@ -402,28 +402,28 @@ fn time_axis(
     let rank = shape.len();
     if let Some(n) = opts.time_axis {
         if opts.transpose {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--time-axis",
                 "--transpose says the same thing less precisely; give one of them",
             ));
         }
         if n >= rank {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--time-axis",
                 format!("{n}: {what} {shape:?} has axes 0 to {}", rank - 1),
             ));
         }
         if shape[n] < 2 {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--time-axis",
                 format!("{n}: axis {n} of {what} {shape:?} has length {}", shape[n]),
             ));
         }
         if let Some(d) = named_t.filter(|&d| d != n) {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--time-axis",
                 format!(
@@ -436,7 +436,7 @@ fn time_axis(
     }
     if let Some(d) = named_t {
         if opts.transpose {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "--transpose",
                 format!(
@@ -446,7 +446,7 @@ fn time_axis(
             ));
         }
         if shape[d] < 2 {
-            return Err(ReaderError::invalid(
+            return Err(ReaderError::choice(
                 path,
                 "shape",
                 format!(
@@ -461,7 +461,7 @@ fn time_axis(
         match long {
             [.., before, _] => *before,
             _ => {
-                return Err(ReaderError::invalid(
+                return Err(ReaderError::choice(
                     path,
                     "--transpose",
                     format!("{what} {shape:?} has one axis longer than 1"),
@@ -475,7 +475,7 @@ fn time_axis(
         .iter()
         .find(|&&d| d != t && shape[d] >= AMBIGUOUS_RATIO * shape[t])
     {
-        return Err(ReaderError::invalid(
+        return Err(ReaderError::choice(
             path,
             "--time-axis",
             format!(

@@ -65,6 +65,15 @@ pub enum ReaderError {
         key: String,
         message: String,
     },
+    /// The file reads, but which of its arrays or axes are the data is for the user to say
+    /// (`--dataset`, `--time-axis`, `--select`, `--sum`): `femto info` describes such a file,
+    /// `femto ingest` refuses it.
+    #[error("{path}: {key}: {message}")]
+    Choice {
+        path: PathBuf,
+        key: String,
+        message: String,
+    },
     #[error("{path}: {source}")]
     Limit {
         path: PathBuf,
@@ -84,6 +93,33 @@ impl ReaderError {
             path: path.to_path_buf(),
             key: one_line(key),
             message: one_line(&message.into()),
+        }
+    }
+
+    /// A choice the file leaves to the user ([`ReaderError::Choice`]), one line as
+    /// [`ReaderError::invalid`].
+    pub(crate) fn choice(path: &Path, key: &str, message: impl Into<String>) -> ReaderError {
+        ReaderError::Choice {
+            path: path.to_path_buf(),
+            key: one_line(key),
+            message: one_line(&message.into()),
+        }
+    }
+
+    /// The same error with `more` after its message (an `Invalid` or `Choice` only).
+    pub(crate) fn and_then_say(self, more: &str) -> ReaderError {
+        match self {
+            ReaderError::Invalid { path, key, message } => ReaderError::Invalid {
+                path,
+                key,
+                message: format!("{message}{more}"),
+            },
+            ReaderError::Choice { path, key, message } => ReaderError::Choice {
+                path,
+                key,
+                message: format!("{message}{more}"),
+            },
+            e => e,
         }
     }
 }

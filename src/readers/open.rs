@@ -206,20 +206,15 @@ fn assemble(
     } else {
         s.source.clone()
     };
+    let mitransient = format == Format::Npy && shape.len() == 4 && options.is_empty();
     let layout = layout::decide(path, &what, &shape, &s.axes, options).map_err(|e| {
-        match (
-            e,
-            format == Format::Npy && shape.len() == 4 && options.is_empty(),
-        ) {
-            (ReaderError::Invalid { path, key, message }, true) => ReaderError::Invalid {
-                path,
-                key,
-                message: format!(
-                    "{message} (a 4-D (H, W, T, C) array is a mitransient render: give \
-                     --start-opl-m and --bin-width-opl-m)"
-                ),
-            },
-            (e, _) => e,
+        if mitransient {
+            e.and_then_say(
+                " (a 4-D (H, W, T, C) array is a mitransient render: give --start-opl-m and \
+                 --bin-width-opl-m)",
+            )
+        } else {
+            e
         }
     })?;
     let (ny, nx, nt) = layout.dims();
@@ -283,13 +278,10 @@ fn mat_variable(path: &Path, want: Option<&str>) -> Result<Stored, ReaderError> 
                 .filter(|v| v.dtype.is_none())
                 .map(|v| format!("{} ({})", v.name, v.class))
                 .collect();
-            return Err(match (e, others.is_empty()) {
-                (ReaderError::Invalid { path, key, message }, false) => ReaderError::Invalid {
-                    path,
-                    key,
-                    message: format!("{message}; not read: {}", others.join(", ")),
-                },
-                (e, _) => e,
+            return Err(if others.is_empty() {
+                e
+            } else {
+                e.and_then_say(&format!("; not read: {}", others.join(", ")))
             });
         }
     };

@@ -103,8 +103,22 @@ fn render_refuses_its_own_frames_and_videos_but_adds_other_ranges() {
     ok(d, &frames("0..2"));
     // Another job's range joins the folder.
     ok(d, &frames("2..4"));
-    let listed = std::fs::read_dir(d.join("frames")).unwrap().count();
-    assert_eq!(listed, 4);
+    let mut listed: Vec<String> = std::fs::read_dir(d.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    listed.sort();
+    // The four frames and the record of the sequence they are parts of (femto encode's).
+    assert_eq!(
+        listed,
+        [
+            "frame_00000.png",
+            "frame_00001.png",
+            "frame_00002.png",
+            "frame_00003.png",
+            "sequence.toml"
+        ]
+    );
     refused_unchanged(d, &frames("1..3"), &[], &["frame_00001.png", "--force"]);
     ok(d, &[&frames("1..3")[..], &["--force"]].concat());
 

@@ -67,7 +67,7 @@ pub fn describe_array(
         .collect();
     let c = match readers::open(path, format, read) {
         Ok(c) => c,
-        Err(readers::ReaderError::Invalid { key, message, .. }) => {
+        Err(readers::ReaderError::Choice { key, message, .. }) => {
             let want = read.dataset.as_deref().map(|w| w.trim_start_matches('/'));
             let one = match (want, candidates.as_slice()) {
                 (Some(w), _) => candidates
