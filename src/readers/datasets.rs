@@ -45,13 +45,17 @@ pub fn is_picture(shape: &[usize], dtype: Dtype) -> bool {
 /// Whether an array of `shape` could be data: 1 to 5 dimensions, more than one value, not a
 /// picture whose other axes are far longer than its colour axis.
 fn could_be_data(shape: &[usize], dtype: Dtype) -> bool {
+    let Some(&colours) = shape.last() else {
+        return false;
+    };
     let count = shape.iter().try_fold(1usize, |a, &n| a.checked_mul(n));
+    // In u128: a crafted shape's lengths may be near 2^64.
     let wide = shape
         .iter()
         .rev()
         .skip(1)
-        .any(|&n| n >= 2 * shape[shape.len() - 1]);
-    (1..=5).contains(&shape.len()) && count.unwrap_or(0) > 1 && !(is_picture(shape, dtype) && wide)
+        .any(|&n| n as u128 >= 2 * colours as u128);
+    shape.len() <= 5 && count.unwrap_or(0) > 1 && !(is_picture(shape, dtype) && wide)
 }
 
 /// The candidate arrays of the file at `path`, read as `format`.

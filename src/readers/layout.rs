@@ -277,9 +277,16 @@ pub fn decide(
     let info = |d: usize| axes.get(d).cloned().unwrap_or_default();
     let names: Vec<String> = (0..rank).map(|d| info(d).name).collect();
     let role = |d: usize| info(d).role;
+    if shape.contains(&0) {
+        return Err(ReaderError::invalid(
+            path,
+            "shape",
+            format!("{what} {shape:?} holds no values"),
+        ));
+    }
     let long: Vec<usize> = (0..rank).filter(|&d| shape[d] > 1).collect();
     if long.is_empty() {
-        return Err(ReaderError::choice(
+        return Err(ReaderError::invalid(
             path,
             "shape",
             format!("{what} {shape:?} holds one value, no time axis"),
