@@ -8,98 +8,15 @@
 //! flat, sweep, jitter, power) do not apply and their flags are refused; `--saturation`
 //! applies to all of them.
 
-use super::ingest::IngestArgs;
-use clap::{Args, ValueEnum};
+use super::ingest_args::{ChannelsArg, Foreign, IngestArgs, OplClock};
 use femto::container::Provenance;
 use femto::cube::TimeFrame;
 use femto::ingest::arrays::{ingest_array, ArrayIngest, Confocal};
 use femto::ingest::kind::{InputKind, KindHints};
 use femto::interop::mitransient::{Channels, OplBinning};
 use femto::interop::{ingest_mitransient, ingest_tal};
-use femto::readers::{AxisRef, Format, LayoutOptions, ReadOptions};
+use femto::readers::{Format, LayoutOptions, ReadOptions};
 use std::path::Path;
-
-/// Another tool's file as input.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Foreign {
-    /// A y-tal capture (tal.io.write_capture, tal render): H (T, Sx, Sy), delta_t, t_start.
-    Tal,
-    /// A mitransient transient array (H, W, T, C) saved with np.save.
-    Mitransient,
-    /// An assembled x-y-t array: .npy, .mat (v5, v7.3), .hspy, or an HDF5 dataset
-    /// (A[i, j, k] is row i, column j, bin k).
-    Array,
-}
-
-/// How colour channels become one value.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ChannelsArg {
-    Mean,
-    R,
-    G,
-    B,
-    /// Rec. 709 luminance of linear RGB.
-    Luminance,
-}
-
-/// The clock of a mitransient render.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum OplClock {
-    /// Path length from the emitter to the sensor (mitransient's default).
-    Camera,
-    /// Rendered with camera_unwarp = true: path length from the emitter to the surface point.
-    World,
-}
-
-#[derive(Args, Debug)]
-pub struct InteropArgs {
-    /// Read INPUT as another tool's file (detected without it: an HDF5 file with y-tal's H
-    /// and H_format, or a .npy file).
-    #[arg(long, value_enum)]
-    pub from: Option<Foreign>,
-    /// mitransient: the film's start_opl, metres of optical path (t0 = start_opl / c).
-    #[arg(long, allow_hyphen_values = true)]
-    pub start_opl_m: Option<f64>,
-    /// mitransient: the film's bin_width_opl, metres of optical path (dt = bin_width_opl / c).
-    #[arg(long)]
-    pub bin_width_opl_m: Option<f64>,
-    /// mitransient: how the colour channels become the cube's value [default: mean].
-    #[arg(long, value_enum)]
-    pub channels: Option<ChannelsArg>,
-    /// mitransient: the render's clock [default: camera].
-    #[arg(long, value_enum)]
-    pub opl_clock: Option<OplClock>,
-    /// Array files: a confocal capture (each pixel's laser point is its own wall point);
-    /// needs --wall-size-m.
-    #[arg(long)]
-    pub confocal: bool,
-    /// Array files with --confocal: the full side of the scanned square wall patch, metres.
-    #[arg(long)]
-    pub wall_size_m: Option<f64>,
-    /// Array files with --confocal: where the laser and detector are, X,Y,Z metres, the wall
-    /// being the plane z = 0 centred on the origin (needed to unwarp a camera-time cube).
-    #[arg(long, value_parser = super::values::point, allow_hyphen_values = true)]
-    pub device_m: Option<[f64; 3]>,
-    /// Array files: the clock of the file's time: camera (what the detector recorded) or
-    /// world (it starts at each pixel's own point, as in most public confocal NLOS data,
-    /// whose time zero is at the wall) [default: camera].
-    #[arg(long, value_enum)]
-    pub clock: Option<super::values::Clock>,
-    /// Array files: which axis of the stored array is time, N indexing the shape `femto info`
-    /// prints (MATLAB's order for .mat). Without it, the file's own axis names decide, else
-    /// the last axis when no other is twice as long or more (else ingest asks for this flag).
-    #[arg(long, value_name = "N")]
-    pub time_axis: Option<usize>,
-    /// Array, Delmic and PTU files: keep one index of an extra axis (channels, wavelengths,
-    /// frames, z) instead of summing it: AXIS=I, AXIS a name `femto info` prints (frame,
-    /// channel, C, Z) or an axis number. Repeatable.
-    #[arg(long, value_name = "AXIS=I", value_parser = super::values::axis_index)]
-    pub select: Vec<(AxisRef, usize)>,
-    /// Array files: sum an extra axis of an unnamed array with more than three (AXIS a number
-    /// or name). Axes a file names as extra are summed without it. Repeatable.
-    #[arg(long, value_name = "AXIS", value_parser = super::values::axis_ref)]
-    pub sum: Vec<AxisRef>,
-}
 
 /// The library's decision of what `args.input` is ([`femto::ingest::kind::decide`]), from
 /// the flags that bear on it; `None`: a streak capture.

@@ -11,6 +11,7 @@ pub mod encode;
 pub mod export;
 pub mod info;
 pub mod ingest;
+pub mod ingest_args;
 pub mod ingest_interop;
 pub mod merge;
 pub mod pyramid;
@@ -65,7 +66,7 @@ pub enum Command {
     Encode(encode::EncodeArgs),
     /// Assemble a streak capture (one image per scanline) into an x-y-t cube, correcting
     /// the camera's flaws.
-    Ingest(Box<ingest::IngestArgs>),
+    Ingest(Box<ingest_args::IngestArgs>),
     /// Write a cube for another tool: a y-tal capture (--to tal).
     Export(export::ExportArgs),
     /// Explore a world-time cube interactively in the browser: fly a relativistic camera

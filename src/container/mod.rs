@@ -65,5 +65,5 @@ pub use schema::{
     CUBE_DATASET, DEFAULT_UNITS, GROUP_ATTRS_INDEX, MASK_DATASET,
 };
 pub use stack::read_image_stack;
-pub use update::{write_groups, GroupUpdate, StagedFile};
-pub use write::{write_cube, write_cube_with_groups, write_cube_with_units, CubeWriter};
+pub use update::{write_cube_with_groups, write_groups, GroupUpdate, StagedFile};
+pub use write::{write_cube, write_cube_with_units, CubeWriter};

@@ -414,6 +414,23 @@ impl DatasetSpec {
     }
 }
 
+/// The little-endian bytes of `values` (every on-disk type of femto's files is
+/// little-endian): a view of the same memory on little-endian machines, a converted copy
+/// elsewhere.
+pub(super) fn le_bytes<T: bytemuck::Pod>(values: &[T]) -> std::borrow::Cow<'_, [u8]> {
+    let bytes: &[u8] = bytemuck::cast_slice(values);
+    if cfg!(target_endian = "little") {
+        std::borrow::Cow::Borrowed(bytes)
+    } else {
+        std::borrow::Cow::Owned(
+            bytes
+                .chunks_exact(std::mem::size_of::<T>())
+                .flat_map(|v| v.iter().rev().copied())
+                .collect(),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

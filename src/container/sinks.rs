@@ -4,10 +4,9 @@
 use super::attributes::write_group_attrs;
 use super::error::{h5, invalid, Result};
 use super::schema::{
-    check_name, AttrValue, CubeCompression, DataBuf, DatasetSpec, Elem, GroupData, CUBE_DATASET,
-    GROUP_ATTRS_INDEX, MASK_DATASET,
+    check_name, le_bytes, AttrValue, CubeCompression, DataBuf, DatasetSpec, Elem, GroupData,
+    CUBE_DATASET, GROUP_ATTRS_INDEX, MASK_DATASET,
 };
-use super::write::le_bytes;
 use rayon::prelude::*;
 use rust_hdf5::format::messages::filter::apply_filters;
 use rust_hdf5::FilterPipeline;

@@ -5,18 +5,22 @@
 
 use super::append::AppendFile;
 use super::attributes::{read_group_attrs, write_group_attrs};
+use super::error::ContainerError;
 use super::error::{h5, invalid, Result};
 use super::foreign::{copy_foreign, FEMTO_OBJECTS};
 use super::groups::{dataset_names_in, group_elem, open_group};
 use super::open::open_dataset;
 use super::read::CubeReader;
+use super::schema::Provenance;
 use super::schema::{
     chunk_rows, slab_rows, AttrValue, CubeCompression, DataBuf, DatasetSpec, GroupData,
     GROUP_DEFLATE_LEVEL,
 };
 use super::sinks::{check_group, create_group_dataset, write_group_rows, GroupSinks};
+use super::write::write_cube;
 use super::write::{commit, create_atomic, CubeAttrs, CubeSink, QuietFile};
 use crate::atomic::AtomicFile;
+use crate::cube::Cube;
 use rust_hdf5::format::messages::filter::FILTER_DEFLATE;
 use rust_hdf5::H5File;
 use std::path::Path;
@@ -353,6 +357,27 @@ impl StagedFile {
             Staged::InPlace(file) => file.commit(),
         }
     }
+}
+
+/// Write `cube` and its extra `groups` to `path` atomically: both go into a staged file that
+/// is renamed onto `path` only when all are in.
+pub fn write_cube_with_groups(
+    path: &Path,
+    cube: &Cube,
+    provenance: &Provenance,
+    groups: &[(&str, GroupData)],
+) -> Result<()> {
+    let io = |source| ContainerError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    crate::atomic::write_atomically_with(path, io, |tmp| {
+        write_cube(tmp, cube, provenance)?;
+        if !groups.is_empty() {
+            write_groups(tmp, groups)?;
+        }
+        Ok(())
+    })
 }
 
 #[cfg(test)]

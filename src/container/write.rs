@@ -5,7 +5,7 @@ use super::attributes::set_attr;
 use super::compression::{CompressedRow, RowCompressor, RowStorage};
 use super::error::{h5, invalid, ContainerError, Result};
 use super::schema::{
-    check_axis, check_name, chunk_rows, slab_rows, AttrValue, CubeCompression, DataBuf,
+    check_axis, check_name, chunk_rows, le_bytes, slab_rows, AttrValue, CubeCompression, DataBuf,
     DatasetSpec, GroupData, Provenance, CUBE_DATASET, DEFAULT_UNITS, DEFLATE_LEVEL, MASK_DATASET,
     RESERVED_ATTRS,
 };
@@ -358,27 +358,6 @@ pub fn write_cube(path: &Path, cube: &Cube, provenance: &Provenance) -> Result<(
     write_cube_with_units(path, cube, DEFAULT_UNITS, provenance)
 }
 
-/// Write `cube` and its extra `groups` to `path` atomically: both go into a staged file that
-/// is renamed onto `path` only when all are in.
-pub fn write_cube_with_groups(
-    path: &Path,
-    cube: &Cube,
-    provenance: &Provenance,
-    groups: &[(&str, GroupData)],
-) -> Result<()> {
-    let io = |source| ContainerError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    crate::atomic::write_atomically_with(path, io, |tmp| {
-        write_cube(tmp, cube, provenance)?;
-        if !groups.is_empty() {
-            super::write_groups(tmp, groups)?;
-        }
-        Ok(())
-    })
-}
-
 /// Write `cube` to `path` atomically, recording `units` for its values.
 ///
 /// On failure any earlier file at `path` is left untouched and no temporary file remains.
@@ -578,23 +557,6 @@ pub(super) fn commit(file: AtomicFile) -> Result<()> {
     let dest = file.dest().to_path_buf();
     file.commit()
         .map_err(|source| ContainerError::Io { path: dest, source })
-}
-
-/// The little-endian bytes of `values` (every on-disk type of femto's files is
-/// little-endian): a view of the same memory on little-endian machines, a converted copy
-/// elsewhere.
-pub(super) fn le_bytes<T: bytemuck::Pod>(values: &[T]) -> std::borrow::Cow<'_, [u8]> {
-    let bytes: &[u8] = bytemuck::cast_slice(values);
-    if cfg!(target_endian = "little") {
-        std::borrow::Cow::Borrowed(bytes)
-    } else {
-        std::borrow::Cow::Owned(
-            bytes
-                .chunks_exact(std::mem::size_of::<T>())
-                .flat_map(|v| v.iter().rev().copied())
-                .collect(),
-        )
-    }
 }
 
 #[cfg(test)]

@@ -268,14 +268,8 @@ fn axis_notes(role: &str, a: &Axis) -> Vec<(String, String)> {
     n
 }
 
-/// Read the array file `input` and write its cube to `out`; nothing is written on error.
-pub fn ingest_array(
-    input: &Path,
-    format: Format,
-    out: &Path,
-    opts: &ArrayIngest,
-    provenance: &Provenance,
-) -> Result<ArrayReport, ReaderError> {
+/// `--wall-size-m` and `--device-m` in range.
+fn check_confocal_flags(input: &Path, opts: &ArrayIngest) -> Result<(), ReaderError> {
     if let Some(c) = opts.confocal {
         if !(c.wall_size_m.is_finite() && c.wall_size_m > 0.0 && c.wall_size_m < 1e4) {
             return Err(flag(
@@ -295,7 +289,15 @@ pub fn ingest_array(
             ));
         }
     }
-    let c = readers::open(input, format, &opts.read)?;
+    Ok(())
+}
+
+/// A confocal grid is square, and every value is finite.
+fn check_capture(
+    input: &Path,
+    c: &readers::Capture,
+    opts: &ArrayIngest,
+) -> Result<(), ReaderError> {
     if opts.confocal.is_some() && c.nx != c.ny {
         return Err(flag(
             input,
@@ -320,6 +322,20 @@ pub fn ingest_array(
             ),
         ));
     }
+    Ok(())
+}
+
+/// Read the array file `input` and write its cube to `out`; nothing is written on error.
+pub fn ingest_array(
+    input: &Path,
+    format: Format,
+    out: &Path,
+    opts: &ArrayIngest,
+    provenance: &Provenance,
+) -> Result<ArrayReport, ReaderError> {
+    check_confocal_flags(input, opts)?;
+    let c = readers::open(input, format, &opts.read)?;
+    check_capture(input, &c, opts)?;
     let (axis, time_axis, resampled) = time_axis(&c, opts)?;
     let end = axis.end_ps();
     if !end.is_finite() || end.abs() >= 1e18 {

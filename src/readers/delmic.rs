@@ -14,8 +14,7 @@
 //! the top, at the largest y, and an axis offset is the first pixel's centre.
 
 use super::h5;
-use super::layout::{AxisInfo, Role};
-use super::open::Stored;
+use super::layout::{AxisInfo, Role, Stored};
 use super::{Axis, ReaderError, TimeSpec};
 use rust_hdf5::H5File;
 use std::path::Path;

@@ -19,8 +19,24 @@
 //! The decision is kept in words ([`Layout::describe`]) for the cube's provenance.
 
 use super::array::Array;
-use super::ReaderError;
+use super::{Axis, ReaderError, TimeSpec};
 use std::path::Path;
+
+/// What a format's reader found, before the layout is decided.
+pub(super) struct Stored {
+    /// Which dataset, variable or signal, as the user would name it.
+    pub source: String,
+    pub array: Array,
+    /// What the file says of each stored axis (empty: nothing).
+    pub axes: Vec<AxisInfo>,
+    /// The spatial calibration of each stored axis, where the file records one.
+    pub scales: Vec<Option<Axis>>,
+    /// The time axis the file records (of the axis whose role is time, or of whichever
+    /// axis becomes time when the file names none).
+    pub time: TimeSpec,
+    pub time_source: String,
+    pub attributes: Vec<(String, String)>,
+}
 
 /// Another axis at least this many times longer than the last one makes "time is last" a
 /// guess: the layout is refused unless `--time-axis` names time. Measured cases: the
@@ -300,45 +316,8 @@ pub fn decide(
         (None, None) if opts.transpose => "--transpose: the one before the last".to_string(),
         (None, None) => "the last axis".to_string(),
     };
-    let mut reduce_of: Vec<Option<Reduce>> = vec![None; rank];
-    for (r, i) in &opts.select {
-        let d = resolve(path, "--select", r, shape, &names)?;
-        if *i >= shape[d] {
-            return Err(ReaderError::choice(
-                path,
-                "--select",
-                format!(
-                    "{r}={i}: {} has {} indices (0 to {})",
-                    label(&names, d),
-                    shape[d],
-                    shape[d] - 1
-                ),
-            ));
-        }
-        reduce_of[d] = Some(Reduce::Select(*i));
-    }
-    for r in &opts.sum {
-        let d = resolve(path, "--sum", r, shape, &names)?;
-        reduce_of[d] = Some(Reduce::Sum);
-    }
-    if let Some(d) = (0..rank)
-        .find(|&d| reduce_of[d].is_some() && (d == t || matches!(role(d), Some(Role::Y | Role::X))))
-    {
-        let flag = if matches!(reduce_of[d], Some(Reduce::Sum)) {
-            "--sum"
-        } else {
-            "--select"
-        };
-        return Err(ReaderError::choice(
-            path,
-            flag,
-            format!(
-                "{} is {}, not an extra axis",
-                label(&names, d),
-                if d == t { "time" } else { "a spatial axis" }
-            ),
-        ));
-    }
+    let roles: Vec<Option<Role>> = (0..rank).map(role).collect();
+    let reduce_of = reductions(path, shape, &names, &roles, t, opts)?;
     let mut y = long
         .iter()
         .copied()
@@ -394,6 +373,60 @@ pub fn decide(
         extra,
         time_from,
     })
+}
+
+/// What `--select` and `--sum` do to each stored axis; refused for the time axis `t` and
+/// for an axis the file names as a row or column.
+fn reductions(
+    path: &Path,
+    shape: &[usize],
+    names: &[String],
+    roles: &[Option<Role>],
+    t: usize,
+    opts: &LayoutOptions,
+) -> Result<Vec<Option<Reduce>>, ReaderError> {
+    let rank = shape.len();
+    let role = |d: usize| roles[d];
+    let mut reduce_of: Vec<Option<Reduce>> = vec![None; rank];
+    for (r, i) in &opts.select {
+        let d = resolve(path, "--select", r, shape, names)?;
+        if *i >= shape[d] {
+            return Err(ReaderError::choice(
+                path,
+                "--select",
+                format!(
+                    "{r}={i}: {} has {} indices (0 to {})",
+                    label(names, d),
+                    shape[d],
+                    shape[d] - 1
+                ),
+            ));
+        }
+        reduce_of[d] = Some(Reduce::Select(*i));
+    }
+    for r in &opts.sum {
+        let d = resolve(path, "--sum", r, shape, names)?;
+        reduce_of[d] = Some(Reduce::Sum);
+    }
+    if let Some(d) = (0..rank)
+        .find(|&d| reduce_of[d].is_some() && (d == t || matches!(role(d), Some(Role::Y | Role::X))))
+    {
+        let flag = if matches!(reduce_of[d], Some(Reduce::Sum)) {
+            "--sum"
+        } else {
+            "--select"
+        };
+        return Err(ReaderError::choice(
+            path,
+            flag,
+            format!(
+                "{} is {}, not an extra axis",
+                label(names, d),
+                if d == t { "time" } else { "a spatial axis" }
+            ),
+        ));
+    }
+    Ok(reduce_of)
 }
 
 /// The time axis (rule 2 of the module documentation).

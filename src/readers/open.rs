@@ -5,26 +5,10 @@
 
 use super::array::Array;
 use super::datasets::{self, Candidate};
-use super::layout::{self, AxisInfo, Role};
-use super::{check_dt, Axis, Capture, Format, ReadOptions, ReaderError, TimeSpec};
+use super::layout::{self, AxisInfo, Role, Stored};
+use super::{check_dt, Capture, Format, ReadOptions, ReaderError, TimeSpec};
 use super::{delmic, h5, hdf5_array, hspy, mat, npy, npz, ptu};
 use std::path::Path;
-
-/// What a format's reader found, before the layout is decided.
-pub(super) struct Stored {
-    /// Which dataset, variable or signal, as the user would name it.
-    pub source: String,
-    pub array: Array,
-    /// What the file says of each stored axis (empty: nothing).
-    pub axes: Vec<AxisInfo>,
-    /// The spatial calibration of each stored axis, where the file records one.
-    pub scales: Vec<Option<Axis>>,
-    /// The time axis the file records (of the axis whose role is time, or of whichever
-    /// axis becomes time when the file names none).
-    pub time: TimeSpec,
-    pub time_source: String,
-    pub attributes: Vec<(String, String)>,
-}
 
 fn no_axis(what: &str) -> TimeSpec {
     TimeSpec::Uncalibrated {

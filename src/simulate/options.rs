@@ -133,10 +133,10 @@ pub struct SimulateOptions {
     /// How the tracer bins arrival times; [`TimeFilter::Box`] only with `transient_only`
     /// (a streak capture is the sensor's response).
     pub time_filter: TimeFilter,
-    /// First bounce at which Russian roulette may end a path
-    /// ([`TraceOptions::rr_start_bounce`](crate::tracer::TraceOptions::rr_start_bounce),
-    /// >= 1); `None`: the tracer's default. Only with `transient_only`, to render with
-    /// another renderer's setting in a comparison.
+    /// First bounce at which Russian roulette may end a path, at least 1
+    /// ([`TraceOptions::rr_start_bounce`](crate::tracer::TraceOptions::rr_start_bounce));
+    /// `None`: the tracer's default. Only with `transient_only`, to render with another
+    /// renderer's setting in a comparison.
     pub rr_start_bounce: Option<u32>,
 }
 

@@ -89,154 +89,177 @@ impl Listed {
 
 /// List the scanlines of `input`: the file of each (checking that it is there, unless
 /// `allow_missing`), or the values of a stack (checked finite), before any scanline is read.
-/// (About 150 lines: one match over the five kinds of input, kept whole so that the kinds
-/// read side by side; each arm is short.)
 pub(super) fn list_rows(input: &InputSpec, options: &IngestOptions) -> Result<Listed, IngestError> {
-    let files_only = |files: Vec<Option<PathBuf>>, manifest| Listed {
+    let allow_missing = options.allow_missing;
+    match input {
+        InputSpec::Manifest(path) => manifest_rows(path, allow_missing),
+        InputSpec::Printf { pattern, rows } => Ok(files_only(
+            printf_rows(pattern, *rows, allow_missing)?,
+            None,
+        )),
+        InputSpec::Glob(pattern) => Ok(files_only(glob_rows(pattern, allow_missing)?, None)),
+        InputSpec::File(path) => Ok(files_only(vec![Some(path.clone())], None)),
+        InputSpec::Stack { path, dataset } => stack_rows(path, dataset, options.transpose),
+    }
+}
+
+/// A listing of scanline files (`None`: a missing one).
+fn files_only(files: Vec<Option<PathBuf>>, manifest: Option<(Manifest, PathBuf)>) -> Listed {
+    Listed {
         ny: files.len(),
         source: RowSource::Files(files),
         manifest,
         stack_nx_nt: None,
         stack_pixel_type: PixelType::F32,
-    };
-    match input {
-        InputSpec::Manifest(path) => {
-            let m = Manifest::load(path)?;
-            let dir = path.parent().unwrap_or(Path::new("."));
-            let mut files = Vec::with_capacity(m.capture.ny);
-            for y in 0..m.capture.ny {
-                let file = m
-                    .scanline_path(dir, y)
-                    .expect("validated manifest covers 0..ny");
-                if file.is_file() {
-                    files.push(Some(file));
-                } else if options.allow_missing {
-                    files.push(None);
-                } else {
-                    return Err(IngestError::ManifestFileMissing {
-                        manifest: path.clone(),
-                        row: y,
-                        file,
-                    });
-                }
-            }
-            Ok(files_only(files, Some((m, path.clone()))))
-        }
-        InputSpec::Printf { pattern, rows } => {
-            let p = Printf::parse(pattern)?.expect("classified as printf");
-            let mut files = Vec::with_capacity(*rows);
-            for y in 0..*rows {
-                let file = PathBuf::from(p.format(y));
-                if file.is_file() {
-                    files.push(Some(file));
-                } else if options.allow_missing {
-                    files.push(None);
-                } else {
-                    return Err(IngestError::MissingScanline {
-                        row: y,
-                        expected: format!("expected file {}", file.display()),
-                    });
-                }
-            }
-            Ok(files_only(files, None))
-        }
-        InputSpec::Glob(pattern) => {
-            let bad = |message: String| IngestError::BadGlob {
-                pattern: pattern.clone(),
-                message,
-            };
-            let mut matches: Vec<PathBuf> = glob::glob(pattern)
-                .map_err(|e| bad(e.to_string()))?
-                .filter_map(Result::ok)
-                .filter(|p| p.is_file())
-                .collect();
-            if matches.is_empty() {
-                return Err(IngestError::NoMatches {
-                    pattern: pattern.clone(),
-                });
-            }
-            matches.sort();
-            let numbers: Option<Vec<u64>> = matches.iter().map(|p| file_number(p)).collect();
-            let Some(numbers) = numbers else {
-                return Ok(files_only(matches.into_iter().map(Some).collect(), None));
-            };
-            let first = *numbers.iter().min().expect("non-empty");
-            let last = *numbers.iter().max().expect("non-empty");
-            let ny = usize::try_from(last - first + 1).unwrap_or(usize::MAX);
-            if ny > 16 * matches.len() + 1024 {
-                return Err(bad(format!(
-                    "file numbers run from {first} to {last} for only {} files",
-                    matches.len()
-                )));
-            }
-            let mut files: Vec<Option<PathBuf>> = vec![None; ny];
-            for (p, n) in matches.iter().zip(&numbers) {
-                let y = (n - first) as usize;
-                if let Some(prev) = &files[y] {
-                    return Err(IngestError::DuplicateNumber {
-                        number: *n,
-                        first: prev.clone(),
-                        second: p.clone(),
-                    });
-                }
-                files[y] = Some(p.clone());
-            }
-            if !options.allow_missing {
-                if let Some(y) = files.iter().position(Option::is_none) {
-                    let before = files[..y].iter().flatten().next_back();
-                    return Err(IngestError::MissingScanline {
-                        row: y,
-                        expected: format!(
-                            "no file numbered {} matches {pattern} (after {})",
-                            first + y as u64,
-                            before.map_or("-".into(), |p| p.display().to_string())
-                        ),
-                    });
-                }
-            }
-            Ok(files_only(files, None))
-        }
-        InputSpec::File(path) => Ok(files_only(vec![Some(path.clone())], None)),
-        InputSpec::Stack { path, dataset } => {
-            let (shape, values) = crate::container::read_image_stack(path, dataset)?;
-            if shape.contains(&0) {
-                return Err(IngestError::StackShape {
-                    path: path.clone(),
-                    dataset: dataset.trim_start_matches('/').to_string(),
-                    shape,
-                    message: "every axis needs length > 0".into(),
-                });
-            }
-            let (ny, a, b) = (shape[0], shape[1], shape[2]);
-            let (nx, nt) = if options.transpose { (a, b) } else { (b, a) };
-            let name = dataset.trim_start_matches('/').to_string();
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                let (y, rest) = (i / (a * b), i % (a * b));
-                let (x, t) = if options.transpose {
-                    (rest / b, rest % b)
-                } else {
-                    (rest % b, rest / b)
-                };
-                return Err(IngestError::NonFinite {
-                    path: PathBuf::from(format!("{}:/{name} image {y}", path.display())),
-                    x,
-                    t,
-                    value: values[i],
-                });
-            }
-            Ok(Listed {
-                source: RowSource::Stack {
-                    path: path.clone(),
-                    dataset: name,
-                    values,
-                },
-                ny,
-                manifest: None,
-                stack_nx_nt: Some((nx, nt)),
-                stack_pixel_type: PixelType::F32,
-            })
+    }
+}
+
+/// The scanlines a manifest lists.
+fn manifest_rows(path: &Path, allow_missing: bool) -> Result<Listed, IngestError> {
+    let m = Manifest::load(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut files = Vec::with_capacity(m.capture.ny);
+    for y in 0..m.capture.ny {
+        let file = m
+            .scanline_path(dir, y)
+            .expect("validated manifest covers 0..ny");
+        if file.is_file() {
+            files.push(Some(file));
+        } else if allow_missing {
+            files.push(None);
+        } else {
+            return Err(IngestError::ManifestFileMissing {
+                manifest: path.to_path_buf(),
+                row: y,
+                file,
+            });
         }
     }
+    Ok(files_only(files, Some((m, path.to_path_buf()))))
+}
+
+/// The scanlines of a printf pattern, rows `0..rows`.
+fn printf_rows(
+    pattern: &str,
+    rows: usize,
+    allow_missing: bool,
+) -> Result<Vec<Option<PathBuf>>, IngestError> {
+    let p = Printf::parse(pattern)?.expect("classified as printf");
+    let mut files = Vec::with_capacity(rows);
+    for y in 0..rows {
+        let file = PathBuf::from(p.format(y));
+        if file.is_file() {
+            files.push(Some(file));
+        } else if allow_missing {
+            files.push(None);
+        } else {
+            return Err(IngestError::MissingScanline {
+                row: y,
+                expected: format!("expected file {}", file.display()),
+            });
+        }
+    }
+    Ok(files)
+}
+
+/// The scanlines a glob matches, placed by the last number in their names (in name order
+/// when some name holds none).
+fn glob_rows(pattern: &str, allow_missing: bool) -> Result<Vec<Option<PathBuf>>, IngestError> {
+    let bad = |message: String| IngestError::BadGlob {
+        pattern: pattern.to_string(),
+        message,
+    };
+    let mut matches: Vec<PathBuf> = glob::glob(pattern)
+        .map_err(|e| bad(e.to_string()))?
+        .filter_map(Result::ok)
+        .filter(|p| p.is_file())
+        .collect();
+    if matches.is_empty() {
+        return Err(IngestError::NoMatches {
+            pattern: pattern.to_string(),
+        });
+    }
+    matches.sort();
+    let numbers: Option<Vec<u64>> = matches.iter().map(|p| file_number(p)).collect();
+    let Some(numbers) = numbers else {
+        return Ok(matches.into_iter().map(Some).collect());
+    };
+    let first = *numbers.iter().min().expect("non-empty");
+    let last = *numbers.iter().max().expect("non-empty");
+    let ny = usize::try_from(last - first + 1).unwrap_or(usize::MAX);
+    if ny > 16 * matches.len() + 1024 {
+        return Err(bad(format!(
+            "file numbers run from {first} to {last} for only {} files",
+            matches.len()
+        )));
+    }
+    let mut files: Vec<Option<PathBuf>> = vec![None; ny];
+    for (p, n) in matches.iter().zip(&numbers) {
+        let y = (n - first) as usize;
+        if let Some(prev) = &files[y] {
+            return Err(IngestError::DuplicateNumber {
+                number: *n,
+                first: prev.clone(),
+                second: p.clone(),
+            });
+        }
+        files[y] = Some(p.clone());
+    }
+    if !allow_missing {
+        if let Some(y) = files.iter().position(Option::is_none) {
+            let before = files[..y].iter().flatten().next_back();
+            return Err(IngestError::MissingScanline {
+                row: y,
+                expected: format!(
+                    "no file numbered {} matches {pattern} (after {})",
+                    first + y as u64,
+                    before.map_or("-".into(), |p| p.display().to_string())
+                ),
+            });
+        }
+    }
+    Ok(files)
+}
+
+/// The values of an HDF5 image stack, one image a scanline (checked finite).
+fn stack_rows(path: &Path, dataset: &str, transpose: bool) -> Result<Listed, IngestError> {
+    let (shape, values) = crate::container::read_image_stack(path, dataset)?;
+    if shape.contains(&0) {
+        return Err(IngestError::StackShape {
+            path: path.to_path_buf(),
+            dataset: dataset.trim_start_matches('/').to_string(),
+            shape,
+            message: "every axis needs length > 0".into(),
+        });
+    }
+    let (ny, a, b) = (shape[0], shape[1], shape[2]);
+    let (nx, nt) = if transpose { (a, b) } else { (b, a) };
+    let name = dataset.trim_start_matches('/').to_string();
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        let (y, rest) = (i / (a * b), i % (a * b));
+        let (x, t) = if transpose {
+            (rest / b, rest % b)
+        } else {
+            (rest % b, rest / b)
+        };
+        return Err(IngestError::NonFinite {
+            path: PathBuf::from(format!("{}:/{name} image {y}", path.display())),
+            x,
+            t,
+            value: values[i],
+        });
+    }
+    Ok(Listed {
+        source: RowSource::Stack {
+            path: path.to_path_buf(),
+            dataset: name,
+            values,
+        },
+        ny,
+        manifest: None,
+        stack_nx_nt: Some((nx, nt)),
+        stack_pixel_type: PixelType::F32,
+    })
 }
 
 /// The last run of digits in a file name, if any.
