@@ -17,7 +17,8 @@
 //! masked as a violet cross-hatch; no light and no surface stay black. Only pixels that
 //! encode to black are marked, so light is never covered.
 
-use super::{probe_pixel, PixelSample, RenderScene, RenderSettings, View};
+use super::frame::FrameProbe;
+use super::{PixelSample, RenderScene, RenderSettings, View};
 use crate::camera_path::FrameState;
 use rayon::prelude::*;
 
@@ -37,7 +38,7 @@ pub enum DarkKind {
 }
 
 impl DarkKind {
-    /// The kind of a probed pixel ([`probe_pixel`]).
+    /// The kind of a probed pixel ([`super::probe_pixel`]).
     pub fn of(scene: &RenderScene, sample: &PixelSample) -> DarkKind {
         let Some((point_m, _)) = sample.hit_m else {
             return DarkKind::NoSurface;
@@ -68,6 +69,10 @@ pub const UNSEEN_RGB: [[u8; 3]; 2] = [[22, 22, 22], [72, 72, 72]];
 pub const MASKED_RGB: [[u8; 3]; 2] = [[34, 10, 46], [120, 48, 150]];
 /// Period of the hatches, pixels.
 pub const STRIPE_PX: usize = 8;
+/// Side of the blocks of pixels that share one probe of their kind, pixels: 4 (16 pixels a
+/// probe) where 2 took 5-10 ms of a 640 x 480 frame's 40 in `femto view`. The kinds' edges
+/// are drawn to within a block, a quarter of a hatch's period.
+pub const MARK_BLOCK: usize = 4;
 
 /// The mark of `kind` at pixel `(i, j)`, or None for a kind drawn black.
 pub fn mark_rgb(kind: DarkKind, i: usize, j: usize) -> Option<[u8; 3]> {
@@ -83,9 +88,9 @@ pub fn mark_rgb(kind: DarkKind, i: usize, j: usize) -> Option<[u8; 3]> {
 
 /// Paint the marks of the unseen and masked pixels over `srgb8` (the frame `state` rendered
 /// with `settings`, 8-bit RGB, row-major): every pixel that encodes to black gets the mark
-/// of the kind of the top-left pixel of its 2 x 2 block (one probe per block: the kinds
-/// change only at the edges of surfaces and of the capture's view). Isochrone frames are
-/// drawn from the mesh alone and are left as they are.
+/// of the kind of the top-left pixel of its [`MARK_BLOCK`] x [`MARK_BLOCK`] block (one probe
+/// per block: the kinds change only at the edges of surfaces and of the capture's view).
+/// Isochrone frames are drawn from the mesh alone and are left as they are.
 pub fn draw_dark_marks(
     scene: &RenderScene,
     settings: &RenderSettings,
@@ -98,19 +103,20 @@ pub fn draw_dark_marks(
     let w = settings.width;
     debug_assert_eq!(srgb8.len(), 3 * w * settings.height);
     srgb8
-        .par_chunks_mut(6 * w)
+        .par_chunks_mut(MARK_BLOCK * 3 * w)
         .enumerate()
-        .for_each(|(pair, rows)| {
-            let j0 = 2 * pair;
-            let mut kinds = vec![None; w.div_ceil(2)];
+        .for_each(|(block_row, rows)| {
+            let j0 = MARK_BLOCK * block_row;
+            let probe = FrameProbe::new(scene, settings, state);
+            let mut kinds = vec![None; w.div_ceil(MARK_BLOCK)];
             for (r, row) in rows.chunks_mut(3 * w).enumerate() {
                 let j = j0 + r;
                 for (i, px) in row.chunks_exact_mut(3).enumerate() {
                     if px != [0, 0, 0] {
                         continue;
                     }
-                    let kind = *kinds[i / 2].get_or_insert_with(|| {
-                        let sample = probe_pixel(scene, settings, state, i & !1, j0);
+                    let kind = *kinds[i / MARK_BLOCK].get_or_insert_with(|| {
+                        let sample = probe.sample(scene, settings, i - i % MARK_BLOCK, j0);
                         DarkKind::of(scene, &sample)
                     });
                     if let Some(rgb) = mark_rgb(kind, i, j) {

@@ -61,8 +61,13 @@ impl FrameCtx<'_> {
         let (width, height) = (k.width as f64, k.height as f64);
         let e = settings.effects;
         // FrameCtx::colour: the laser's colour without the Doppler shift, else the colour of
-        // each pixel's wavelength, computed four at a time for display output.
-        let vector_colours = e.doppler && settings.colour == ColourOutput::LinearSrgb;
+        // each pixel's drawn wavelength (the received one, times `drawn_per_received` in
+        // false colour), computed four at a time for display output.
+        let vector_colours = e.doppler
+            && matches!(
+                settings.colour,
+                ColourOutput::LinearSrgb | ColourOutput::FalseColour
+            );
         scratch.lit.clear();
         for (&(i, _), pr) in scratch.hit_pixels.iter().zip(projected.iter()) {
             let (px, d, dop) = (&mut row[i], &d_world[i], doppler[i]);
@@ -97,7 +102,9 @@ impl FrameCtx<'_> {
             if value == 0.0 {
                 *px = [value as f32; 3];
             } else if vector_colours {
-                scratch.lit.push((i, value, dop * scene.laser_nm));
+                // FrameCtx::colour's `lambda_nm * drawn_per_received`, the same product.
+                let drawn_nm = dop * scene.laser_nm * self.drawn_per_received;
+                scratch.lit.push((i, value, drawn_nm));
             } else {
                 let lambda_nm = if e.doppler {
                     dop * scene.laser_nm
