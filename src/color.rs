@@ -212,7 +212,7 @@ pub fn srgb_decode(encoded: f64) -> f64 {
 }
 
 /// Encode a display-linear colour to 8-bit sRGB (rounded to nearest): per channel
-/// `round(255 srgb_encode(v))`, looked up in [`Srgb8Steps`] instead of computed (a `powf`
+/// `round(255 srgb_encode(v))`, looked up among the steps where it changes instead of computed (a `powf`
 /// per channel was 13 % of `femto view`'s CPU time per frame; the lookup gives the same
 /// byte, the tests below compare the two).
 #[inline]
@@ -276,7 +276,7 @@ impl Srgb8Steps {
     /// `NaN as u8` is 0).
     #[inline(always)]
     fn code(&self, v: f64) -> u8 {
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             return 0;
         }
         if v >= 1.0 {
@@ -580,15 +580,15 @@ mod tests {
         // interval's ends.
         for &t in steps.at.iter() {
             let b = t.to_bits();
-            [b - 2, b - 1, b, b + 1, b + 2]
-                .map(f64::from_bits)
-                .map(check);
+            for bits in [b - 2, b - 1, b, b + 1, b + 2] {
+                check(f64::from_bits(bits));
+            }
         }
         for n in 0..=Srgb8Steps::INTERVALS {
             let b = (n as f64 / Srgb8Steps::INTERVALS as f64).to_bits();
-            [b.saturating_sub(1), b, b + 1]
-                .map(f64::from_bits)
-                .map(check);
+            for bits in [b.saturating_sub(1), b, b + 1] {
+                check(f64::from_bits(bits));
+            }
         }
         // A dense sweep, and the extremes.
         let mut x = 0x2545_F491_4F6C_DD1Du64;
