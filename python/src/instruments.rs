@@ -5,11 +5,11 @@
 //! array file to [`ingest_array`]; `femto.info` is [`info`].
 
 use crate::errors::{value_error, IntoPy};
+use crate::stages::saturation_input;
 use femto::container::Provenance;
 use femto::cube::TimeFrame;
 use femto::ingest::arrays::{ingest_array as ingest_array_file, ArrayIngest, Confocal};
 use femto::ingest::kind::{decide, InputKind, KindHints};
-use femto::ingest::plan::SaturationInput;
 use femto::pipeline::describe::{describe_file, DescribeOptions};
 use femto::pipeline::overwrite::refuse_existing;
 use femto::readers::{AxisRef, LayoutOptions, ReadOptions};
@@ -97,17 +97,7 @@ pub fn ingest_array<'py>(
             source.display()
         )));
     };
-    let saturation = match saturation {
-        None => None,
-        Some(s) => Some(match s.extract::<f64>() {
-            Ok(level) => SaturationInput::Level(level),
-            Err(_) => {
-                let text: String = s.extract()?;
-                SaturationInput::parse(&text)
-                    .map_err(|e| value_error(format!("--saturation {text}: {e}")))?
-            }
-        }),
-    };
+    let saturation = saturation_input(saturation)?;
     let clock = match clock.as_deref() {
         None | Some("camera") => TimeFrame::Camera,
         Some("world") => TimeFrame::World,

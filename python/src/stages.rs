@@ -32,6 +32,23 @@ fn provenance(stage: &str) -> String {
     format!("python: femto.{stage}")
 }
 
+/// `saturation=`: a level (a number) or `"auto"`, as `--saturation`.
+pub(crate) fn saturation_input(
+    saturation: Option<Bound<'_, PyAny>>,
+) -> PyResult<Option<SaturationInput>> {
+    let Some(s) = saturation else {
+        return Ok(None);
+    };
+    Ok(Some(match s.extract::<f64>() {
+        Ok(level) => SaturationInput::Level(level),
+        Err(_) => {
+            let text: String = s.extract()?;
+            SaturationInput::parse(&text)
+                .map_err(|e| value_error(format!("--saturation {text}: {e}")))?
+        }
+    }))
+}
+
 /// Parse a `--compression` value (`"none"` or a deflate level 0-9).
 fn compression(flag: &str, value: Option<&str>) -> PyResult<Option<CubeCompression>> {
     value
@@ -329,17 +346,7 @@ pub fn ingest<'py>(
     let power_ref = power_ref
         .map(|s| PowerRef::parse(&s).map_err(|e| value_error(format!("--power-ref {s}: {e}"))))
         .transpose()?;
-    let saturation = match saturation {
-        None => None,
-        Some(s) => Some(match s.extract::<f64>() {
-            Ok(level) => SaturationInput::Level(level),
-            Err(_) => {
-                let text: String = s.extract()?;
-                SaturationInput::parse(&text)
-                    .map_err(|e| value_error(format!("--saturation {text}: {e}")))?
-            }
-        }),
-    };
+    let saturation = saturation_input(saturation)?;
     let defaults = IngestOptions::default();
     let options = IngestOptions {
         dt_ps,
