@@ -14,6 +14,12 @@
 //! (`/api/still`, the renderer's own output) for comparison. The client sends the server's
 //! token (`Authorization: token ...`) as a script would (docs/view.md, "Access").
 //!
+//! With `FEMTO_VIEW_INPUTS=WORLD.h5,CAL.toml,MESH` it opens those files as `femto view
+//! --cube --calibration --mesh` does (for example `femto demo --quick`'s
+//! `data/world.h5,data/calibration.toml,data/capture/scene.glb`) and starts where the page
+//! starts: the capture view at rest at its brightest time. It then also plays at rest (the
+//! page's Play after Reset: only the time moves) before the runs at beta 0.5.
+//!
 //! Run: `cargo bench --bench view`.
 
 #[path = "../tests/common/mod.rs"]
@@ -21,10 +27,13 @@ mod common;
 
 use femto::cube::TimeAxis;
 use femto::geometry::bvh::Bvh;
-use femto::pipeline::render::{LaserWavelength, RenderInputs, WavelengthSource};
+use femto::pipeline::render::{
+    open_render_inputs, LaserWavelength, RenderInputs, SceneGeometry, WavelengthSource,
+};
 use femto::pyramid::Pyramid;
 use femto::scene::Scene;
 use femto::view::{server, Access, ViewSession, ViewState};
+use std::path::Path;
 use std::time::Instant;
 use tungstenite::client::IntoClientRequest;
 use tungstenite::Message;
@@ -33,6 +42,15 @@ const THREADS: usize = 2;
 const FRAMES: usize = 300;
 
 fn inputs() -> RenderInputs {
+    if let Ok(files) = std::env::var("FEMTO_VIEW_INPUTS") {
+        let f: Vec<&str> = files.split(',').collect();
+        assert_eq!(f.len(), 3, "FEMTO_VIEW_INPUTS=WORLD.h5,CAL.toml,MESH");
+        let geometry = SceneGeometry::Files {
+            calibration: Path::new(f[1]),
+            mesh: Path::new(f[2]),
+        };
+        return open_render_inputs(Path::new(f[0]), None, geometry, None).expect("the inputs");
+    }
     let cube_scene = Scene::builtin("cube", None).expect("built-in cube scene");
     let bvh = Bvh::new(cube_scene.mesh.clone());
     let cal = cube_scene.calibration();
@@ -63,19 +81,19 @@ fn advance(state: &mut ViewState) {
     }
 }
 
-fn start_state(session: &ViewSession) -> ViewState {
+fn start_state(session: &ViewSession, beta: f64) -> ViewState {
     let mut s = session.info().capture_state.clone();
     let f = [
         s.world_from_camera[0][2],
         s.world_from_camera[1][2],
         s.world_from_camera[2][2],
     ];
-    s.beta = f.map(|x| 0.5 * x);
+    s.beta = f.map(|x| beta * x);
     s
 }
 
 /// Frames per second and mean bytes per frame of `FRAMES` frames on the WebSocket.
-fn stream(url: &str, token: &str, session: &ViewSession, scale: f64) -> (f64, f64) {
+fn stream(url: &str, token: &str, session: &ViewSession, scale: f64, beta: f64) -> (f64, f64) {
     let mut request = (url.replace("http://", "ws://") + "ws")
         .into_client_request()
         .unwrap();
@@ -83,9 +101,11 @@ fn stream(url: &str, token: &str, session: &ViewSession, scale: f64) -> (f64, f6
         .headers_mut()
         .insert("Authorization", format!("token {token}").parse().unwrap());
     let (mut socket, _) = tungstenite::connect(request).unwrap();
-    let mut state = start_state(session);
+    let mut state = start_state(session, beta);
+    let t_peak_ps = state.t_world_ps;
     let mut bytes = 0usize;
     let mut server_ms = 0.0;
+    let mut lit = 0.0;
     let started = Instant::now();
     for seq in 0..FRAMES {
         let request = serde_json::json!({"seq": seq, "scale": scale, "state": state});
@@ -96,16 +116,24 @@ fn stream(url: &str, token: &str, session: &ViewSession, scale: f64) -> (f64, f6
                 let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
                 let header: serde_json::Value = serde_json::from_slice(&b[4..4 + n]).unwrap();
                 server_ms += header["hud"]["render_ms"].as_f64().unwrap();
+                lit += header["hud"]["lit_fraction"].as_f64().unwrap();
             }
             other => panic!("frame {seq}: {other:?}"),
         }
-        advance(&mut state);
+        if beta == 0.0 {
+            // At rest, Play loops over the light: 40 frames around the brightest time.
+            let step = ((seq + 1) % 40) as f64 - 20.0;
+            state.t_world_ps = t_peak_ps + step * state.dtau_ps;
+        } else {
+            advance(&mut state);
+        }
     }
     let s = started.elapsed().as_secs_f64();
     eprintln!(
-        "  (scale {scale}: {:.2} ms a frame in the server's render and encode, {:.2} ms in all)",
+        "  (scale {scale}, beta {beta}: {:.2} ms a frame in the server's render and encode, {:.2} ms in all; mean lit fraction {:.3})",
         server_ms / FRAMES as f64,
-        1e3 * s / FRAMES as f64
+        1e3 * s / FRAMES as f64,
+        lit / FRAMES as f64
     );
     (FRAMES as f64 / s, bytes as f64 / FRAMES as f64)
 }
@@ -113,7 +141,7 @@ fn stream(url: &str, token: &str, session: &ViewSession, scale: f64) -> (f64, f6
 /// Stills per second over HTTP.
 fn stills(url: &str, token: &str, session: &ViewSession) -> (f64, f64) {
     let agent = ureq::Agent::new_with_defaults();
-    let mut state = start_state(session);
+    let mut state = start_state(session, 0.5);
     let mut bytes = 0usize;
     let n = FRAMES / 3;
     let started = Instant::now();
@@ -146,14 +174,22 @@ fn main() {
     std::thread::scope(|scope| {
         scope.spawn(|| server::serve(&http, &session, &access));
         // One warm-up pass (first-touch of the prefix sums, the auto exposure).
-        stream(&url, &token, &session, 0.25);
-        let (fps, bytes) = stream(&url, &token, &session, 1.0);
+        stream(&url, &token, &session, 0.25, 0.5);
+        if std::env::var_os("FEMTO_VIEW_INPUTS").is_some() {
+            let (fps, bytes) = stream(&url, &token, &session, 1.0, 0.0);
+            println!(
+                "femto view, 640 x 480, every effect, at rest (Play after Reset), JPEG q85 over a \
+                 WebSocket, {THREADS} threads: {fps:.1} frames/s ({:.1} kB a frame)",
+                bytes / 1e3
+            );
+        }
+        let (fps, bytes) = stream(&url, &token, &session, 1.0, 0.5);
         println!(
             "femto view, 640 x 480, every effect, JPEG q85 over a WebSocket, {THREADS} threads: \
              {fps:.1} frames/s ({:.1} kB a frame)",
             bytes / 1e3
         );
-        let (fps, bytes) = stream(&url, &token, &session, 0.5);
+        let (fps, bytes) = stream(&url, &token, &session, 0.5, 0.5);
         println!(
             "femto view, 320 x 240 (while moving), JPEG q85 over a WebSocket, {THREADS} threads: \
              {fps:.1} frames/s ({:.1} kB a frame)",

@@ -20,7 +20,7 @@ def test_a_time_first_array_needs_time_axis(tmp_path):
     a = np.arange(64 * 3 * 5, dtype=np.float32).reshape(64, 3, 5)  # (t, y, x)
     src = tmp_path / "tfirst.npy"
     np.save(src, a)
-    with pytest.raises(femto.FemtoError, match="--time-axis"):
+    with pytest.raises(femto.FemtoError, match="time_axis=N"):
         femto.ingest(src, tmp_path / "no.h5", dt_ps=4.0)
     assert not (tmp_path / "no.h5").exists()
     r = femto.ingest(src, tmp_path / "c.h5", dt_ps=4.0, time_axis=0)

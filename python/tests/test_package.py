@@ -15,13 +15,32 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_import_from_inside_the_python_folder():
-    for where in (REPO / "python", REPO / "python" / "python", REPO):
+    for where in (REPO / "python", REPO):
         p = subprocess.run(
             [sys.executable, "-c", "import femto; print(femto.__file__, femto.__version__)"],
             cwd=where, capture_output=True, text=True,
         )
         assert p.returncode == 0, (where, p.stderr)
         assert p.stdout.split()[1] == femto.__version__
+
+
+def test_import_from_the_source_folder_says_what_to_do():
+    """python/python holds the package's sources, which Python imports first from there. With
+    an installed wheel they lack the compiled extension: the import fails in one message that
+    says why and what to run (with `maturin develop` the extension sits in the sources and
+    the import works)."""
+    src = REPO / "python" / "python"
+    p = subprocess.run(
+        [sys.executable, "-c", "import femto; print(femto.__file__, femto.__version__)"],
+        cwd=src, capture_output=True, text=True,
+    )
+    if list((src / "femto").glob("_femto*")):
+        assert p.returncode == 0, p.stderr
+        return
+    assert p.returncode == 1
+    last = p.stderr.strip().splitlines()[-1]
+    assert last.startswith("ImportError: femto: ") and "maturin develop" in last, p.stderr
+    assert "Run from any other folder" in last
 
 
 def test_the_default_progress_bar_shows_no_rate_and_leaves_no_line(tmp_path):

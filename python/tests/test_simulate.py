@@ -3,8 +3,6 @@ which records who asked: the command line, or "python: femto.simulate"), same me
 
 import json
 import os
-import signal
-import threading
 from pathlib import Path
 
 import h5py
@@ -183,17 +181,6 @@ def test_missing_scene_and_mesh_files_raise_file_not_found(femto_bin, demo, tmp_
                             laser=[-0.13, 0.06, -0.07], out=tmp_path / "cal.toml")
         assert isinstance(e.value, FileNotFoundError) and e.value.errno == 2
         assert str(e.value) == f"{mesh}: No such file or directory (os error 2)"
-    assert os.listdir(tmp_path) == []
-
-
-def test_sigint_stops_a_simulation_and_nothing_is_written(tmp_path):
-    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
-    timer.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            femto.simulate(tmp_path / "cap", size=(64, 48), nt=256, spp=512, progress=False)
-    finally:
-        timer.cancel()
     assert os.listdir(tmp_path) == []
 
 

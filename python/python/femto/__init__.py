@@ -11,7 +11,20 @@ installed, or ``progress=callback(what, done, total)``), and stop on Ctrl-C, lea
 nothing written. See docs/python.md.
 """
 
-from ._femto import __version__, Pyramid
+try:
+    from ._femto import __version__, Pyramid
+except ModuleNotFoundError as e:  # pragma: no cover - depends on the working directory
+    if e.name != f"{__name__}._femto":
+        raise
+    import os as _os
+
+    _here = _os.path.dirname(_os.path.abspath(__file__))
+    raise ImportError(
+        f"femto: {_here} holds femto's Python sources without the compiled extension, and "
+        "Python imports them first because it runs from their folder. Run from any other "
+        "folder to use the installed femto (pip install ./python), or build the extension "
+        "in place with `maturin develop --release` in python/."
+    ) from None
 from ._errors import FemtoError, FemtoOSError, FemtoFileNotFoundError
 from ._cube import Cube, Registration, open_cube, cube_from_array
 from ._render import FemtoWarning, RenderResult, render, render_still, state_path_toml
