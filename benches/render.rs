@@ -8,7 +8,11 @@
 //!   sums, colour);
 //! - (summary only) `all effects, rays reused`: the full pipeline through
 //!   `render_frame_reusing_rays`, as `render_sequence` renders the frames of a dolly after the
-//!   first (the camera rays, aberration and Doppler factors of the frame before are reused);
+//!   first (the camera rays, aberration and Doppler factors of the frame before are reused):
+//!   frames 49 and 50 in turn, so the rays are cast from a new place each time;
+//! - (summary only) `all effects, time alone moves`: frame 50's camera (same place, same
+//!   velocity) with its time moved by a frame interval in turn, as `femto view` plays a camera
+//!   at rest (rays and hits reused: the ray cast is skipped);
 //! - `ray_cast_all` / `ray_cast_none`: only the world rays of the same two frames (the
 //!   aberrated rays of the full pipeline; the plain pinhole rays with every effect off), made
 //!   beforehand and cast against the BVH (`Bvh::intersect`), hit distances written to a
@@ -142,6 +146,11 @@ fn main() {
     )
     .expect("dolly path");
     let state = s.path.frame(50);
+    let dolly = [s.path.frame(49), state];
+    let mut later = state;
+    later.t_world_ps += s.path.spec().dtau_ps;
+    later.tau_ps += s.path.spec().dtau_ps;
+    let at_rest = [later, state];
     let mut all = RenderSettings::for_path(&s.path);
     all.time_offset_ps = s.time_offset_ps;
     let none = RenderSettings {
@@ -155,7 +164,9 @@ fn main() {
     let mut pixels = vec![[0.0f32; 3]; WIDTH * HEIGHT];
     let mut depth = vec![0.0f32; WIDTH * HEIGHT];
     let (mut pixels2, mut pixels3, mut depth2) = (pixels.clone(), pixels.clone(), depth.clone());
-    let mut reused = FrameRays::default();
+    let mut pixels4 = pixels.clone();
+    let (mut reused, mut resting) = (FrameRays::default(), FrameRays::default());
+    let (mut k_dolly, mut k_rest) = (0usize, 0usize);
     let rays_all = frame_rays(&scene, &all, &state);
     let rays_none = frame_rays(&scene, &none, &state);
 
@@ -195,11 +206,20 @@ fn main() {
             &mut || render_frame(&scene, &none, &state, &mut pixels2),
             &mut || ray_cast(&bvh, &rays_all, &mut depth),
             &mut || ray_cast(&bvh, &rays_none, &mut depth2),
-            &mut || render_frame_reusing_rays(&scene, &all, &state, &mut reused, &mut pixels3),
+            &mut || {
+                k_dolly += 1;
+                let frame = &dolly[k_dolly % 2];
+                render_frame_reusing_rays(&scene, &all, frame, &mut reused, &mut pixels3)
+            },
+            &mut || {
+                k_rest += 1;
+                let frame = &at_rest[k_rest % 2];
+                render_frame_reusing_rays(&scene, &all, frame, &mut resting, &mut pixels4)
+            },
         ],
     );
     let (t_all, t_none, t_cast_all, t_cast_none) = (times[0], times[1], times[2], times[3]);
-    let t_reused = times[4];
+    let (t_reused, t_rest) = (times[4], times[5]);
     println!(
         "render {WIDTH}x{HEIGHT}, {THREADS} threads, built-in cube scene, {} triangles; \
          frame 50 of a 100-frame dolly at beta 0.5: {lit} pixels lit, rays hitting the mesh: \
@@ -208,12 +228,13 @@ fn main() {
         WIDTH * HEIGHT
     );
     println!(
-        "  {:<28} {:>10} {:>9} {:>10} {:>16}",
+        "  {:<30} {:>10} {:>9} {:>10} {:>16}",
         "", "wall ms", "wall fps", "CPU ms", "fps on 2 cores"
     );
     for (name, (wall, cpu)) in [
         ("all effects", t_all),
         ("all effects, rays reused", t_reused),
+        ("all effects, time alone moves", t_rest),
         ("--effects none", t_none),
         ("ray cast (all-effects rays)", t_cast_all),
         ("ray cast (effects-none rays)", t_cast_none),
@@ -226,7 +247,7 @@ fn main() {
             None => ("n/a".into(), "n/a".into()),
         };
         println!(
-            "  {name:<28} {:>10.2} {:>9.1} {cpu_ms:>10} {fps2:>16}",
+            "  {name:<30} {:>10.2} {:>9.1} {cpu_ms:>10} {fps2:>16}",
             wall * 1e3,
             1.0 / wall
         );

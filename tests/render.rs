@@ -1495,8 +1495,9 @@ fn cli_reads_the_stored_pyramid() {
 }
 
 /// Frames rendered with the rays of the frame before (a dolly keeps its orientation and
-/// velocity; an orbit and a rotating sensor do not) are the frames `render_frame` makes, bit
-/// for bit, whatever the order in which frames and settings come.
+/// velocity; an orbit and a rotating sensor do not), and with its hits too where the camera
+/// has not moved, are the frames `render_frame` makes, bit for bit, whatever the order in
+/// which frames and settings come.
 #[test]
 fn reused_rays_give_the_same_frames_bit_for_bit() {
     use femto::render::paths::{shortcut_path, Shortcut};
@@ -1538,6 +1539,28 @@ fn reused_rays_give_the_same_frames_bit_for_bit() {
         }
     }
     assert!(lit > 0, "every frame is black");
+    // A camera that stays where it is while its time moves (femto view's Play at rest):
+    // rays and hits kept from the frame before, frames those of render_frame; then a step
+    // aside, which casts again.
+    let s = shortcut_path(&scene, Shortcut::Dolly { beta: 0.6 }, w, h, frames, None).unwrap();
+    let mut all = RenderSettings::for_path(&s.path);
+    all.time_offset_ps = s.time_offset_ps;
+    let mut lit_at_rest = 0;
+    for (steps, aside_m) in [(0.0, 0.0), (1.0, 0.0), (3.0, 0.0), (1.0, 0.0), (1.0, 0.05)] {
+        let mut state = s.path.frame(4);
+        state.t_world_ps += steps * s.path.spec().dtau_ps;
+        state.tau_ps += steps * s.path.spec().dtau_ps;
+        state.position_m.x += aside_m;
+        let want = render(&scene, &all, &state);
+        let mut got = vec![[f32::NAN; 3]; w * h];
+        render_frame_reusing_rays(&scene, &all, &state, &mut rays, &mut got);
+        assert!(
+            got == want,
+            "at rest, {steps} frames later, {aside_m} m aside"
+        );
+        lit_at_rest += want.iter().filter(|p| p[0] > 0.0).count();
+    }
+    assert!(lit_at_rest > 0, "every frame at rest is black");
     // A rotating sensor: a boost per pixel, rendered as render_frame does.
     let mut path = shortcut_path(&scene, Shortcut::Dolly { beta: 0.3 }, w, h, frames, None)
         .unwrap()

@@ -47,9 +47,9 @@ pub const MAX_FRAMES: usize = 1_000_000;
 const BASE_BYTES: f64 = 32e6;
 
 /// Bytes per frame pixel held while a sequence renders: the linear RGB frame (12), the camera
-/// rays of the frame in world space (24) with their Doppler factors (8), the frame handed to
-/// the writer (12 as linear RGB, 3 as sRGB) and the encoder's copy.
-pub const BYTES_PER_FRAME_PIXEL: f64 = 64.0;
+/// rays of the frame in world space (24) with their Doppler factors (8) and hit distances
+/// (8), the frame handed to the writer (12 as linear RGB, 3 as sRGB) and the encoder's copy.
+pub const BYTES_PER_FRAME_PIXEL: f64 = 72.0;
 
 /// Bytes per cube pixel of the renderer's scene besides the pyramid: the capture camera's
 /// G-buffer entry (point, normal, tolerance, side).

@@ -379,26 +379,54 @@ impl<'s> FrameCtx<'s> {
         scratch: &mut RowScratch,
         row: &mut [[f32; 3]],
     ) {
+        let mut hit_t = std::mem::take(&mut scratch.hit_t);
+        hit_t.resize(d_world.len(), None);
+        self.cast_row(scene, d_world, scratch, &mut hit_t);
+        self.shade_row(scene, settings, d_world, doppler, &hit_t, scratch, row);
+        scratch.hit_t = hit_t;
+    }
+
+    /// Step 3 for a row: the distance to the nearest hit of each world ray in `d_world`, or
+    /// None, into `hit_t`.
+    #[inline(always)]
+    fn cast_row(
+        &self,
+        scene: &RenderScene,
+        d_world: &[Vector3<f64>],
+        scratch: &mut RowScratch,
+        hit_t: &mut [Option<f32>],
+    ) {
         scratch.dirs.clear();
         scratch.dirs.extend(
             d_world
                 .iter()
                 .map(|d| Vector3::new(d.x as f32, d.y as f32, d.z as f32)),
         );
-        scratch.hit_t.resize(d_world.len(), None);
-        scene.bvh.intersect_distances(
-            self.origin_f32,
-            &scratch.dirs,
-            0.0,
-            f32::INFINITY,
-            &mut scratch.hit_t,
-        );
+        scene
+            .bvh
+            .intersect_distances(self.origin_f32, &scratch.dirs, 0.0, f32::INFINITY, hit_t);
+    }
+
+    /// Steps 4-7 for a row whose world rays, Doppler factors and hit distances are known.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn shade_row(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        d_world: &[Vector3<f64>],
+        doppler: &[f64],
+        hit_t: &[Option<f32>],
+        scratch: &mut RowScratch,
+        row: &mut [[f32; 3]],
+    ) {
         if settings.view == View::Transient {
-            return self.shade_transient_row(scene, settings, d_world, doppler, scratch, row);
+            return self
+                .shade_transient_row(scene, settings, d_world, doppler, hit_t, scratch, row);
         }
         scratch.lambda_nm.clear();
         scratch.colour.clear();
-        for ((d, &doppler), &hit_t) in d_world.iter().zip(doppler).zip(&scratch.hit_t) {
+        for ((d, &doppler), &hit_t) in d_world.iter().zip(doppler).zip(hit_t) {
             let s = self.shade(scene, settings, d, doppler, hit_t);
             scratch.lambda_nm.push(s.lambda_nm);
             scratch.colour.push(s.colour);
@@ -522,11 +550,26 @@ pub fn render_frame(
 /// next by [`render_frame_reusing_rays`]: they depend only on the camera's orientation,
 /// velocity and field of view, which stay the same over a straight path at constant speed
 /// (a dolly), so such frames skip steps 1-2 of the pipeline.
+///
+/// They also keep each pixel's hit distance (step 3), which depends on the camera's position
+/// as well: the frames of a camera at rest whose time alone moves (`femto view`'s Play after
+/// Reset) skip the ray cast too.
 #[derive(Default)]
 pub struct FrameRays {
     key: Option<RayKey>,
     d_world: Vec<Vector3<f64>>,
     doppler: Vec<f64>,
+    /// The geometry and camera position `hit_t` was cast for (with `key`).
+    hits_key: Option<HitsKey>,
+    hit_t: Vec<Option<f32>>,
+}
+
+/// What step 3 depends on besides the rays: the mesh (by address: a [`FrameRays`] kept
+/// by one caller for one scene) and the camera position, bit for bit.
+#[derive(Clone, Copy, PartialEq)]
+struct HitsKey {
+    bvh_address: usize,
+    origin_bits: [u32; 3],
 }
 
 /// Everything [`FrameCtx::ray`] depends on for a frame with one boost.
@@ -573,34 +616,64 @@ pub fn render_frame_reusing_rays(
         width: settings.width,
         height: settings.height,
     };
+    let hits_key = HitsKey {
+        bvh_address: std::ptr::from_ref(scene.bvh) as usize,
+        origin_bits: [0, 1, 2].map(|k| ctx.origin_f32[k].to_bits()),
+    };
     let w = settings.width;
     if rays.key == Some(key) {
+        if rays.hits_key == Some(hits_key) {
+            // The same rays from the same place: the same hits.
+            out.par_chunks_mut(w)
+                .zip(rays.d_world.par_chunks(w))
+                .zip(rays.doppler.par_chunks(w))
+                .zip(rays.hit_t.par_chunks(w))
+                .for_each_init(
+                    RowScratch::default,
+                    |scratch, (((row, d_world), doppler), hit_t)| {
+                        ctx.shade_row(scene, settings, d_world, doppler, hit_t, scratch, row);
+                    },
+                );
+            return;
+        }
+        rays.hits_key = None;
         out.par_chunks_mut(w)
             .zip(rays.d_world.par_chunks(w))
             .zip(rays.doppler.par_chunks(w))
-            .for_each_init(RowScratch::default, |scratch, ((row, d_world), doppler)| {
-                ctx.render_row(scene, settings, d_world, doppler, scratch, row);
-            });
+            .zip(rays.hit_t.par_chunks_mut(w))
+            .for_each_init(
+                RowScratch::default,
+                |scratch, (((row, d_world), doppler), hit_t)| {
+                    ctx.cast_row(scene, d_world, scratch, hit_t);
+                    ctx.shade_row(scene, settings, d_world, doppler, hit_t, scratch, row);
+                },
+            );
+        rays.hits_key = Some(hits_key);
         return;
     }
     // New rays: each row's are made in the task that renders the row, and used while they
     // are in its cache (a pass of their own wrote 5 MB and read them back after a barrier:
     // 1.5 CPU ms of the render bench's 23.3).
     rays.key = None;
+    rays.hits_key = None;
     rays.d_world.resize(out.len(), Vector3::zeros());
     rays.doppler.resize(out.len(), 0.0);
+    rays.hit_t.resize(out.len(), None);
     out.par_chunks_mut(w)
         .zip(rays.d_world.par_chunks_mut(w))
         .zip(rays.doppler.par_chunks_mut(w))
+        .zip(rays.hit_t.par_chunks_mut(w))
         .enumerate()
         .for_each_init(
             RowScratch::default,
-            |scratch, (j, ((row, d_world), doppler))| {
+            |scratch, (j, (((row, d_world), doppler), hit_t))| {
                 ctx.row_rays(settings, j, d_world, doppler);
-                ctx.render_row(scene, settings, d_world, doppler, scratch, row);
+                ctx.cast_row(scene, d_world, scratch, hit_t);
+                ctx.shade_row(scene, settings, d_world, doppler, hit_t, scratch, row);
             },
         );
     rays.key = Some(key);
+    rays.hits_key = Some(hits_key);
 }
 
 /// [`probe_pixel`] for many pixels of one frame: the frame's constants computed once.

@@ -981,15 +981,30 @@ pub fn render_sequence<E: From<RenderError>>(
     settings: &RenderSettings,
     path: &CameraPath,
     frames: Range<usize>,
+    sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut rays = FrameRays::default();
+    render_sequence_reusing(scene, settings, path, frames, &mut rays, sink)
+}
+
+/// [`render_sequence`] with the rays (and hits) of the frame rendered before, from `rays`:
+/// a caller that renders one frame at a time of the same scene (`femto view`) keeps `rays`
+/// between calls, and a camera at rest whose time alone moves skips steps 1-3. The frames
+/// are those of [`render_sequence`], bit for bit.
+pub fn render_sequence_reusing<E: From<RenderError>>(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    path: &CameraPath,
+    frames: Range<usize>,
+    rays: &mut FrameRays,
     mut sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
 ) -> Result<(), E> {
     settings.validate()?;
     check_frames(path, &frames)?;
     check_path_clear(scene.bvh, path)?;
     let mut pixels = vec![[0.0f32; 3]; settings.width * settings.height];
-    let mut rays = FrameRays::default();
     for k in frames {
-        render_frame_reusing_rays(scene, settings, &path.frame(k), &mut rays, &mut pixels);
+        render_frame_reusing_rays(scene, settings, &path.frame(k), rays, &mut pixels);
         sink(k, &pixels)?;
     }
     Ok(())

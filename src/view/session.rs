@@ -12,7 +12,7 @@ use crate::camera_path::CameraPath;
 use crate::pipeline::render::{plan, Camera, Plan, RenderInputs};
 use crate::pipeline::StageError;
 use crate::render::paths::{shortcut_path, Shortcut};
-use crate::render::{probe_pixel, render_sequence, RenderScene};
+use crate::render::{probe_pixel, render_sequence_reusing, FrameRays, RenderScene};
 use crate::units::flight_time_ps;
 use serde::Serialize;
 use std::sync::{Mutex, RwLock};
@@ -161,6 +161,11 @@ pub struct ViewSession<'a> {
     latest: Mutex<ViewState>,
     /// How many frames render at once, within the memory budget.
     admission: Admission,
+    /// The rays and hits of the last recorded frame: the next one from the same camera
+    /// (Play at rest: only the time moves) skips the ray cast, one that only moves (a strafe)
+    /// skips the rays. 40 bytes a pixel of that frame (12 MB at 640 x 480), held between
+    /// frames; a frame that finds it busy renders without it.
+    rays: Mutex<FrameRays>,
 }
 
 /// Memory a render of one frame holds besides its pixels: its thread's stack and a malloc
@@ -257,6 +262,7 @@ impl<'a> ViewSession<'a> {
             keyframes: Mutex::new(Vec::new()),
             latest: Mutex::new(capture_state),
             admission: Admission::new(rayon::current_num_threads()),
+            rays: Mutex::new(FrameRays::default()),
         };
         let curve = session
             .light_curve(&session.info.capture_state)
@@ -370,11 +376,17 @@ impl<'a> ViewSession<'a> {
             let (settings, path) = (planned.settings, &planned.path);
             let mut srgb8 = vec![0u8; 3 * settings.width * settings.height];
             let mut lit = 0.0;
-            render_sequence::<ViewError>(
+            // The light curve's and the probe's small frames (not recorded) leave the
+            // recorded frames' rays alone.
+            let mut kept = record.then(|| self.rays.try_lock().ok()).flatten();
+            let mut fresh = FrameRays::default();
+            let rays = kept.as_deref_mut().unwrap_or(&mut fresh);
+            render_sequence_reusing::<ViewError>(
                 scene,
                 &settings,
                 path,
                 planned.frames.clone(),
+                rays,
                 |k, pixels| {
                     // Light is counted before the marks of the dark pixels are drawn.
                     crate::render::encode_srgb8(&settings, pixels, &mut srgb8);

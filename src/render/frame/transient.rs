@@ -26,13 +26,15 @@ pub(super) struct Projected {
 
 impl FrameCtx<'_> {
     /// Steps 4-7 of the transient view for one row whose world rays, Doppler factors and
-    /// hit distances (`scratch.hit_t`) are known.
+    /// hit distances (`hit_t`) are known.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn shade_transient_row(
         &self,
         scene: &RenderScene,
         settings: &RenderSettings,
         d_world: &[Vector3<f64>],
         doppler: &[f64],
+        hit_t: &[Option<f32>],
         scratch: &mut RowScratch,
         row: &mut [[f32; 3]],
     ) {
@@ -41,8 +43,7 @@ impl FrameCtx<'_> {
         row.fill([0.0; 3]);
         scratch.hit_pixels.clear();
         scratch.hit_pixels.extend(
-            scratch
-                .hit_t
+            hit_t
                 .iter()
                 .enumerate()
                 .filter_map(|(i, t)| t.map(|t| (i, t))),
