@@ -14,9 +14,10 @@ capture view at its brightest time, waits for it to settle, and then:
 Per phase it prints the frames painted per second that hold light, as the page counts them
 (window.femto.litFramesShown: frames whose lit fraction, pixels above 2 of 255 before any
 mark, is above 0); the frames painted at all, counted by a wrapper this script injects
-around the picture canvas's drawImage; the mean lit fraction of the painted frames; the
-size of the frames received (a moving camera gets full-size frames whenever they arrive
-within 40 ms); the femto process's CPU ms per painted frame (utime + stime,
+around the picture canvas's drawImage, and among them those at the size asked for (a
+moving camera gets full-size frames whenever they arrive within 40 ms, and reduced ones
+scaled up otherwise, with a full one every second to measure again); the mean lit fraction
+of the painted frames; the size of the last frame received; the femto process's CPU ms per painted frame (utime + stime,
 /proc/PID/stat); Chromium's CPU share (all its processes, as a share of the machine's
 CPUs); and the load average.
 
@@ -118,17 +119,19 @@ class Driver:
 
 
 COUNTERS = ("const f = window.femto; return [f.litFramesShown, window.__painted || 0, "
-            "f.bytesReceived, f.framesDecoded, window.__litSum || 0];")
+            "f.bytesReceived, f.framesDecoded, window.__litSum || 0, window.__full || 0];")
 SETTLED = "const f = window.femto; return !!(f && f.hud && f.hud.width === f.state.width && f.settled);"
 # Counts every drawImage onto the picture canvas, and sums the lit fraction of the frame
 # the page shows with it (read once its heads-up numbers are in, right after the draw).
 INJECT = """
 if (!window.__painted) {
-  window.__painted = 0; window.__litSum = 0;
+  window.__painted = 0; window.__litSum = 0; window.__full = 0;
   const ctx = document.getElementById('view').getContext('2d');
   const draw = ctx.drawImage.bind(ctx);
   ctx.drawImage = (...a) => {
     window.__painted += 1;
+    // A frame at the size asked for (not a reduced one scaled up).
+    if (a[0].width === window.femto.state.width) window.__full += 1;
     setTimeout(() => { const h = window.femto.hud; if (h) window.__litSum += h.lit_fraction; }, 0);
     return draw(...a);
   };
@@ -137,17 +140,18 @@ if (!window.__painted) {
 
 def phase(driver, pid, seconds, start_js, stop_js):
     driver.wait(SETTLED)
-    l0, p0, b0, d0, s0 = driver.run(COUNTERS)
+    l0, p0, b0, d0, s0, f0 = driver.run(COUNTERS)
     c0, k0, t0 = cpu_ms(pid), chromium_cpu_ms(), time.time()
     driver.run(start_js)
     time.sleep(seconds)
-    l1, p1, b1, d1, s1 = driver.run(COUNTERS)
+    l1, p1, b1, d1, s1, f1 = driver.run(COUNTERS)
     c1, k1, t1 = cpu_ms(pid), chromium_cpu_ms(), time.time()
     size = driver.run("const h = window.femto.hud; return `${h.width}x${h.height}`;")
     driver.run(stop_js)
     painted = max(p1 - p0, 1)
     wall = t1 - t0
     return {"lit_per_s": (l1 - l0) / wall, "painted_per_s": (p1 - p0) / wall,
+            "full_per_s": (f1 - f0) / wall,
             "lit_fraction": (s1 - s0) / painted, "received": size,
             "bytes_per_frame": (b1 - b0) / max(d1 - d0, 1), "cpu_ms_per_frame": (c1 - c0) / painted,
             "chromium_share": (k1 - k0) / (wall * 1000.0 * os.cpu_count()), "load": load()}
@@ -193,7 +197,7 @@ def main():
         print(f"# femto view in headless Chromium, {args.seconds:.0f} s a phase, "
               f"JPEG quality {args.quality or 'default (85)'}; {os.cpu_count()} CPUs; "
               f"{time.strftime('%Y-%m-%d %H:%M')}")
-        print("size      phase    lit frames/s  painted/s  lit frac  received  kB/frame  "
+        print("size      phase    lit frames/s  full size/s  painted/s  lit frac  last size  kB/frame  "
               "femto CPU ms/frame  Chromium CPU  load (1, 5, 15 min)")
         for size in args.sizes.split(","):
             driver.run(f"const s = document.getElementById('size'); s.value = '{size}'; "
@@ -203,8 +207,9 @@ def main():
                 driver.run(f"const s = document.getElementById('size'); s.value = '{size}'; "
                            "s.dispatchEvent(new Event('change', {bubbles: true}));")
                 r = phase(driver, view.pid, args.seconds, start, stop)
-                print(f"{size:9} {name:8} {r['lit_per_s']:12.1f} {r['painted_per_s']:10.1f} "
-                      f"{r['lit_fraction']:9.3f} {r['received']:>9} {r['bytes_per_frame'] / 1000:9.1f} "
+                print(f"{size:9} {name:8} {r['lit_per_s']:12.1f} {r['full_per_s']:12.1f} "
+                      f"{r['painted_per_s']:10.1f} "
+                      f"{r['lit_fraction']:9.3f} {r['received']:>10} {r['bytes_per_frame'] / 1000:9.1f} "
                       f"{r['cpu_ms_per_frame']:19.1f} {100 * r['chromium_share']:11.0f} %  {r['load']}",
                       flush=True)
     finally:

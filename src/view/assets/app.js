@@ -23,6 +23,7 @@ if (new URLSearchParams(location.search).has('token')) {
 const C_M_PER_PS = 2.99792458e-4;
 const REDUCED_SCALE = 0.5;  // frame scale while moving, when full frames are too slow
 const FULL_FRAME_MS = 40;   // full-size frames while moving when they arrive within this
+const REPROBE_MS = 1000;    // while moving on reduced frames, a full one this often to measure again
 const SETTLE_MS = 150;      // full resolution this long after the last movement
 const CURVE_DELAY_MS = 200; // a new light curve this long after the camera stops changing
 const FADE = 0.05;          // Play loops when the lit pixels fall under this share of the loop's most
@@ -42,7 +43,7 @@ let tau = null;              // proper time elapsed since Play was pressed, ps
 let socket = null, gone = false;
 let seq = 0, shownSeq = 0, framesShown = 0;
 let inFlight = false, dirty = false, moving = false, settleTimer = null;
-let sentAt = 0, fullFrameMs = 0, lastSentScale = 1;
+let sentAt = 0, fullFrameMs = 0, lastSentScale = 1, fullSentAt = 0;
 let playing = false, loop = null, loadedFrames = null, loadedIndex = 0;
 let lastHud = null, lastError = null, fpsTimes = [];
 let framesDecoded = 0, bytesReceived = 0, litFramesShown = 0;  // for tools/bench_view_browser.py
@@ -295,8 +296,13 @@ function receive(buf) {
 
 function pump() {
   if (!dirty || inFlight || !socket || socket.readyState !== WebSocket.OPEN) return;
-  // Reduced frames only while moving and only when full frames are too slow to follow.
-  const s = (moving && !playing && fullFrameMs > FULL_FRAME_MS) ? REDUCED_SCALE : 1;
+  // Reduced frames only while moving and only when full frames are too slow to follow; the
+  // measure is taken again with a full frame every REPROBE_MS (one slow frame, the first after
+  // a new light curve for example, does not keep a whole movement reduced).
+  const now = performance.now();
+  const slow = fullFrameMs > FULL_FRAME_MS && now - fullSentAt < REPROBE_MS;
+  const s = (moving && !playing && slow) ? REDUCED_SCALE : 1;
+  if (s === 1) fullSentAt = now;
   seq += 1;
   socket.send(JSON.stringify(jpegQuality ? { seq, scale: s, quality: jpegQuality, state } : { seq, scale: s, state }));
   sentAt = performance.now();
