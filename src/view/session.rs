@@ -1,8 +1,9 @@
 //! One viewer session: the opened inputs, the renderer's scene, the keyframes, and the
 //! frames of camera states (stills as PNG, interactive frames as JPEG) with their heads-up
 //! numbers. Every frame goes through the render stage's own [`plan`] and
-//! [`render_sequence`], on the state's one-frame path ([`ViewState::path`]): the code and
-//! defaults of `femto render`.
+//! [`render_sequence_reusing`], on the state's one-frame path ([`ViewState::path`]): the
+//! code and defaults of `femto render` (whose [`crate::render::render_sequence`] is the same
+//! with rays made afresh; the session keeps the last frame's, for the next one).
 
 use super::admission::{self, Admission, Permit, Refusal};
 use super::keyframes::{export_path, frames_of_path, LoadedPath};
