@@ -879,8 +879,26 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError
     // The header first: the crate allocates the declared data window before it reads a
     // block (a window of 16777216 x 1048576 pixels asked 211 TB).
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(read_err)?;
+    let file_bytes = std::fs::metadata(path)
+        .map_err(|e| read_err(exr::error::Error::Io(e)))?
+        .len();
     for header in &meta.headers {
         let (w, h) = (header.layer_size.0, header.layer_size.1);
+        // Its pixels as stored (2 bytes a sample at the least) cannot be more than the file
+        // holds inflated at deflate's largest ratio: a 598-byte file declaring a window of
+        // 25 million pixels had the whole frame allocated before its blocks were read.
+        let stored = (w as u128) * (h as u128) * (header.channels.list.len() as u128) * 2;
+        let most = u128::from(file_bytes) * u128::from(MAX_DEFLATE_RATIO);
+        if stored > most {
+            return Err(read_err(exr::error::Error::Invalid(
+                format!(
+                    "a data window of {w} x {h} pixels ({} channels) in a {file_bytes}-byte \
+                     file: more than its bytes hold at deflate's 1032:1; is the header damaged?",
+                    header.channels.list.len()
+                )
+                .into(),
+            )));
+        }
         crate::limits::check_decoded(
             &[h, w],
             std::mem::size_of::<[f32; 3]>(),
@@ -904,6 +922,12 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError
     let size = image.layer_data.size;
     Ok((size.0, size.1, image.layer_data.channel_data.pixels.1))
 }
+
+/// The largest expansion of deflate (RFC 1951): the most an EXR frame read by femto may decode
+/// per stored byte. Zip and zips decode at most this, rle 64:1 and none 1:1 (femto writes its
+/// frames with the exr crate's default lossless encoding); a piz, b44 or dwa frame of nearly
+/// constant content could decode further, and is refused as well.
+const MAX_DEFLATE_RATIO: u64 = 1032;
 
 /// Write one frame of scene-linear RGB as the OpenEXR file `dest` (atomically).
 pub fn write_exr(

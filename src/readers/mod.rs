@@ -106,8 +106,10 @@ impl ReaderError {
         }
     }
 
-    /// The same error with `more` after its message (an `Invalid` or `Choice` only).
+    /// The same error with `more` after its message (an `Invalid` or `Choice` only), one
+    /// line as [`ReaderError::invalid`] (`more` may name variables of the file).
     pub(crate) fn and_then_say(self, more: &str) -> ReaderError {
+        let more = one_line(more);
         match self {
             ReaderError::Invalid { path, key, message } => ReaderError::Invalid {
                 path,

@@ -184,9 +184,9 @@ impl BandInfo {
         // The capture's size, in exact arithmetic: each side at least 1, the cube at most
         // MAX_COUNT values (a height of 2^64 - 1 was accepted).
         let st = &info.settings;
-        let values = [st.nx, st.ny, st.nt]
-            .iter()
-            .try_fold(1u128, |a, &n| (n > 0).then(|| a * n as u128));
+        let values = [st.nx, st.ny, st.nt].iter().try_fold(1u128, |a, &n| {
+            (n > 0).then(|| a.checked_mul(n as u128)).flatten()
+        });
         if values.is_none_or(|v| v > u128::from(crate::limits::MAX_COUNT)) {
             return Err(bad(format!(
                 "{}: settings nx = {}, ny = {}, nt = {}: not a capture (1 to {} values)",
