@@ -622,20 +622,8 @@ pub fn render_frame_reusing_rays(
     };
     let w = settings.width;
     if rays.key == Some(key) {
-        if rays.hits_key == Some(hits_key) {
-            // The same rays from the same place: the same hits.
-            out.par_chunks_mut(w)
-                .zip(rays.d_world.par_chunks(w))
-                .zip(rays.doppler.par_chunks(w))
-                .zip(rays.hit_t.par_chunks(w))
-                .for_each_init(
-                    RowScratch::default,
-                    |scratch, (((row, d_world), doppler), hit_t)| {
-                        ctx.shade_row(scene, settings, d_world, doppler, hit_t, scratch, row);
-                    },
-                );
-            return;
-        }
+        // The same rays: from the same place, the same hits too.
+        let cast = rays.hits_key != Some(hits_key);
         rays.hits_key = None;
         out.par_chunks_mut(w)
             .zip(rays.d_world.par_chunks(w))
@@ -644,7 +632,9 @@ pub fn render_frame_reusing_rays(
             .for_each_init(
                 RowScratch::default,
                 |scratch, (((row, d_world), doppler), hit_t)| {
-                    ctx.cast_row(scene, d_world, scratch, hit_t);
+                    if cast {
+                        ctx.cast_row(scene, d_world, scratch, hit_t);
+                    }
                     ctx.shade_row(scene, settings, d_world, doppler, hit_t, scratch, row);
                 },
             );
