@@ -893,7 +893,8 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), VideoError
             return Err(read_err(exr::error::Error::Invalid(
                 format!(
                     "a data window of {w} x {h} pixels ({} channels) in a {file_bytes}-byte \
-                     file: more than its bytes hold at deflate's 1032:1; is the header damaged?",
+                     file: more than its bytes hold at deflate's 1032:1; is the file truncated or \
+                     its header damaged?",
                     header.channels.list.len()
                 )
                 .into(),
