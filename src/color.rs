@@ -233,8 +233,10 @@ fn srgb8_computed(v: f64) -> u8 {
 /// Where the 8-bit code value of [`srgb_encode`] steps up, and a table that finds the steps
 /// near a value in one look.
 struct Srgb8Steps {
-    /// `at[k]`: the smallest `v` whose code value is `k + 1` or more.
-    at: [f64; 255],
+    /// `at[k]`: the smallest `v` whose code value is `k + 1` or more, for `k < 255`; then
+    /// two NaNs (no value is at or above them), so that [`Srgb8Steps::code`]'s two steps up
+    /// never pass 255.
+    at: [f64; 257],
     /// `below[n]`: the code value of `(n - 1) / INTERVALS` (0 for `n = 0`), a lower bound
     /// of the code of every `v` with `(v * INTERVALS) as usize == n`. Within one interval
     /// the code rises by less than 1 (its slope is at most 3295 codes per unit, 0.8 per
@@ -250,7 +252,10 @@ impl Srgb8Steps {
         STEPS.get_or_init(|| {
             // Bisect the bit patterns of [0, 1] (ordered as the values are, for non-negative
             // floats) for each step; the code value rises with `v`.
-            let at: [f64; 255] = std::array::from_fn(|k| {
+            let at: [f64; 257] = std::array::from_fn(|k| {
+                if k >= 255 {
+                    return f64::NAN;
+                }
                 let code = k as u8 + 1;
                 let (mut lo, mut hi) = (0.0f64.to_bits(), 1.0f64.to_bits());
                 // Invariant: code(lo) < code <= code(hi).
@@ -273,36 +278,34 @@ impl Srgb8Steps {
     }
 
     /// The code value of `v`: the number of steps at or below it (0 for a NaN, as
-    /// `NaN as u8` is 0).
+    /// `NaN as u8` is 0). Without branches: `v`'s interval gives a code at most two steps
+    /// low, and two comparisons add the steps passed (a loop's unpredictable one or two
+    /// turns cost more than the lookup, in `femto view`'s frames). A NaN or a `v <= 0`
+    /// lands in interval 0, below every step; a `v >= 1` in the last, whose code is 255
+    /// once the last step is passed.
     #[inline(always)]
     fn code(&self, v: f64) -> u8 {
-        if v.is_nan() || v <= 0.0 {
-            return 0;
-        }
-        if v >= 1.0 {
-            return 255;
-        }
         // `v * INTERVALS` may round up to the next whole number; `below` starts an interval
         // early, so the count below is never past the code of `v`.
         let n = ((v * Self::INTERVALS as f64) as usize).min(Self::INTERVALS);
-        let mut code = self.below[n] as usize;
-        while code < 255 && self.at[code] <= v {
-            code += 1;
-        }
+        let code = self.below[n] as usize;
+        let code = code + usize::from(self.at[code] <= v);
+        let code = code + usize::from(self.at[code] <= v);
         code as u8
     }
 
     /// The code value of `v` by binary search of all the steps (the tests' second opinion).
     #[cfg(test)]
     fn searched(&self, v: f64) -> u8 {
-        self.at.iter().filter(|&&t| t <= v).count() as u8
+        self.at[..255].iter().filter(|&&t| t <= v).count() as u8
     }
 }
 
 /// Tone map and encode a whole frame of scene-linear sRGB pixels into `out_rgb8`
-/// (3 bytes per pixel, same order). Panics if `out_rgb8.len() != 3 * scene_linear.len()`
-/// (a caller bug, not bad input).
-pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8]) {
+/// (3 bytes per pixel, same order), and count the lit pixels: those with some code value
+/// above 2 (what `femto view` calls lit). Panics if `out_rgb8.len() != 3 *
+/// scene_linear.len()` (a caller bug, not bad input).
+pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8]) -> usize {
     assert_eq!(
         out_rgb8.len(),
         3 * scene_linear.len(),
@@ -310,20 +313,75 @@ pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8
     );
     // In parallel, blocks of ENCODE_BLOCK pixels: on one thread this was 8-14 ms of a
     // 640 x 480 frame in `femto view`, a third of the render's own wall time.
+    let steps = Srgb8Steps::get();
     scene_linear
         .par_chunks(ENCODE_BLOCK)
         .zip(out_rgb8.par_chunks_mut(3 * ENCODE_BLOCK))
-        .for_each(|(pixels, out)| {
-            for (px, out) in pixels.iter().zip(out.chunks_exact_mut(3)) {
+        .map(|(pixels, out)| {
+            let mut lit = 0;
+            for (four, out) in pixels.chunks(4).zip(out.chunks_mut(12)) {
                 // A black pixel (+0 or -0) tone maps to black and encodes to 0.
-                if *px == [0.0; 3] {
+                if four.iter().all(|px| *px == [0.0; 3]) {
                     out.fill(0);
                     continue;
                 }
-                let rgb = [px[0] as f64, px[1] as f64, px[2] as f64];
-                out.copy_from_slice(&encode_u8(tone_map(rgb, exposure)));
+                let lanes: [[f32; 3]; 4] =
+                    std::array::from_fn(|k| four.get(k).map_or([0.0; 3], |p| *p));
+                for (mapped, out) in tone_map_four(lanes, exposure)
+                    .iter()
+                    .zip(out.chunks_exact_mut(3))
+                {
+                    let code = mapped.map(|v| steps.code(v));
+                    lit += usize::from(code.iter().any(|&c| c > 2));
+                    out.copy_from_slice(&code);
+                }
             }
-        });
+            lit
+        })
+        .sum()
+}
+
+/// [`tone_map`] of four pixels, computed four at a time ([`wide::f64x4`]) where the
+/// pixel is an ordinary colour (every channel finite and at least 0, luminance positive
+/// and finite) and by [`tone_map`] itself elsewhere (black, a negative channel that needs
+/// the gamut mapping, NaN, infinities). The vector lanes do [`tone_map`]'s operations in
+/// its order, exactly rounded, with no fused multiply-add: the same values, bit for bit
+/// (but for the sign of a zero, which encodes to 0 either way).
+fn tone_map_four(px: [[f32; 3]; 4], exposure: f64) -> [[f64; 3]; 4] {
+    use wide::f64x4;
+    let s = f64x4::splat;
+    let channel = |c: usize| f64x4::new(std::array::from_fn(|k| px[k][c] as f64)) * s(exposure);
+    let (r, g, b) = (channel(0), channel(1), channel(2));
+    let w = LINEAR_SRGB_TO_XYZ[1];
+    let y = (s(w[0]) * r + s(w[1]) * g) + s(w[2]) * b;
+    let zero = s(0.0);
+    let ordinary = (r.simd_ge(zero) & g.simd_ge(zero) & b.simd_ge(zero) & y.simd_gt(zero))
+        .to_bitmask()
+        & (r + g + b + y).is_finite().to_bitmask();
+    // Colours in the gamut (no channel below 0): desaturate_into_gamut leaves them as
+    // they are.
+    let y_d = y / (s(1.0) + y);
+    let k = y_d / y;
+    let d = [r * k, g * k, b * k];
+    let max = d[0].max(d[1]).max(d[2]);
+    let over = max.simd_gt(s(1.0));
+    let t = (s(1.0) - y_d) / (max - y_d);
+    // f64::clamp(0, 1) for values that are not NaN.
+    let mapped = d.map(|v| {
+        over.select(y_d + (v - y_d) * t, v)
+            .max(zero)
+            .min(s(1.0))
+            .to_array()
+    });
+    std::array::from_fn(|lane| {
+        if ordinary & (1 << lane) != 0 {
+            [mapped[0][lane], mapped[1][lane], mapped[2][lane]]
+        } else if px[lane] == [0.0; 3] {
+            [0.0; 3]
+        } else {
+            tone_map(px[lane].map(f64::from), exposure)
+        }
+    })
 }
 
 /// Pixels per task of [`encode_frame`].
@@ -567,6 +625,61 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_encodes_as_its_pixels_one_by_one_and_counts_its_lit_pixels() {
+        // Ordinary colours of every brightness, black (+0 and -0), a negative channel that
+        // needs the gamut mapping, NaN, infinities, and a frame length that is not a
+        // multiple of four: the frame's bytes are encode_u8(tone_map(..)) pixel by pixel.
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let specials = [
+            0.0,
+            -0.0,
+            -0.3,
+            f32::NAN,
+            f32::INFINITY,
+            -f32::INFINITY,
+            1e-30,
+            3e38,
+        ];
+        let pixels: Vec<[f32; 3]> = (0..40_003)
+            .map(|_| {
+                std::array::from_fn(|_| {
+                    let r = next();
+                    match r % 16 {
+                        0 => specials[(r >> 8) as usize % specials.len()],
+                        1..=4 => 0.0,
+                        // 1e-4 to 1e4, log-uniform.
+                        _ => {
+                            10f32.powf(((r >> 11) as f64 / (1u64 << 53) as f64 * 8.0 - 4.0) as f32)
+                        }
+                    }
+                })
+            })
+            .collect();
+        for exposure in [1.0, 0.37, 25.0] {
+            let mut out = vec![7u8; 3 * pixels.len()];
+            let lit = encode_frame(&pixels, exposure, &mut out);
+            let mut want_lit = 0;
+            for (i, px) in pixels.iter().enumerate() {
+                let want = encode_u8(tone_map(px.map(f64::from), exposure));
+                assert_eq!(
+                    out[3 * i..3 * i + 3],
+                    want,
+                    "pixel {i} {px:?}, exposure {exposure}"
+                );
+                want_lit += usize::from(want.iter().any(|&c| c > 2));
+            }
+            assert_eq!(lit, want_lit);
+            assert!(lit > pixels.len() / 2 && lit < pixels.len(), "{lit}");
+        }
+    }
+
+    #[test]
     fn the_code_values_found_among_the_steps_are_the_computed_ones() {
         let steps = Srgb8Steps::get();
         let check = |v: f64| {
@@ -578,7 +691,7 @@ mod tests {
         };
         // Each step and its neighbouring floats, where the code value changes; each
         // interval's ends.
-        for &t in steps.at.iter() {
+        for &t in steps.at[..255].iter() {
             let b = t.to_bits();
             for bits in [b - 2, b - 1, b, b + 1, b + 2] {
                 check(f64::from_bits(bits));

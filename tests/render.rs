@@ -1588,6 +1588,85 @@ fn reused_rays_give_the_same_frames_bit_for_bit() {
     }
 }
 
+/// The dark marks drawn from the rays and hits a frame was rendered with
+/// (`render_sequence_reusing` hands them to its sink, and `femto view` draws them so) are those drawn with a
+/// probe's own ray per block (`femto render --dark-marks`), byte for byte: with a masked
+/// strip of the capture, from the capture view, a step aside (unseen points), a turn that
+/// looks past the mesh (no surface), and frames whose rays were not kept (a rotating sensor).
+#[test]
+fn dark_marks_from_the_kept_rays_are_those_of_the_probes() {
+    use femto::render::dark::{draw_dark_marks, MASKED_RGB, UNSEEN_RGB};
+    use femto::render::paths::{shortcut_path, Shortcut};
+    use femto::render::{encode_srgb8, render_frame_reusing_rays, FrameRays};
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let mut cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    // Columns 10-17 masked as mixed.
+    cube.mask = Some(
+        (0..40 * 30)
+            .map(|p| u8::from(!(10..18).contains(&(p % 40))))
+            .collect(),
+    );
+    let pyramid = Pyramid::build(&cube);
+    let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
+    let (w, h) = (64usize, 48usize);
+    let s = shortcut_path(&scene, Shortcut::Dolly { beta: 0.0 }, w, h, 4, None).unwrap();
+    let mut rays = FrameRays::default();
+    let mut kinds_seen = [0usize; 2];
+    for (aside_m, turn_rad, rotating) in [
+        (0.0, 0.0, false),
+        (0.0, 0.0, false),
+        (0.3, 0.0, false),
+        (0.0, 0.6, false),
+        (0.0, 0.0, true),
+    ] {
+        let mut path = s.path.clone();
+        if rotating {
+            path = CameraPath::new(
+                path.spec(),
+                Some(path.tau0_ps()),
+                Some(SensorRotation {
+                    axis: RotationAxis::Roll,
+                    beta_edge: 0.5,
+                }),
+                path.motion().clone(),
+                "rotating",
+            )
+            .unwrap();
+        }
+        let mut settings = RenderSettings::for_path(&path);
+        settings.time_offset_ps = s.time_offset_ps;
+        let mut state = path.frame(1);
+        state.position_m.x += aside_m;
+        state.world_from_camera =
+            Rotation3::from_axis_angle(&Vector3::y_axis(), turn_rad) * state.world_from_camera;
+        let mut pixels = vec![[0.0f32; 3]; w * h];
+        render_frame_reusing_rays(&scene, &settings, &state, &mut rays, &mut pixels);
+        let mut want = vec![0u8; 3 * pixels.len()];
+        encode_srgb8(&settings, &pixels, &mut want);
+        let mut got = want.clone();
+        draw_dark_marks(&scene, &settings, &state, None, &mut want);
+        draw_dark_marks(&scene, &settings, &state, Some(&rays), &mut got);
+        assert!(
+            got == want,
+            "aside {aside_m} m, turned {turn_rad} rad, rotating {rotating}"
+        );
+        for px in want.chunks_exact(3) {
+            kinds_seen[0] += usize::from(UNSEEN_RGB.contains(&[px[0], px[1], px[2]]));
+            kinds_seen[1] += usize::from(MASKED_RGB.contains(&[px[0], px[1], px[2]]));
+        }
+    }
+    assert!(
+        kinds_seen.iter().all(|&n| n > 50),
+        "unseen and masked marks: {kinds_seen:?}"
+    );
+}
+
 /// `render_frame`'s row pipeline (rays four at a time, the batch ray caster, the transient
 /// view's vector projection and its lookups) writes, for every pixel, the colour that
 /// `probe_pixel` (the whole pipeline of one pixel, step by step) computes, bit for bit: for

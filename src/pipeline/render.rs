@@ -25,7 +25,7 @@ use crate::render::coverage::{frame_is_black, predict_coverage};
 use crate::render::paths::{shortcut_path, Shortcut};
 use crate::render::{
     auto_exposure, check_frames, check_path_clear, encode_srgb8, isochrone_range, render_sequence,
-    Effects, RenderError, RenderScene, RenderSettings, View,
+    Effects, FrameRays, RenderError, RenderScene, RenderSettings, View,
 };
 use crate::store::pyramid::{self as stored_pyramid, read_pyramid_for};
 use crate::video::{Frame, VideoFormat, VideoWriter};
@@ -454,15 +454,22 @@ impl Plan {
         out: &mut [u8],
     ) {
         encode_srgb8(&self.settings, pixels, out);
-        self.mark_dark(scene, k, out);
+        self.mark_dark(scene, k, None, out);
     }
 
     /// The marks of [`Plan::display_srgb8`] over frame `k`'s encoded pixels `srgb8`, when the
-    /// plan asks for them.
-    pub fn mark_dark(&self, scene: &RenderScene, k: usize, srgb8: &mut [u8]) {
+    /// plan asks for them; `rays`: those the frame was rendered with, when the caller kept
+    /// them ([`crate::render::dark::draw_dark_marks`]).
+    pub fn mark_dark(
+        &self,
+        scene: &RenderScene,
+        k: usize,
+        rays: Option<&FrameRays>,
+        srgb8: &mut [u8],
+    ) {
         if self.dark_marks {
             let state = self.path.frame(k);
-            crate::render::dark::draw_dark_marks(scene, &self.settings, &state, srgb8);
+            crate::render::dark::draw_dark_marks(scene, &self.settings, &state, rays, srgb8);
         }
     }
 }

@@ -606,20 +606,7 @@ pub fn render_frame_reusing_rays(
         settings.width * settings.height,
         "render_frame_reusing_rays: output buffer size"
     );
-    let key = RayKey {
-        world_from_camera: ctx.world_from_camera,
-        beta: boost.beta,
-        gamma: boost.gamma,
-        inv_focal_px: ctx.inv_focal_px,
-        half: ctx.half,
-        aberration: settings.effects.aberration,
-        width: settings.width,
-        height: settings.height,
-    };
-    let hits_key = HitsKey {
-        bvh_address: std::ptr::from_ref(scene.bvh) as usize,
-        origin_bits: [0, 1, 2].map(|k| ctx.origin_f32[k].to_bits()),
-    };
+    let (key, hits_key) = frame_keys(scene, settings, &ctx, &boost);
     let w = settings.width;
     if rays.key == Some(key) {
         // The same rays: from the same place, the same hits too.
@@ -666,16 +653,57 @@ pub fn render_frame_reusing_rays(
     rays.hits_key = Some(hits_key);
 }
 
-/// [`probe_pixel`] for many pixels of one frame: the frame's constants computed once.
-pub(super) struct FrameProbe<'s>(FrameCtx<'s>);
+/// What the rays of the frame `ctx` (one boost for the whole frame) and their hits
+/// depend on.
+fn frame_keys(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    ctx: &FrameCtx,
+    boost: &PixelBoost,
+) -> (RayKey, HitsKey) {
+    let key = RayKey {
+        world_from_camera: ctx.world_from_camera,
+        beta: boost.beta,
+        gamma: boost.gamma,
+        inv_focal_px: ctx.inv_focal_px,
+        half: ctx.half,
+        aberration: settings.effects.aberration,
+        width: settings.width,
+        height: settings.height,
+    };
+    let hits_key = HitsKey {
+        bvh_address: std::ptr::from_ref(scene.bvh) as usize,
+        origin_bits: [0, 1, 2].map(|k| ctx.origin_f32[k].to_bits()),
+    };
+    (key, hits_key)
+}
+
+/// [`probe_pixel`] for many pixels of one frame: the frame's constants computed once, and
+/// the frame's rays and hits read from a [`FrameRays`] that holds them.
+pub(super) struct FrameProbe<'s> {
+    ctx: FrameCtx<'s>,
+    /// The rays and hits of this frame (as [`render_frame_reusing_rays`] left them after
+    /// rendering it), when the caller has them.
+    kept: Option<&'s FrameRays>,
+}
 
 impl<'s> FrameProbe<'s> {
+    /// The probe of the frame `state`; `rays`: the rays and hits of a frame rendered just
+    /// before ([`render_frame_reusing_rays`]), used where they are this frame's.
     pub(super) fn new(
         scene: &RenderScene,
         settings: &RenderSettings,
         state: &'s FrameState,
+        rays: Option<&'s FrameRays>,
     ) -> FrameProbe<'s> {
-        FrameProbe(FrameCtx::new(scene, settings, state))
+        let ctx = FrameCtx::new(scene, settings, state);
+        let kept = rays.filter(|rays| {
+            ctx.boost.is_some_and(|boost| {
+                let (key, hits_key) = frame_keys(scene, settings, &ctx, &boost);
+                rays.key == Some(key) && rays.hits_key == Some(hits_key)
+            })
+        });
+        FrameProbe { ctx, kept }
     }
 
     /// [`probe_pixel`] of pixel `(i, j)`.
@@ -686,8 +714,46 @@ impl<'s> FrameProbe<'s> {
         i: usize,
         j: usize,
     ) -> PixelSample {
-        self.0.trace(scene, settings, i, j)
+        self.ctx.trace(scene, settings, i, j)
     }
+
+    /// What [`super::dark::DarkKind`] pixel `(i, j)` is depends on: from the kept ray and
+    /// hit when the probe has them (steps 4-7 alone; the render's batch cast gives the single
+    /// ray's hit, bit for bit), else from [`FrameProbe::sample`].
+    pub(super) fn seen_hit(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+        i: usize,
+        j: usize,
+    ) -> SeenHit {
+        let Some(rays) = self.kept else {
+            let s = self.sample(scene, settings, i, j);
+            return SeenHit {
+                hit_m: s.hit_m.map(|(p, _)| p),
+                capture_pixel: s.capture_pixel,
+                d_world: s.d_world,
+            };
+        };
+        let k = j * settings.width + i;
+        let d_world = rays.d_world[k];
+        let s = self
+            .ctx
+            .shade(scene, settings, &d_world, rays.doppler[k], rays.hit_t[k]);
+        SeenHit {
+            hit_m: s.hit_m.map(|(p, _)| p),
+            capture_pixel: s.capture_pixel,
+            d_world,
+        }
+    }
+}
+
+/// A pixel's ray, its hit and the capture pixel that sees the hit ([`PixelSample`]'s
+/// `d_world`, `hit_m` point and `capture_pixel`).
+pub(super) struct SeenHit {
+    pub(super) hit_m: Option<Point3<f64>>,
+    pub(super) capture_pixel: Option<(usize, usize)>,
+    pub(super) d_world: Vector3<f64>,
 }
 
 /// Every intermediate quantity of pixel `(i, j)` of the frame `state` (for tests, tools and

@@ -984,20 +984,24 @@ pub fn render_sequence<E: From<RenderError>>(
     sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
 ) -> Result<(), E> {
     let mut rays = FrameRays::default();
-    render_sequence_reusing(scene, settings, path, frames, &mut rays, sink)
+    let mut sink = sink;
+    render_sequence_reusing(scene, settings, path, frames, &mut rays, |k, pixels, _| {
+        sink(k, pixels)
+    })
 }
 
 /// [`render_sequence`] with the rays (and hits) of the frame rendered before, from `rays`:
 /// a caller that renders one frame at a time of the same scene (`femto view`) keeps `rays`
 /// between calls, and a camera at rest whose time alone moves skips steps 1-3. The frames
-/// are those of [`render_sequence`], bit for bit.
+/// are those of [`render_sequence`], bit for bit. `sink` gets each frame with the rays it
+/// was rendered with (for [`dark::draw_dark_marks`]).
 pub fn render_sequence_reusing<E: From<RenderError>>(
     scene: &RenderScene,
     settings: &RenderSettings,
     path: &CameraPath,
     frames: Range<usize>,
     rays: &mut FrameRays,
-    mut sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
+    mut sink: impl FnMut(usize, &[[f32; 3]], &FrameRays) -> Result<(), E>,
 ) -> Result<(), E> {
     settings.validate()?;
     check_frames(path, &frames)?;
@@ -1005,7 +1009,7 @@ pub fn render_sequence_reusing<E: From<RenderError>>(
     let mut pixels = vec![[0.0f32; 3]; settings.width * settings.height];
     for k in frames {
         render_frame_reusing_rays(scene, settings, &path.frame(k), rays, &mut pixels);
-        sink(k, &pixels)?;
+        sink(k, &pixels, rays)?;
     }
     Ok(())
 }
@@ -1057,20 +1061,25 @@ pub fn isochrone_range(
 
 /// Encode scene-linear frame pixels for display into 8-bit sRGB (`3 * pixels.len()` bytes):
 /// radiance views are multiplied by `settings.exposure` and tone mapped
-/// ([`crate::color::tone_map`]); isochrones are display colours and only encoded.
-pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &mut [u8]) {
+/// ([`crate::color::tone_map`]); isochrones are display colours and only encoded. Returns
+/// the number of lit pixels, those with some code value above 2.
+pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &mut [u8]) -> usize {
     if settings.view.is_radiance() {
-        color::encode_frame(pixels, settings.exposure, out_rgb8);
+        color::encode_frame(pixels, settings.exposure, out_rgb8)
     } else {
         assert_eq!(
             out_rgb8.len(),
             3 * pixels.len(),
             "encode_srgb8: output size"
         );
+        let mut lit = 0;
         for (px, out) in pixels.iter().zip(out_rgb8.chunks_exact_mut(3)) {
             let rgb = [px[0] as f64, px[1] as f64, px[2] as f64];
-            out.copy_from_slice(&color::encode_u8(rgb));
+            let code = color::encode_u8(rgb);
+            lit += usize::from(code.iter().any(|&c| c > 2));
+            out.copy_from_slice(&code);
         }
+        lit
     }
 }
 

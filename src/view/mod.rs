@@ -30,6 +30,7 @@ pub mod admission;
 pub mod api;
 pub mod assets;
 pub mod curve;
+pub mod jpeg;
 pub mod keyframes;
 pub mod light;
 pub mod probe;

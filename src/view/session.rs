@@ -388,11 +388,11 @@ impl<'a> ViewSession<'a> {
                 path,
                 planned.frames.clone(),
                 rays,
-                |k, pixels| {
+                |k, pixels, rays| {
                     // Light is counted before the marks of the dark pixels are drawn.
-                    crate::render::encode_srgb8(&settings, pixels, &mut srgb8);
-                    lit = lit_fraction(&srgb8);
-                    planned.mark_dark(scene, k, &mut srgb8);
+                    let lit_pixels = crate::render::encode_srgb8(&settings, pixels, &mut srgb8);
+                    lit = lit_pixels as f64 / pixels.len().max(1) as f64;
+                    planned.mark_dark(scene, k, Some(rays), &mut srgb8);
                     Ok(())
                 },
             )?;
@@ -450,15 +450,13 @@ impl<'a> ViewSession<'a> {
         let started = std::time::Instant::now();
         let scaled = state.scaled(options.scale);
         let (srgb8, mut hud, _permit) = self.render_admitted(&scaled, true)?;
-        let mut jpeg = Vec::with_capacity(srgb8.len() / 8);
-        jpeg_encoder::Encoder::new(&mut jpeg, options.quality as u8)
-            .encode(
-                &srgb8,
-                scaled.width as u16,
-                scaled.height as u16,
-                jpeg_encoder::ColorType::Rgb,
-            )
-            .map_err(|e| ViewError::Encode(e.to_string()))?;
+        let jpeg = super::jpeg::encode_rgb(
+            &srgb8,
+            scaled.width as u16,
+            scaled.height as u16,
+            options.quality as u8,
+        )
+        .map_err(|e| ViewError::Encode(e.to_string()))?;
         hud.render_ms = started.elapsed().as_secs_f64() * 1e3;
         Ok((jpeg, hud))
     }
@@ -535,19 +533,6 @@ impl<'a> ViewSession<'a> {
     }
 }
 
-/// Fraction of the pixels of an 8-bit RGB frame with some channel above 2.
-fn lit_fraction(srgb8: &[u8]) -> f64 {
-    let pixels = srgb8.len() / 3;
-    if pixels == 0 {
-        return 0.0;
-    }
-    let lit = srgb8
-        .chunks_exact(3)
-        .filter(|p| p.iter().any(|&v| v > 2))
-        .count();
-    lit as f64 / pixels as f64
-}
-
 /// The smallest and largest Doppler factor over a grid of the frame's pixels.
 fn doppler_range(
     scene: &RenderScene,
@@ -596,12 +581,6 @@ pub(super) fn distance_range_m(scene: &RenderScene, o: &nalgebra::Point3<f64>) -
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_lit_fraction_counts_pixels_above_2() {
-        assert_eq!(lit_fraction(&[0, 0, 0, 0, 3, 0]), 0.5);
-        assert_eq!(lit_fraction(&[2, 2, 2]), 0.0);
-    }
 
     #[test]
     fn the_legend_spectrum_is_grey_outside_the_visible_range_and_coloured_inside() {
