@@ -729,7 +729,7 @@ impl<'a> RenderScene<'a> {
         // and its weight is at least 1/4.
         let (fu, fv) = (u - 0.5, v - 0.5);
         let (x0, y0) = (floor_small(fu), floor_small(fv));
-        let (ax, ay) = (fu - x0, fv - y0);
+        let (ax, ay) = (fu - x0 as f64, fv - y0 as f64);
         let mut taps = CaptureTaps {
             nearest,
             pixels: [nearest; 4],
@@ -737,26 +737,32 @@ impl<'a> RenderScene<'a> {
             count: 0,
         };
         let corners = [
-            (0.0, 0.0, (1.0 - ax) * (1.0 - ay)),
-            (1.0, 0.0, ax * (1.0 - ay)),
-            (0.0, 1.0, (1.0 - ax) * ay),
-            (1.0, 1.0, ax * ay),
+            (0, 0, (1.0 - ax) * (1.0 - ay)),
+            (1, 0, ax * (1.0 - ay)),
+            (0, 1, (1.0 - ax) * ay),
+            (1, 1, ax * ay),
         ];
+        // The corners in whole pixels: the bounds and the links compared as integers (with
+        // float coordinates compared and converted, a 640 x 480 frame of `femto view` at rest
+        // took 13.1 ms instead of 11.1 in benches/view).
+        let (width, height) = (k.width as i64, k.height as i64);
+        let (nx, ny) = (nearest.0 as i64, nearest.1 as i64);
+        let links = self.hits[nearest.1 * k.width + nearest.0].links;
         let mut sum = 0.0;
         for (dx, dy, w) in corners {
-            let (xf, yf) = (x0 + dx, y0 + dy);
-            if w <= 0.0 || xf < 0.0 || yf < 0.0 || xf >= k.width as f64 || yf >= k.height as f64 {
+            let (x, y) = (x0 + dx, y0 + dy);
+            if w <= 0.0 || x < 0 || y < 0 || x >= width || y >= height {
                 continue;
             }
-            let (x, y) = (xf as usize, yf as usize);
-            if (x, y) != nearest {
+            if (x, y) != (nx, ny) {
                 // The corners are at most one pixel from the nearest in each axis.
-                let cell = 3 * (y + 1 - nearest.1) + (x + 1 - nearest.0);
-                let bit = cell - usize::from(cell > 4);
-                if self.hits[nearest.1 * k.width + nearest.0].links & (1 << bit) == 0 {
+                let cell = 3 * (y + 1 - ny) + (x + 1 - nx);
+                let bit = cell - i64::from(cell > 4);
+                if links & (1 << bit) == 0 {
                     continue;
                 }
             }
+            let (x, y) = (x as usize, y as usize);
             taps.pixels[taps.count] = (x, y);
             taps.weights[taps.count] = w;
             taps.count += 1;
@@ -822,15 +828,14 @@ impl<'a> RenderScene<'a> {
     }
 }
 
-/// `x.floor()` for finite `|x| < 2^52` (`+0.0` for `-0.0`), without the libm call that
-/// `floor` is on x86-64's baseline (no `roundsd`): truncation, one less where it rounded a
-/// negative `x` up. [`RenderScene::taps_around`]'s coordinates are finite and at least
-/// `-0.5`, and never `-0.0` (`u - 0.5` with `u >= 0`).
+/// `x.floor()` as an integer, for finite `|x| < 2^52`, without the libm call that `floor`
+/// is on x86-64's baseline (no `roundsd`): truncation, one less where it rounded a negative
+/// `x` up. [`RenderScene::taps_around`]'s coordinates are finite and at least `-0.5`.
 #[inline(always)]
-fn floor_small(x: f64) -> f64 {
-    let t = x as i64 as f64;
-    if t > x {
-        t - 1.0
+fn floor_small(x: f64) -> i64 {
+    let t = x as i64;
+    if t as f64 > x {
+        t - 1
     } else {
         t
     }
