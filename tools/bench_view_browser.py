@@ -15,8 +15,8 @@ Per phase it prints the frames painted per second that hold light, as the page c
 (window.femto.litFramesShown: frames whose lit fraction, pixels above 2 of 255 before any
 mark, is above 0); the frames painted at all, counted by a wrapper this script injects
 around the picture canvas's drawImage, and among them those at the size asked for (a
-moving camera gets full-size frames whenever they arrive within 40 ms, and reduced ones
-scaled up otherwise, with a full one every second to measure again); the mean lit fraction
+moving camera gets full-size frames unless the last two took more than 40 ms each, and
+reduced ones scaled up otherwise, with a full one every second to measure again); the mean lit fraction
 of the painted frames; the size of the last frame received; the femto process's CPU ms per painted frame (utime + stime,
 /proc/PID/stat); Chromium's CPU share (all its processes, as a share of the machine's
 CPUs); and the load average.

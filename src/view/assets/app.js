@@ -23,6 +23,7 @@ if (new URLSearchParams(location.search).has('token')) {
 const C_M_PER_PS = 2.99792458e-4;
 const REDUCED_SCALE = 0.5;  // frame scale while moving, when full frames are too slow
 const FULL_FRAME_MS = 40;   // full-size frames while moving when they arrive within this
+const SLOW_IN_A_ROW = 2;    // full frames over FULL_FRAME_MS in a row that make moving frames reduced
 const REPROBE_MS = 1000;    // while moving on reduced frames, a full one this often to measure again
 const SETTLE_MS = 150;      // full resolution this long after the last movement
 const CURVE_DELAY_MS = 200; // a new light curve this long after the camera stops changing
@@ -43,7 +44,7 @@ let tau = null;              // proper time elapsed since Play was pressed, ps
 let socket = null, gone = false;
 let seq = 0, shownSeq = 0, framesShown = 0;
 let inFlight = false, dirty = false, moving = false, settleTimer = null;
-let sentAt = 0, fullFrameMs = 0, lastSentScale = 1, fullSentAt = 0;
+let sentAt = 0, fullFrameMs = 0, slowFullFrames = 0, lastSentScale = 1, fullSentAt = 0;
 let playing = false, loop = null, loadedFrames = null, loadedIndex = 0;
 let lastHud = null, lastError = null, fpsTimes = [];
 let framesDecoded = 0, bytesReceived = 0, litFramesShown = 0;  // for tools/bench_view_browser.py
@@ -276,7 +277,10 @@ function receive(buf) {
   bytesReceived += buf.byteLength;
   const n = new DataView(buf).getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
-  if (header.hud.width === state.width) fullFrameMs = performance.now() - sentAt;
+  if (header.hud.width === state.width) {
+    fullFrameMs = performance.now() - sentAt;
+    slowFullFrames = fullFrameMs > FULL_FRAME_MS ? slowFullFrames + 1 : 0;
+  }
   if (lastError) { lastError = null; setStatus(''); }
   // Playing straight, a dark frame is not shown: before the light arrives it is skipped
   // (a whole loop of them is shown, with its explanation), and once the light has left the
@@ -296,11 +300,12 @@ function receive(buf) {
 
 function pump() {
   if (!dirty || inFlight || !socket || socket.readyState !== WebSocket.OPEN) return;
-  // Reduced frames only while moving and only when full frames are too slow to follow; the
-  // measure is taken again with a full frame every REPROBE_MS (one slow frame, the first after
-  // a new light curve for example, does not keep a whole movement reduced).
+  // Reduced frames only while moving and only when full frames are too slow to follow: the
+  // last SLOW_IN_A_ROW of them took over FULL_FRAME_MS (one slow frame, the first after a new
+  // light curve for example, or a busy moment of the machine, does not reduce the next
+  // second's frames). The measure is taken again with a full frame every REPROBE_MS.
   const now = performance.now();
-  const slow = fullFrameMs > FULL_FRAME_MS && now - fullSentAt < REPROBE_MS;
+  const slow = slowFullFrames >= SLOW_IN_A_ROW && now - fullSentAt < REPROBE_MS;
   const s = (moving && !playing && slow) ? REDUCED_SCALE : 1;
   if (s === 1) fullSentAt = now;
   seq += 1;
