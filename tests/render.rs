@@ -94,6 +94,34 @@ fn constant_cube(cal: &Calibration, bvh: &Bvh, density: f64) -> Cube {
     world_cube(cal, bvh, axis, |_, _, a, b| density * (b - a))
 }
 
+/// The cube scene's mesh, a 40 x 30 capture camera and the prefix sums of its single-bounce
+/// world cube (300 bins of 40 ps, pulses of 60 ps), with the cube's mask `mask`.
+fn small_cube_world(mask: Option<Vec<u8>>) -> (Bvh, Calibration, Pyramid) {
+    let bvh = Bvh::new(cube_scene_mesh());
+    let cal = cube_scene_calibration(40, 30);
+    let axis = TimeAxis {
+        t0_ps: 0.0,
+        dt_ps: 40.0,
+        nt: 300,
+    };
+    let mut cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
+    cube.mask = mask;
+    let pyramid = Pyramid::build(&cube);
+    (bvh, cal, pyramid)
+}
+
+/// `path` with a sensor that rotates about `axis`, its edges at `beta_edge`.
+fn with_rotation(path: &CameraPath, axis: RotationAxis, beta_edge: f64) -> CameraPath {
+    CameraPath::new(
+        path.spec(),
+        Some(path.tau0_ps()),
+        Some(SensorRotation { axis, beta_edge }),
+        path.motion().clone(),
+        "rotating",
+    )
+    .unwrap()
+}
+
 #[test]
 fn marker_centroid_lies_within_half_a_pixel_of_the_boosted_photon_direction() {
     let wall = Bvh::new(wall_z0(200.0));
@@ -1199,15 +1227,7 @@ fn a_render_beyond_the_address_space_limit_is_refused_before_it_allocates() {
 #[test]
 fn shortcut_paths_keep_the_target_in_the_centre_of_the_image() {
     use femto::render::paths::{scene_target, shortcut_path, Shortcut};
-    let bvh = Bvh::new(cube_scene_mesh());
-    let cal = cube_scene_calibration(40, 30);
-    let axis = TimeAxis {
-        t0_ps: 0.0,
-        dt_ps: 40.0,
-        nt: 300,
-    };
-    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
-    let pyramid = Pyramid::build(&cube);
+    let (bvh, cal, pyramid) = small_cube_world(None);
     let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
     let target = scene_target(&scene);
     // The capture camera's optical axis meets the mesh there.
@@ -1502,15 +1522,7 @@ fn cli_reads_the_stored_pyramid() {
 fn reused_rays_give_the_same_frames_bit_for_bit() {
     use femto::render::paths::{shortcut_path, Shortcut};
     use femto::render::{render_frame_reusing_rays, FrameRays};
-    let bvh = Bvh::new(cube_scene_mesh());
-    let cal = cube_scene_calibration(40, 30);
-    let axis = TimeAxis {
-        t0_ps: 0.0,
-        dt_ps: 40.0,
-        nt: 300,
-    };
-    let cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
-    let pyramid = Pyramid::build(&cube);
+    let (bvh, cal, pyramid) = small_cube_world(None);
     let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
     let (w, h, frames) = (24usize, 18usize, 8usize);
     let mut rays = FrameRays::default();
@@ -1562,20 +1574,8 @@ fn reused_rays_give_the_same_frames_bit_for_bit() {
     }
     assert!(lit_at_rest > 0, "every frame at rest is black");
     // A rotating sensor: a boost per pixel, rendered as render_frame does.
-    let mut path = shortcut_path(&scene, Shortcut::Dolly { beta: 0.3 }, w, h, frames, None)
-        .unwrap()
-        .path;
-    path = CameraPath::new(
-        path.spec(),
-        Some(path.tau0_ps()),
-        Some(SensorRotation {
-            axis: RotationAxis::Roll,
-            beta_edge: 0.5,
-        }),
-        path.motion().clone(),
-        "rotating",
-    )
-    .unwrap();
+    let dolly = shortcut_path(&scene, Shortcut::Dolly { beta: 0.3 }, w, h, frames, None).unwrap();
+    let path = with_rotation(&dolly.path, RotationAxis::Roll, 0.5);
     let settings = RenderSettings::for_path(&path);
     for k in [0, 1] {
         let state = path.frame(k);
@@ -1598,21 +1598,9 @@ fn dark_marks_from_the_kept_rays_are_those_of_the_probes() {
     use femto::render::dark::{draw_dark_marks, MASKED_RGB, UNSEEN_RGB};
     use femto::render::paths::{shortcut_path, Shortcut};
     use femto::render::{encode_srgb8, render_frame_reusing_rays, FrameRays};
-    let bvh = Bvh::new(cube_scene_mesh());
-    let cal = cube_scene_calibration(40, 30);
-    let axis = TimeAxis {
-        t0_ps: 0.0,
-        dt_ps: 40.0,
-        nt: 300,
-    };
-    let mut cube = world_cube(&cal, &bvh, axis, single_bounce_energy(&cal, 60.0));
     // Columns 10-17 masked as mixed.
-    cube.mask = Some(
-        (0..40 * 30)
-            .map(|p| u8::from(!(10..18).contains(&(p % 40))))
-            .collect(),
-    );
-    let pyramid = Pyramid::build(&cube);
+    let mask = (0..40 * 30).map(|p| u8::from(!(10..18).contains(&(p % 40))));
+    let (bvh, cal, pyramid) = small_cube_world(Some(mask.collect()));
     let scene = RenderScene::new(&bvh, cal, &pyramid, 670.0).unwrap();
     let (w, h) = (64usize, 48usize);
     let s = shortcut_path(&scene, Shortcut::Dolly { beta: 0.0 }, w, h, 4, None).unwrap();
@@ -1625,20 +1613,11 @@ fn dark_marks_from_the_kept_rays_are_those_of_the_probes() {
         (0.0, 0.6, false),
         (0.0, 0.0, true),
     ] {
-        let mut path = s.path.clone();
-        if rotating {
-            path = CameraPath::new(
-                path.spec(),
-                Some(path.tau0_ps()),
-                Some(SensorRotation {
-                    axis: RotationAxis::Roll,
-                    beta_edge: 0.5,
-                }),
-                path.motion().clone(),
-                "rotating",
-            )
-            .unwrap();
-        }
+        let path = if rotating {
+            with_rotation(&s.path, RotationAxis::Roll, 0.5)
+        } else {
+            s.path.clone()
+        };
         let mut settings = RenderSettings::for_path(&path);
         settings.time_offset_ps = s.time_offset_ps;
         let mut state = path.frame(1);
@@ -1703,18 +1682,7 @@ fn the_row_pipeline_renders_each_pixel_as_probe_pixel_does() {
             (format!("{sc:?}"), s.path, s.time_offset_ps)
         })
         .collect();
-        let dolly = paths[0].1.clone();
-        let rotating = CameraPath::new(
-            dolly.spec(),
-            Some(dolly.tau0_ps()),
-            Some(SensorRotation {
-                axis: RotationAxis::Yaw,
-                beta_edge: 0.4,
-            }),
-            dolly.motion().clone(),
-            "rotating",
-        )
-        .unwrap();
+        let rotating = with_rotation(&paths[0].1, RotationAxis::Yaw, 0.4);
         paths.push(("rotating".into(), rotating, paths[0].2));
         for (name, path, offset) in &paths {
             let mut all = RenderSettings::for_path(path);
