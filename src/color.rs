@@ -302,8 +302,7 @@ impl Srgb8Steps {
 }
 
 /// Tone map and encode a whole frame of scene-linear sRGB pixels into `out_rgb8`
-/// (3 bytes per pixel, same order), and count the lit pixels: those with some code value
-/// above 2 (what `femto view` calls lit). Panics if `out_rgb8.len() != 3 *
+/// (3 bytes per pixel, same order), and count the lit pixels ([`is_lit`]). Panics if `out_rgb8.len() != 3 *
 /// scene_linear.len()` (a caller bug, not bad input).
 pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8]) -> usize {
     assert_eq!(
@@ -332,7 +331,7 @@ pub fn encode_frame(scene_linear: &[[f32; 3]], exposure: f64, out_rgb8: &mut [u8
                     .zip(out.chunks_exact_mut(3))
                 {
                     let code = mapped.map(|v| steps.code(v));
-                    lit += usize::from(code.iter().any(|&c| c > 2));
+                    lit += usize::from(is_lit(code));
                     out.copy_from_slice(&code);
                 }
             }
@@ -382,6 +381,13 @@ fn tone_map_four(px: [[f32; 3]; 4], exposure: f64) -> [[f64; 3]; 4] {
             tone_map(px[lane].map(f64::from), exposure)
         }
     })
+}
+
+/// Whether an 8-bit pixel counts as lit for `femto view` and [`encode_frame`]: some code
+/// value above 2.
+#[inline]
+pub fn is_lit(code: [u8; 3]) -> bool {
+    code.iter().any(|&c| c > 2)
 }
 
 /// Pixels per task of [`encode_frame`].

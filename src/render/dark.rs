@@ -17,10 +17,9 @@
 //! masked as a violet cross-hatch; no light and no surface stay black. Only pixels that
 //! encode to black are marked, so light is never covered.
 
-use super::frame::FrameProbe;
+use super::frame::{FrameProbe, SeenHit};
 use super::{FrameRays, PixelSample, RenderScene, RenderSettings, View};
 use crate::camera_path::FrameState;
-use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 /// Why a pixel shows no light (or that it can).
@@ -41,30 +40,19 @@ pub enum DarkKind {
 impl DarkKind {
     /// The kind of a probed pixel ([`super::probe_pixel`]).
     pub fn of(scene: &RenderScene, sample: &PixelSample) -> DarkKind {
-        DarkKind::of_hit(
-            scene,
-            sample.hit_m.map(|(p, _)| p),
-            sample.capture_pixel,
-            &sample.d_world,
-        )
+        DarkKind::of_hit(scene, &SeenHit::from(sample))
     }
 
-    /// The kind of a pixel whose ray along `d_world` hits the mesh at `hit_m` (None: it
-    /// leaves the scene), seen by the capture's pixel `capture_pixel`.
-    pub(super) fn of_hit(
-        scene: &RenderScene,
-        hit_m: Option<Point3<f64>>,
-        capture_pixel: Option<(usize, usize)>,
-        d_world: &Vector3<f64>,
-    ) -> DarkKind {
-        let Some(point_m) = hit_m else {
+    /// The kind of a pixel from its ray, hit and seeing capture pixel.
+    pub(super) fn of_hit(scene: &RenderScene, hit: &SeenHit) -> DarkKind {
+        let Some(point_m) = hit.hit_m else {
             return DarkKind::NoSurface;
         };
-        if capture_pixel.is_some() {
+        if hit.capture_pixel.is_some() {
             return DarkKind::Seen;
         }
         // Not seen: masked when the pixel it projects into would see it without the mask.
-        match scene.nearest_pixel_unmasked(&point_m, d_world) {
+        match scene.nearest_pixel_unmasked(&point_m, &hit.d_world) {
             Some(false) => DarkKind::Masked,
             _ => DarkKind::Unseen,
         }
@@ -140,7 +128,7 @@ pub fn draw_dark_marks(
                     }
                     let kind = *kinds[i / MARK_BLOCK].get_or_insert_with(|| {
                         let hit = probe.seen_hit(scene, settings, i - i % MARK_BLOCK, j0);
-                        DarkKind::of_hit(scene, hit.hit_m, hit.capture_pixel, &hit.d_world)
+                        DarkKind::of_hit(scene, &hit)
                     });
                     if let Some(rgb) = mark_rgb(kind, i, j) {
                         px.copy_from_slice(&rgb);

@@ -728,12 +728,7 @@ impl<'s> FrameProbe<'s> {
         j: usize,
     ) -> SeenHit {
         let Some(rays) = self.kept else {
-            let s = self.sample(scene, settings, i, j);
-            return SeenHit {
-                hit_m: s.hit_m.map(|(p, _)| p),
-                capture_pixel: s.capture_pixel,
-                d_world: s.d_world,
-            };
+            return SeenHit::from(&self.sample(scene, settings, i, j));
         };
         let k = j * settings.width + i;
         let d_world = rays.d_world[k];
@@ -754,6 +749,16 @@ pub(super) struct SeenHit {
     pub(super) hit_m: Option<Point3<f64>>,
     pub(super) capture_pixel: Option<(usize, usize)>,
     pub(super) d_world: Vector3<f64>,
+}
+
+impl From<&PixelSample> for SeenHit {
+    fn from(s: &PixelSample) -> SeenHit {
+        SeenHit {
+            hit_m: s.hit_m.map(|(p, _)| p),
+            capture_pixel: s.capture_pixel,
+            d_world: s.d_world,
+        }
+    }
 }
 
 /// Every intermediate quantity of pixel `(i, j)` of the frame `state` (for tests, tools and

@@ -986,10 +986,9 @@ pub fn render_sequence<E: From<RenderError>>(
     settings: &RenderSettings,
     path: &CameraPath,
     frames: Range<usize>,
-    sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
+    mut sink: impl FnMut(usize, &[[f32; 3]]) -> Result<(), E>,
 ) -> Result<(), E> {
     let mut rays = FrameRays::default();
-    let mut sink = sink;
     render_sequence_reusing(scene, settings, path, frames, &mut rays, |k, pixels, _| {
         sink(k, pixels)
     })
@@ -1067,7 +1066,7 @@ pub fn isochrone_range(
 /// Encode scene-linear frame pixels for display into 8-bit sRGB (`3 * pixels.len()` bytes):
 /// radiance views are multiplied by `settings.exposure` and tone mapped
 /// ([`crate::color::tone_map`]); isochrones are display colours and only encoded. Returns
-/// the number of lit pixels, those with some code value above 2.
+/// the number of lit pixels ([`color::is_lit`]).
 pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &mut [u8]) -> usize {
     if settings.view.is_radiance() {
         color::encode_frame(pixels, settings.exposure, out_rgb8)
@@ -1081,7 +1080,7 @@ pub fn encode_srgb8(settings: &RenderSettings, pixels: &[[f32; 3]], out_rgb8: &m
         for (px, out) in pixels.iter().zip(out_rgb8.chunks_exact_mut(3)) {
             let rgb = [px[0] as f64, px[1] as f64, px[2] as f64];
             let code = color::encode_u8(rgb);
-            lit += usize::from(code.iter().any(|&c| c > 2));
+            lit += usize::from(color::is_lit(code));
             out.copy_from_slice(&code);
         }
         lit
